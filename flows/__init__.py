@@ -1,0 +1,1 @@
+"""Orchestration shell: Prefect flows and the command line. Calls ``pipeline``."""

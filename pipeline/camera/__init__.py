@@ -1,0 +1,18 @@
+"""The camera: calibration certificate, lens distortion, and the measurement models.
+
+Measurement models (dispatch by name in ``MODELS``):
+
+* ``"orthographic"``: camera square to the cross-section plane, eqs. 12-15;
+* ``"perspective"``: the collinearity equations, eqs. 1-11.
+"""
+
+from pathlib import Path
+
+from .certificate import Certificate, Parameter, certificate_from_dict, load_certificate
+
+__all__ = ["Certificate", "Parameter", "certificate_from_dict", "load_certificate", "sample_certificate_path"]
+
+
+def sample_certificate_path() -> Path:
+    """Path of the sample certificate built from the source paper's Table 1."""
+    return Path(__file__).resolve().parent.parent / "data" / "paper-2020-table1.json"

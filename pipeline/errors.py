@@ -1,0 +1,23 @@
+"""Domain exceptions.
+
+Every message names the file (when there is one), the field or row, and the
+fix, so that a utility's engineer can act on it without reading the code.
+"""
+
+from __future__ import annotations
+
+
+class PipegaugeError(Exception):
+    """Base class of every error the pipeline raises on purpose."""
+
+
+class CertificateError(PipegaugeError):
+    """A calibration certificate is missing, malformed, inconsistent or expired."""
+
+
+class CertificateExpiredError(CertificateError):
+    """A calibration certificate is not valid on the date of use."""
+
+
+class ModelError(PipegaugeError):
+    """A measurement model was called outside its domain (for example p_H <= 0)."""

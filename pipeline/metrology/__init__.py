@@ -1,0 +1,49 @@
+"""A small GUM engine: distributions, linear propagation, Monte Carlo, validation.
+
+Typical use::
+
+    from pipeline.metrology import Normal, Rectangular, propagate_linear, propagate_monte_carlo
+
+    def length(p_X, H, p_H):            # vectorised model, inputs by label
+        return p_X * H / p_H
+
+    inputs = {"p_X": Normal(120.0, 0.5), "H": Rectangular(300.0, 3.0), "p_H": Normal(400.0, 1.0)}
+    lin = propagate_linear(length, inputs)           # JCGM 100, with a budget
+    mc = propagate_monte_carlo(length, inputs, seed=1)  # JCGM 101, adaptive
+    check = validate_linear(lin, mc)                 # JCGM 101 clause 8
+
+References: JCGM 100:2008 (GUM), JCGM 101:2008 (GUM Supplement 1).
+"""
+
+from .distributions import Arcsine, Distribution, JointNormal, Normal, Rectangular, StudentT, Triangular
+from .inputs import InputSet
+from .intervals import CoverageInterval, numerical_tolerance, shortest_interval, symmetric_interval
+from .linear import BudgetLine, LinearResult, coverage_factor, propagate_linear, welch_satterthwaite
+from .montecarlo import MonteCarloResult, Stability, block_size, propagate_monte_carlo
+from .validation import Validation, validate_linear
+
+__all__ = [
+    "Arcsine",
+    "BudgetLine",
+    "CoverageInterval",
+    "Distribution",
+    "InputSet",
+    "JointNormal",
+    "LinearResult",
+    "MonteCarloResult",
+    "Normal",
+    "Rectangular",
+    "Stability",
+    "StudentT",
+    "Triangular",
+    "Validation",
+    "block_size",
+    "coverage_factor",
+    "numerical_tolerance",
+    "propagate_linear",
+    "propagate_monte_carlo",
+    "shortest_interval",
+    "symmetric_interval",
+    "validate_linear",
+    "welch_satterthwaite",
+]

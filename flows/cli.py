@@ -1,2 +1,150 @@
-def main():
-    pass
+"""The ``pipegauge`` command line.
+
+Exit codes: 0 success, 1 a domain error (bad input, failed check), 2 a usage
+error. Messages for people go to stderr; results go to stdout (a table, or
+JSON with ``--json``). Heavy imports happen inside each verb, so ``--help``
+is instant.
+"""
+
+from __future__ import annotations
+
+import argparse
+import datetime as dt
+import json
+import sys
+from pathlib import Path
+from typing import Callable, Sequence
+
+from pipeline import __version__
+from pipeline.errors import PipegaugeError
+
+EXIT_OK, EXIT_FAILED, EXIT_USAGE = 0, 1, 2
+
+
+def _say(message: str) -> None:
+    print(message, file=sys.stderr, flush=True)
+
+
+def _image_size(text: str) -> tuple[int, int]:
+    try:
+        w, h = (int(v) for v in text.lower().split("x"))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not WIDTHxHEIGHT, for example 720x576") from None
+    return w, h
+
+
+def _date(text: str) -> dt.date:
+    try:
+        return dt.date.fromisoformat(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a date YYYY-MM-DD") from None
+
+
+# -- paper ---------------------------------------------------------------------
+
+def cmd_paper(args: argparse.Namespace) -> int:
+    from pipeline.camera import load_certificate, sample_certificate_path
+    from pipeline.paper.figures import write_figures_pdf
+    from pipeline.paper.reproduction import reproduce
+    from pipeline.paper.summary import summary_text
+    from pipeline.atomic import atomic_path
+
+    cert = load_certificate(args.certificate or sample_certificate_path())
+    _say(f"pipegauge paper: reproducing the source paper with certificate {cert.certificate_id} (seed {args.seed}) ...")
+    result = reproduce(cert, seed=args.seed)
+    if not args.no_files:
+        out = Path(args.out)
+        json_path = out / "paper-reproduction.json"
+        with atomic_path(json_path) as tmp:
+            tmp.write_text(json.dumps(result, indent=1) + "\n", encoding="utf-8")
+        pdf_path = write_figures_pdf(result, out / "paper-figures.pdf")
+        _say(f"wrote {json_path} and {pdf_path}")
+    print(json.dumps(result, indent=1) if args.json else summary_text(result))
+    return EXIT_OK
+
+
+# -- certificate ---------------------------------------------------------------
+
+def cmd_certificate_check(args: argparse.Namespace) -> int:
+    from pipeline.camera import load_certificate
+    from pipeline.text import format_table
+
+    cert = load_certificate(args.certificate, on_date=args.on, image_size=args.image_size)
+    if args.json:
+        print(json.dumps(cert.to_dict(), indent=2))
+        return EXIT_OK
+    rows = [(name, f"{p.value:.6g}", f"{p.u:.3g}", p.unit) for name, p in cert.parameters.items()]
+    print(format_table(("parameter", "value", "u", "unit"), rows,
+                       title=f"{cert.source}: certificate {cert.certificate_id} ({cert.convention} convention), "
+                             f"{cert.image_width_px}x{cert.image_height_px} px, valid {cert.issue_date} to {cert.valid_until}"))
+    print(f"image-coordinate u: {cert.image_coordinate_u_px} px; covariance: "
+          f"{'given' if cert.covariance is not None else 'none (independent parameters)'}")
+    print("OK")
+    return EXIT_OK
+
+
+def cmd_certificate_convert(args: argparse.Namespace) -> int:
+    from pipeline.camera import load_certificate
+
+    cert = load_certificate(args.certificate).in_convention(args.to)
+    path = cert.save(args.out)
+    _say(f"wrote {path} ({args.to} convention)")
+    return EXIT_OK
+
+
+# -- parser --------------------------------------------------------------------
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="pipegauge",
+        description="Measurements with GUM uncertainty (U95) from sewer CCTV inspection videos.",
+    )
+    parser.add_argument("--version", action="version", version=f"pipegauge {__version__}")
+    verbs = parser.add_subparsers(dest="verb", metavar="VERB")
+    verbs.required = True
+
+    p = verbs.add_parser("paper", help="reproduce the source paper's worked results from this code",
+                         description="Reproduce Martins, Almeida, Ribeiro (ACTA IMEKO 2020): Table 1 distortion "
+                                     "(Figs. 6-7), the perspective sweep (Fig. 8), u(SC) (Fig. 9) and the relative "
+                                     "U95 of X (Fig. 10). Writes paper-reproduction.json and paper-figures.pdf to --out.")
+    p.add_argument("--certificate", type=Path, help="calibration certificate (default: the paper's Table 1 camera)")
+    p.add_argument("--out", default="reports/paper", help="folder for the JSON and PDF (default: %(default)s)")
+    p.add_argument("--no-files", action="store_true", help="print only; write nothing")
+    p.add_argument("--json", action="store_true", help="print the full result as JSON instead of tables")
+    p.add_argument("--seed", type=int, default=1, help="seed of the Monte Carlo runs (default: %(default)s)")
+    p.set_defaults(func=cmd_paper)
+
+    c = verbs.add_parser("certificate", help="check or convert a camera calibration certificate",
+                         description="Validate a calibration certificate (docs/certificate-format.md) or convert it "
+                                     "between the 'pixel' and 'opencv' distortion conventions.")
+    cv = c.add_subparsers(dest="action", metavar="ACTION")
+    cv.required = True
+    chk = cv.add_parser("check", help="validate a certificate and print its parameters",
+                        description="Validate a certificate; exit 1 with the reason when it is not usable.")
+    chk.add_argument("certificate", type=Path)
+    chk.add_argument("--on", type=_date, help="date of use YYYY-MM-DD: fail when the certificate is not valid then")
+    chk.add_argument("--image-size", type=_image_size, metavar="WxH", help="fail unless calibrated for this size")
+    chk.add_argument("--json", action="store_true", help="print the normalised certificate as JSON")
+    chk.set_defaults(func=cmd_certificate_check)
+    con = cv.add_parser("convert", help="express a certificate in another distortion convention",
+                        description="Convert values exactly and the covariance to first order (V' = J V J^T).")
+    con.add_argument("certificate", type=Path)
+    con.add_argument("--to", choices=("pixel", "opencv"), required=True)
+    con.add_argument("--out", type=Path, required=True, help="where to write the converted certificate")
+    con.set_defaults(func=cmd_certificate_convert)
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    func: Callable[[argparse.Namespace], int] = args.func
+    try:
+        return func(args)
+    except PipegaugeError as exc:
+        _say(f"pipegauge {args.verb}: error: {exc}")
+        return EXIT_FAILED
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

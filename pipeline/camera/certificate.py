@@ -20,13 +20,13 @@ import datetime as dt
 import json
 import math
 import os
-import tempfile
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any, Mapping
 
 import numpy as np
 
+from ..atomic import atomic_path
 from ..errors import CertificateError, CertificateExpiredError
 from ..metrology import InputSet, JointNormal, Normal
 
@@ -239,18 +239,9 @@ class Certificate:
 
     def save(self, path: str | os.PathLike) -> Path:
         """Write the certificate as JSON, atomically (temporary file, then rename)."""
-        path = Path(path)
-        path.parent.mkdir(parents=True, exist_ok=True)
-        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", dir=path.parent)
-        try:
-            with os.fdopen(fd, "w", encoding="utf-8") as fh:
-                json.dump(self.to_dict(), fh, indent=2)
-                fh.write("\n")
-            os.replace(tmp, path)
-        except BaseException:
-            Path(tmp).unlink(missing_ok=True)
-            raise
-        return path
+        with atomic_path(path) as tmp:
+            tmp.write_text(json.dumps(self.to_dict(), indent=2) + "\n", encoding="utf-8")
+        return Path(path)
 
 
 # -- conversions between conventions (values exact, Jacobian for covariance) ----

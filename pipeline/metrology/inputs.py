@@ -85,6 +85,10 @@ class InputSet:
         """An InputSet from an InputSet or a plain mapping of label -> distribution."""
         return inputs if isinstance(inputs, InputSet) else cls(inputs)
 
+    def extended(self, more: Mapping[str, Distribution | float | int]) -> "InputSet":
+        """A new InputSet with further independent inputs or constants added."""
+        return InputSet({**self._independent, **self._constants, **more}, joint=self._joint)
+
     # -- what the linear method needs --------------------------------------
     @property
     def labels(self) -> tuple[str, ...]:

@@ -33,6 +33,7 @@ __all__ = [
     "TABLE2_ORIENTATION",
     "PAPER_STATED",
     "distortion_magnitude",
+    "perspective_inputs",
     "table1_distortion",
     "field_of_view",
     "figure8_perspective_sweep",
@@ -131,7 +132,13 @@ def field_of_view(cert: Certificate, *, Z: float = PLANE_Z_MM) -> dict[str, Any]
     }
 
 
-def _perspective_inputs(cert: Certificate, x: float, y: float, u_img: float, u_pos: float):
+def perspective_inputs(cert: Certificate, x: float, y: float, u_img: float, u_pos: float) -> dict[str, Normal]:
+    """Inputs of the collinearity model in the paper's scenario (Tables 1 and 2).
+
+    x, y : image point [px], each with standard uncertainty u_img [px]
+    u_pos : standard uncertainty of X0, Y0, Z0 (camera at the origin) and of
+        Z (plane at 1000 mm) [mm]
+    """
     pix = cert.in_convention("pixel")
     inputs = {
         "f": Normal(pix.value("f"), pix.parameters["f"].u),
@@ -171,7 +178,7 @@ def figure8_perspective_sweep(
     x, y = point_px
 
     def run(u_img: float, u_pos: float, s: int) -> dict[str, Any]:
-        res = propagate_monte_carlo(collinearity, _perspective_inputs(cert, x, y, u_img, u_pos), seed=s)
+        res = propagate_monte_carlo(collinearity, perspective_inputs(cert, x, y, u_img, u_pos), seed=s)
         return {
             "u_image_px": u_img, "u_position_mm": u_pos,
             "X_mm": res["X"].estimate, "Y_mm": res["Y"].estimate,

@@ -12,7 +12,7 @@ from typing import Any, Sequence
 
 from reportlab.graphics import renderPDF
 from reportlab.graphics.shapes import Group
-from reportlab.graphics.charts.axes import LogXValueAxis
+from reportlab.graphics.charts.axes import LogXValueAxis, LogYValueAxis
 from reportlab.graphics.charts.legends import Legend
 from reportlab.graphics.charts.lineplots import LinePlot
 from reportlab.graphics.shapes import Drawing, Rect, String
@@ -38,7 +38,7 @@ def _colour(t: float) -> colors.Color:
 
 def _line_chart(
     title: str, x_label: str, y_label: str, series: Sequence[tuple[str, Sequence[float], Sequence[float]]],
-    *, log_x: bool = False, width: float = 370, height: float = 400,
+    *, log_x: bool = False, log_y: bool = False, width: float = 370, height: float = 400,
 ) -> Drawing:
     d = Drawing(width, height)
     lp = LinePlot()
@@ -49,7 +49,10 @@ def _line_chart(
     for i in range(len(series)):
         lp.lines[i].strokeColor = _PALETTE[i % len(_PALETTE)]
         lp.lines[i].strokeWidth = 1.4
-    lp.yValueAxis.valueMin = 0
+    if log_y:
+        lp.yValueAxis = LogYValueAxis()
+    else:
+        lp.yValueAxis.valueMin = 0
     lp.xValueAxis.labels.fontSize = lp.yValueAxis.labels.fontSize = 7
     d.add(lp)
     d.add(String(width / 2, height - 14, title, textAnchor="middle", fontSize=10, fontName="Helvetica-Bold"))
@@ -157,10 +160,9 @@ def write_figures_pdf(result: dict[str, Any], path: str | os.PathLike) -> Path:
         f10 = result["figure10"]
         series10 = [(f"u(H) = {cse['u_H_mm']:g} mm, u(p_H) = u(p_X) = {cse['u_p_H_px']:g} px", f10["X_mm"], cse["relative_U95_percent"])
                     for cse in f10["cases"]]
-        low = [s for s in series10 if max(s[2]) < 5]
         _page(c, "Figure 10: relative U95 of X = SC p_X (eqs. 14-15)",
               f"H = {f10['H_mm']:g} mm, p_H = {f10['p_H_px']:g} px; U95 = 1.96 u(X). u(p_X) = u(p_H) in each case (assumption, see docs).",
               [_line_chart("All cases", "X [mm]", "U95(X) / X [%]", series10),
-               _line_chart("Cases below 5 %", "X [mm]", "U95(X) / X [%]", low or series10)])
+               _line_chart("All cases, logarithmic scale", "X [mm]", "U95(X) / X [%]", series10, log_y=True)])
         c.save()
     return Path(path)

@@ -68,3 +68,17 @@ def test_table1_corner_distortion_is_about_0_05_px():
     cert = load_certificate(sample_certificate_path())
     dx, dy = brown_distortion_px(639.0, 0.0, *(cert.value(n) for n in ("cx", "cy", "k1", "k2", "p1", "p2")))
     assert np.hypot(dx, dy) == pytest.approx(0.05, abs=0.005)
+
+
+def test_distortion_uncertainty_linear_and_monte_carlo_agree_at_a_corner():
+    from pipeline.camera.lens import distortion_uncertainty
+
+    cert = load_certificate(sample_certificate_path())
+    lin = distortion_uncertainty(cert, 639.0, 479.0)
+    mc = distortion_uncertainty(cert, 639.0, 479.0, method="montecarlo", seed=3)
+    assert set(lin) == {"dx", "dy", "d"}
+    assert lin["d"].value == pytest.approx(np.hypot(lin["dx"].value, lin["dy"].value))
+    assert mc["d"].U == pytest.approx(lin["d"].U, rel=0.05)
+    assert lin["d"].U == pytest.approx(0.001, abs=0.0002)
+    with pytest.raises(ValueError, match="method"):
+        distortion_uncertainty(cert, 0, 0, method="guess")

@@ -1,9 +1,10 @@
 """The camera: calibration certificate, lens distortion, and the measurement models.
 
-Measurement models (dispatch by name in ``MODELS``):
-
-* ``"orthographic"``: camera square to the cross-section plane, eqs. 12-15;
-* ``"perspective"``: the collinearity equations, eqs. 1-11.
+* ``certificate``: the certificate format, loading and validation;
+* ``distortion``: the Brown model of eqs. 16-19 and conversions to OpenCV's;
+* ``lens``: the distortion of a certified camera with its uncertainty;
+* ``orthographic``: camera square to the cross-section plane, eqs. 12-15;
+* ``perspective``: the collinearity equations, eqs. 1-11.
 """
 
 from pathlib import Path

@@ -18,7 +18,7 @@ import numpy as np
 
 from .. import __version__
 from ..camera.certificate import Certificate
-from ..camera.distortion import brown_distortion_px
+from ..camera.lens import distortion_uncertainty
 from ..camera.orthographic import (
     orthographic_length,
     orthographic_length_sensitivities,
@@ -32,7 +32,6 @@ from ..metrology import Normal, coverage_factor, propagate_linear, propagate_mon
 __all__ = [
     "TABLE2_ORIENTATION",
     "PAPER_STATED",
-    "distortion_magnitude",
     "perspective_inputs",
     "table1_distortion",
     "field_of_view",
@@ -55,13 +54,6 @@ PAPER_STATED = {
 }
 
 _K95 = coverage_factor(math.inf, 0.95)
-_DISTORTION_PARAMS = ("cx", "cy", "k1", "k2", "k3", "p1", "p2")
-
-
-def distortion_magnitude(x, y, cx, cy, k1, k2, p1, p2, k3=0.0):
-    """|d| = sqrt(dx^2 + dy^2) [px] of the distortion at ideal point (x, y) [px] (eqs. 16-19)."""
-    dx, dy = brown_distortion_px(x, y, cx, cy, k1, k2, p1, p2, k3)
-    return np.hypot(dx, dy)
 
 
 def table1_distortion(cert: Certificate, *, nx: int = 33, ny: int = 25, seed: int = 1) -> dict[str, Any]:
@@ -73,20 +65,18 @@ def table1_distortion(cert: Certificate, *, nx: int = 33, ny: int = 25, seed: in
     corners it is also evaluated by adaptive Monte Carlo (JCGM 101 7.9).
     """
     pix = cert.in_convention("pixel")
-    params = pix.input_set(_DISTORTION_PARAMS)
     xs = np.linspace(0.0, pix.image_width_px - 1.0, nx)
     ys = np.linspace(0.0, pix.image_height_px - 1.0, ny)
     d = np.zeros((ny, nx))
     U = np.zeros((ny, nx))
     for i, y in enumerate(ys):
         for j, x in enumerate(xs):
-            lin = propagate_linear(distortion_magnitude, params.extended({"x": x, "y": y}), k=_K95, name="d")
+            lin = distortion_uncertainty(pix, x, y)["d"]
             d[i, j], U[i, j] = lin.value, lin.U
     corners = []
     for n, (x, y) in enumerate([(xs[0], ys[0]), (xs[-1], ys[0]), (xs[0], ys[-1]), (xs[-1], ys[-1])]):
-        inputs = params.extended({"x": float(x), "y": float(y)})
-        lin = propagate_linear(distortion_magnitude, inputs, k=_K95, name="d")
-        mc = propagate_monte_carlo(distortion_magnitude, inputs, seed=seed + n, name="d", ndig=2)
+        lin = distortion_uncertainty(pix, x, y)["d"]
+        mc = distortion_uncertainty(pix, x, y, method="montecarlo", seed=seed + n)["d"]
         corners.append({
             "x_px": float(x), "y_px": float(y),
             "distortion_px": lin.value, "U95_linear_px": lin.U,

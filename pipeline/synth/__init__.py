@@ -1,0 +1,1 @@
+"""Synthetic inspection packages with known ground truth."""

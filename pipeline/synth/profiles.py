@@ -1,0 +1,160 @@
+"""Pipe cross-section profiles as polygons in the world XY plane.
+
+World frame (docs/conventions.md): X right and Y up when looking downstream,
+Z along the pipe axis in the direction of survey, all in mm. Every profile is
+placed with its crown at Y = +H/2 and its invert at Y = -H/2, centred on X = 0.
+
+Shapes:
+
+* ``circular``: diameter H;
+* ``egg``: the standard egg profile of width B = 2H/3 (height:width 3:2):
+  crown arc of radius B/2, side arcs of radius 3B/2, invert arc of radius
+  B/4, tangent to one another.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+__all__ = [
+    "SHAPES", "profile_polygon", "profile_width", "segment_height_for_area_fraction", "chord_at_height",
+    "exit_table", "wall_point", "clock_to_theta", "theta_to_clock",
+]
+
+SHAPES = ("circular", "egg")
+
+
+def _arc(cx: float, cy: float, r: float, a0: float, a1: float, n: int) -> np.ndarray:
+    a = np.linspace(a0, a1, n, endpoint=False)
+    return np.stack([cx + r * np.cos(a), cy + r * np.sin(a)], axis=1)
+
+
+def profile_polygon(shape: str, H: float, n: int = 1440) -> np.ndarray:
+    """Counter-clockwise polygon (n, 2) of the profile [mm], crown at +H/2, invert at -H/2.
+
+    shape : "circular" or "egg"; H : internal height [mm] > 0
+    """
+    if H <= 0:
+        raise ValueError(f"profile height must be > 0, got {H}")
+    if shape == "circular":
+        return _arc(0.0, 0.0, H / 2.0, -math.pi / 2, 3 * math.pi / 2, n)
+    if shape == "egg":
+        r = H / 3.0                      # crown arc radius = B/2
+        y0 = -H / 2.0                    # invert level
+        tangent = math.atan2(-0.6, 0.8)  # side/invert tangent direction (3-4-5 triangle)
+        parts = [
+            _arc(0.0, y0 + 0.5 * r, 0.5 * r, -math.pi / 2, tangent, n // 8),          # invert, right half
+            _arc(-2.0 * r, y0 + 2.0 * r, 3.0 * r, tangent, 0.0, n // 8),              # right side
+            _arc(0.0, y0 + 2.0 * r, r, 0.0, math.pi, n // 2),                          # crown
+            _arc(2.0 * r, y0 + 2.0 * r, 3.0 * r, math.pi, math.pi - tangent, n // 8),  # left side
+            _arc(0.0, y0 + 0.5 * r, 0.5 * r, math.pi - tangent, 3 * math.pi / 2, n // 8),  # invert, left half
+        ]
+        return np.concatenate(parts)
+    raise ValueError(f"unknown shape {shape!r}; use one of {SHAPES}")
+
+
+def profile_width(shape: str, H: float) -> float:
+    """Largest internal width [mm] of a profile of height H [mm]."""
+    return H if shape == "circular" else 2.0 * H / 3.0
+
+
+def _polygon_area_below(poly: np.ndarray, y_cut: float) -> float:
+    """Area [mm^2] of the part of a convex polygon below the line Y = y_cut."""
+    pts = []
+    n = len(poly)
+    for i in range(n):
+        p, q = poly[i], poly[(i + 1) % n]
+        if p[1] <= y_cut:
+            pts.append(p)
+        if (p[1] - y_cut) * (q[1] - y_cut) < 0:
+            t = (y_cut - p[1]) / (q[1] - p[1])
+            pts.append(p + t * (q - p))
+    if len(pts) < 3:
+        return 0.0
+    a = np.asarray(pts)
+    return 0.5 * abs(float(np.dot(a[:, 0], np.roll(a[:, 1], -1)) - np.dot(a[:, 1], np.roll(a[:, 0], -1))))
+
+
+def segment_height_for_area_fraction(shape: str, H: float, fraction: float) -> float:
+    """Height [mm] above the invert of a level surface filling ``fraction`` of the cross-section area.
+
+    Used for settled deposits (BBC, % of cross-sectional area). fraction in [0, 1).
+    """
+    if not 0.0 <= fraction < 1.0:
+        raise ValueError(f"area fraction must be in [0, 1), got {fraction}")
+    poly = profile_polygon(shape, H)
+    total = _polygon_area_below(poly, H)
+    lo, hi = 0.0, H
+    for _ in range(60):
+        mid = 0.5 * (lo + hi)
+        if _polygon_area_below(poly, -H / 2 + mid) < fraction * total:
+            lo = mid
+        else:
+            hi = mid
+    return 0.5 * (lo + hi)
+
+
+def chord_at_height(shape: str, H: float, h: float) -> tuple[float, float]:
+    """(X_left, X_right) [mm] where the level Y = -H/2 + h meets the profile wall."""
+    poly = profile_polygon(shape, H)
+    y = -H / 2 + h
+    xs = []
+    n = len(poly)
+    for i in range(n):
+        p, q = poly[i], poly[(i + 1) % n]
+        if (p[1] - y) * (q[1] - y) <= 0 and p[1] != q[1]:
+            t = (y - p[1]) / (q[1] - p[1])
+            xs.append(float(p[0] + t * (q[0] - p[0])))
+    return min(xs), max(xs)
+
+
+def exit_table(poly: np.ndarray, origin: tuple[float, float], n: int = 8192) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Distance to the wall from ``origin`` [mm] in every 2-D direction.
+
+    poly : counter-clockwise profile polygon (m, 2) [mm]; origin inside it.
+    Returns (phi [rad] of shape (n,), t [mm] of shape (n,), inward unit
+    normal of the wall hit (n, 2)). Exact per direction (ray-segment
+    intersection); directions are sampled uniformly over [-pi, pi).
+    """
+    phi = np.linspace(-np.pi, np.pi, n, endpoint=False)
+    u = np.stack([np.cos(phi), np.sin(phi)], axis=1)
+    p = poly - np.asarray(origin, float)
+    e = np.roll(p, -1, axis=0) - p
+    denom = u[:, None, 0] * e[None, :, 1] - u[:, None, 1] * e[None, :, 0]          # cross(u, e)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t = (p[None, :, 0] * e[None, :, 1] - p[None, :, 1] * e[None, :, 0]) / denom    # cross(p, e) / cross(u, e)
+        lam = (p[None, :, 0] * u[:, None, 1] - p[None, :, 1] * u[:, None, 0]) / denom  # cross(p, u) / cross(u, e)
+    valid = (lam >= -1e-9) & (lam <= 1 + 1e-9) & (t > 0)
+    t = np.where(valid, t, np.inf)
+    k = np.argmin(t, axis=1)
+    t_min = t[np.arange(n), k]
+    if not np.all(np.isfinite(t_min)):
+        raise ValueError(f"origin {origin} is not inside the profile")
+    edge = e[k]
+    normal = np.stack([-edge[:, 1], edge[:, 0]], axis=1)  # left normal of a CCW edge points inward
+    normal /= np.linalg.norm(normal, axis=1, keepdims=True)
+    return phi, t_min, normal
+
+
+def wall_point(shape: str, H: float, theta: float) -> tuple[float, float]:
+    """(X, Y) [mm] of the wall in direction theta [rad] from the profile centre (0, 0)."""
+    phi, t, _ = exit_table(profile_polygon(shape, H), (0.0, 0.0), n=4096)
+    r = float(np.interp((theta + np.pi) % (2 * np.pi) - np.pi, phi, t, period=2 * np.pi))
+    return r * float(np.cos(theta)), r * float(np.sin(theta))
+
+
+def clock_to_theta(clock: float) -> float:
+    """Angle [rad] from +X (counter-clockwise, towards +Y) of a clock position.
+
+    Clock positions are seen looking in the direction of survey: 12 = crown,
+    3 = right, 6 = invert, 9 = left.
+    """
+    return float(np.deg2rad(90.0 - 30.0 * clock))
+
+
+def theta_to_clock(theta: float) -> float:
+    """Clock position in (0, 12] of an angle [rad] from +X."""
+    clock = (90.0 - float(np.rad2deg(theta))) / 30.0 % 12.0
+    return 12.0 if clock == 0 else clock

@@ -1,0 +1,406 @@
+"""Ray-cast rendering of a pipe seen by a calibrated camera.
+
+Every pixel's ray comes from the certificate (``rig.pixel_rays``), so the
+image is distorted exactly as the certificate says. The camera travels along
+the pipe at a fixed offset and orientation, so each ray's intersection with
+the pipe wall *in the cross-section plane* does not change from frame to
+frame; only where along the pipe it lands does. The renderer therefore
+solves the 2-D geometry once (exact ray-polygon exit distances) and per frame
+only shifts the hits along Z, which is what makes it fast.
+
+Shading: a lamp at the camera, Lambert reflection, inverse-square fall-off
+(the far pipe fades to a dark centre), a logarithmic camera response, sensor
+noise and a slight optical blur. Thin features (joints, cracks) are anti-aliased from
+their width and the wall footprint of each pixel.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+
+from ..camera.certificate import Certificate
+from .profiles import clock_to_theta, exit_table, profile_polygon, segment_height_for_area_fraction, wall_point
+from .rig import camera_rotation, pixel_rays
+from .scene import Connection, Crack, Deformation, Deposit, DisplacedJoint, Marker, Scene
+from .texture import MATERIALS, TEXEL_MM, wall_texture
+
+__all__ = ["Renderer"]
+
+S_MAX = 60_000.0        # [mm] rays along the axis end here (black)
+_GAIN = 1.0
+_AMBIENT = 0.015
+_GAMMA = 1 / 1.4
+_TONE_K, _WHITE = 30.0, 8.0
+_LUT_SIZE, _LUT_MAX = 4096, 16.0
+_LIP_MM = 20.0                         # width of the socket face seen before each joint gap
+_TEX_PERIOD_MM = 2048 * TEXEL_MM      # a power of two of texels: the z index wraps with a bit mask
+
+# Region palette (BGR); index 0 is the wall, whose tint comes from the material.
+_WALL, _WATER, _DEPOSIT, _LATERAL, _HOLE, _MARKER = range(6)
+
+
+@dataclass
+class _Hits:
+    """Per-pixel wall hits of one pipe segment (flat float32 arrays)."""
+
+    s: np.ndarray       # distance along the unit ray [mm]
+    theta: np.ndarray   # angle of the hit around the profile centre [rad]
+    cos: np.ndarray     # cosine of incidence
+    fp: np.ndarray      # wall footprint of the pixel [mm]
+    light: np.ndarray   # lamp irradiance factor (before albedo)
+    iu: np.ndarray      # texture column
+
+
+class Renderer:
+    """Renders frames of ``scene`` for a camera at a fixed offset and orientation.
+
+    offset_mm : (X, Y) of the camera centre in the cross-section [mm]
+    yaw, pitch, roll : camera orientation [rad] (see ``rig.camera_rotation``)
+    noise : standard deviation of the sensor noise [grey levels of 255]
+    """
+
+    def __init__(self, scene: Scene, cert: Certificate, *, offset_mm=(0.0, 0.0), yaw=0.0, pitch=0.0, roll=0.0,
+                 seed: int = 0, noise: float = 2.0):
+        self.scene, self.cert = scene, cert
+        self.W, self.H = cert.image_width_px, cert.image_height_px
+        self.f = float(cert.focal_px[0])
+        self.ox, self.oy = (float(v) for v in offset_mm)
+        self.rng = np.random.default_rng(seed)
+        rays = pixel_rays(cert).reshape(-1, 3) @ camera_rotation(yaw, pitch, roll).T.astype(np.float32)
+        self.dx, self.dy, self.dz = (np.ascontiguousarray(rays[:, i]) for i in range(3))
+
+        pipe = scene.pipe
+        self.pipe = pipe
+        self.material = MATERIALS[pipe.material]
+        self.poly = profile_polygon(pipe.shape, pipe.height_mm)
+        closed = np.vstack([self.poly, self.poly[:1]])
+        self.perimeter = float(np.sum(np.hypot(*np.diff(closed, axis=0).T)))
+        self.r_eq = self.perimeter / (2 * math.pi)
+        self.s_ref = 1.0 * pipe.height_mm
+        self.tex = wall_texture(self.material, self.perimeter, _TEX_PERIOD_MM, self.rng)
+        self.tex_mean = float(self.tex.mean())
+
+        self.seg1 = self._wall_hits((0.0, 0.0))
+        joints = scene.of_type(DisplacedJoint)
+        if len(joints) > 1:
+            raise ValueError("the renderer supports one displaced joint per scene")
+        self.djoint = joints[0] if joints else None
+        self.seg2 = None
+        if self.djoint:
+            th = clock_to_theta(self.djoint.clock)
+            self.step_vec = (self.djoint.step_mm * math.cos(th), self.djoint.step_mm * math.sin(th))
+            self.seg2 = self._wall_hits(self.step_vec)
+
+        h_w = scene.water_percent / 100.0 * pipe.height_mm
+        self.water_y = -pipe.height_mm / 2 + h_w
+        self.s_water = self._plane_hits(self.water_y) if h_w > 0 else None
+        self.deposits = [(d, -pipe.height_mm / 2 + segment_height_for_area_fraction(pipe.shape, pipe.height_mm, d.area_percent / 100))
+                         for d in scene.of_type(Deposit)]
+        self.deposit_s = [self._plane_hits(y) for _, y in self.deposits]
+        self.deposit_rays = [np.nonzero(np.isfinite(s_d))[0] for s_d in self.deposit_s]
+
+        self.laterals = []
+        for c in scene.of_type(Connection):
+            if c.intrusion_mm > 0:
+                th = clock_to_theta(c.clock)
+                self.laterals.append((c, wall_point(pipe.shape, pipe.height_mm, th), th))
+        self.palette = np.array([self.material.tint_bgr, (0.40, 0.50, 0.50), (0.45, 0.62, 0.75),
+                                 (0.70, 0.74, 0.78), (0.25, 0.25, 0.25), (1.0, 1.0, 1.0)], dtype=np.float32)
+        x = (np.arange(_LUT_SIZE, dtype=np.float64) + 0.5) * (_LUT_MAX / _LUT_SIZE)
+        # A logarithmic response, like a CCTV camera's auto-exposure and knee: the far wall
+        # stays visible for metres before the centre turns black.
+        tone = np.clip(np.log1p(_TONE_K * x) / np.log1p(_TONE_K * _WHITE) + _AMBIENT, 0, 1)
+        self.colour_lut = np.rint(255 * (tone[None, :, None] * self.palette[:, None, :]) ** _GAMMA).astype(np.uint8)
+        self.colour_lut = self.colour_lut.reshape(-1, 3)
+        bank = np.rint(noise * self.rng.standard_normal((self.H + 16, self.W + 16, 3)))
+        self.noise_up = np.clip(bank, 0, 255).astype(np.uint8)
+        self.noise_down = np.clip(-bank, 0, 255).astype(np.uint8)
+
+    # -- geometry that does not depend on the camera's Z ----------------------
+    def _wall_hits(self, centre: tuple[float, float]) -> _Hits:
+        """Hits on the wall of a segment whose profile is shifted by ``centre`` [mm]."""
+        phi_t, t_t, n_t = exit_table(self.poly, (self.ox - centre[0], self.oy - centre[1]))
+        dxy = np.hypot(self.dx, self.dy)
+        phi = np.arctan2(self.dy, self.dx)
+        k = np.rint((phi + np.pi) / (2 * np.pi) * len(phi_t)).astype(np.int64) % len(phi_t)
+        t = np.interp(phi, phi_t, t_t, period=2 * np.pi)
+        with np.errstate(divide="ignore"):
+            s = np.minimum(t / np.maximum(dxy, 1e-9), S_MAX)
+        X = self.ox + s * self.dx - centre[0]
+        Y = self.oy + s * self.dy - centre[1]
+        cos = np.abs(n_t[k, 0] * self.dx + n_t[k, 1] * self.dy)
+        return self._hits(s, np.arctan2(Y, X), cos)
+
+    def _hits(self, s, theta, cos) -> _Hits:
+        s = np.asarray(s, np.float32)
+        cos = np.clip(np.asarray(cos, np.float32), 0.0, 1.0)
+        fp = s / (self.f * np.maximum(cos, 0.05))
+        light = _GAIN * cos * (self.s_ref / np.maximum(s, 1.0)) ** 2
+        iu = (np.rint(theta * self.r_eq / TEXEL_MM).astype(np.int64) % self.tex.shape[1])
+        return _Hits(s, np.asarray(theta, np.float32), cos, fp.astype(np.float32), light.astype(np.float32), iu)
+
+    def _plane_hits(self, y_plane: float) -> np.ndarray:
+        """Distance to the horizontal plane Y = y_plane for rays going down (inf otherwise)."""
+        with np.errstate(divide="ignore", invalid="ignore"):
+            s = np.where(self.dy < -1e-6, (y_plane - self.oy) / self.dy, np.inf)
+        return s.astype(np.float32)
+
+    # -- one frame ---------------------------------------------------------------
+    def render(self, z_cam: float, time_s: float = 0.0) -> np.ndarray:
+        """The frame (H, W, 3) uint8 BGR with the camera centre at Z = z_cam [mm] (no overlay)."""
+        hits = self._segments(z_cam)
+        z = z_cam + hits.s * self.dz
+        deformed = self._deform(hits, z, z_cam)
+        if deformed is not hits:
+            hits = deformed
+            z = z_cam + hits.s * self.dz
+
+        iz = (z * (1.0 / TEXEL_MM)).astype(np.int32) & (self.tex.shape[0] - 1)
+        amp = np.clip(2.0 * TEXEL_MM / hits.fp, 0.0, 1.0)
+        albedo = self.tex_mean + (self.tex[iz, hits.iu] - self.tex_mean) * amp
+        groove, lip = self._joint_coverage(z, hits.fp)
+        albedo *= 1.0 - 0.85 * groove
+        region = np.zeros(z.shape, np.uint8)
+        self._wall_marks(albedo, region, hits, z)
+
+        lum = albedo * hits.light
+        # The socket's end face looks at the camera: lit almost head-on, unlike the grazing wall.
+        lum *= 1.0 + lip * (np.minimum(0.8 / np.maximum(hits.cos, 0.05), 8.0) - 1.0)
+        s_cur = hits.s.copy()
+        self._deposits(lum, region, s_cur, z_cam)
+        self._connections(lum, region, s_cur, z_cam)
+        if self.s_water is not None:
+            water = self.s_water < s_cur
+            if water.any():
+                sw = self.s_water[water]
+                zw = z_cam + sw * self.dz[water]
+                xw = self.ox + sw * self.dx[water]
+                ripple = 1.0 + 0.15 * np.sin(0.045 * zw + 3.0 * time_s) * np.sin(0.07 * xw + 1.3 * time_s)
+                lum[water] = 0.12 * ripple * _GAIN * np.abs(self.dy[water]) * (self.s_ref / sw) ** 2
+                region[water] = _WATER
+                s_cur[water] = sw
+
+        # One table maps (region, light) to display BGR: tone curve, tint and gamma at once.
+        idx = np.minimum((lum * (_LUT_SIZE / _LUT_MAX)).astype(np.int32), _LUT_SIZE - 1)
+        idx += region.astype(np.int32) * _LUT_SIZE
+        out = self.colour_lut[idx].reshape(self.H, self.W, 3)
+        oy, ox = self.rng.integers(0, 16, size=2)
+        out = cv2.add(out, self.noise_up[oy:oy + self.H, ox:ox + self.W])
+        out = cv2.subtract(out, self.noise_down[oy:oy + self.H, ox:ox + self.W])
+        return cv2.GaussianBlur(out, (3, 3), 0.6)
+
+    def _segments(self, z_cam: float) -> _Hits:
+        """Wall hits for this frame: the first segment, the displaced one beyond its joint, and the step face."""
+        seg1, seg2, dj = self.seg1, self.seg2, self.djoint
+        if dj is None:
+            return seg1
+        zj = dj.joint * self.pipe.unit_length_mm
+        if zj <= z_cam:
+            return seg2
+        beyond = z_cam + seg1.s * self.dz > zj
+        if not beyond.any():
+            return seg1
+        out = _copy(seg1)
+        z2 = z_cam + seg2.s * self.dz
+        use2 = beyond & (z2 > zj)
+        for name in ("s", "theta", "cos", "fp", "light", "iu"):
+            getattr(out, name)[use2] = getattr(seg2, name)[use2]
+        face = np.nonzero(beyond & ~use2)[0]
+        if face.size:
+            sf = (zj - z_cam) / self.dz[face]
+            X, Y = self.ox + sf * self.dx[face], self.oy + sf * self.dy[face]
+            h = self._hits(sf, np.arctan2(Y, X), self.dz[face])
+            for name in ("s", "theta", "cos", "fp", "light", "iu"):
+                getattr(out, name)[face] = getattr(h, name)
+        return out
+
+    def _deform(self, hits: _Hits, z: np.ndarray, z_cam: float) -> _Hits:
+        """Re-intersect rays landing in a deformation zone with the deformed (elliptical) section."""
+        for d in self.scene.of_type(Deformation):
+            if self.pipe.shape != "circular":
+                raise ValueError(f"deformation {d.id}: supported on circular pipes only")
+            band = np.nonzero((z > d.z_from_mm - d.ramp_mm - 300) & (z < d.z_to_mm + d.ramp_mm + 300))[0]
+            if band.size == 0:
+                continue
+            R = self.pipe.height_mm / 2
+            dx, dy, dz = self.dx[band], self.dy[band], self.dz[band]
+            s = hits.s[band].astype(np.float64)
+            for _ in range(4):
+                e = (d.percent / 100.0) * _ramp(z_cam + s * dz, d.z_from_mm, d.z_to_mm, d.ramp_mm)
+                a, b = R * (1 + e), R * (1 - e)
+                yc = -R + b                         # invert stays in place
+                ox, oy = self.ox, self.oy - yc
+                A = dx**2 / a**2 + dy**2 / b**2
+                B = 2 * (ox * dx / a**2 + oy * dy / b**2)
+                C = ox**2 / a**2 + oy**2 / b**2 - 1
+                s = np.minimum((-B + np.sqrt(np.maximum(B * B - 4 * A * C, 0))) / (2 * np.maximum(A, 1e-12)), S_MAX)
+            X, Y = self.ox + s * dx, self.oy + s * dy - yc
+            nx, ny = X / a**2, Y / b**2
+            cos = np.abs(nx * dx + ny * dy) / np.hypot(nx, ny)
+            h = self._hits(s, np.arctan2(Y + yc, X), cos)
+            if hits is self.seg1 or hits is self.seg2:
+                hits = _copy(hits)
+            for name in ("s", "theta", "cos", "fp", "light", "iu"):
+                getattr(hits, name)[band] = getattr(h, name)
+        return hits
+
+    def _joint_coverage(self, z: np.ndarray, fp: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Coverage of each pixel by a joint's gap (dark) and by the socket face just before it (bright)."""
+        L = self.pipe.unit_length_mm
+        k = np.rint(z / L)
+        dz = z - k * L
+        half = np.full(z.shape, self.pipe.gap_mm / 2, np.float32)
+        if self.djoint is not None:
+            half[k == self.djoint.joint] = self.djoint.gap_mm / 2
+        groove = np.clip((half - np.abs(dz)) / fp + 0.5, 0.0, 1.0)
+        lip_centre = dz + half + _LIP_MM / 2
+        lip = np.clip((_LIP_MM / 2 - np.abs(lip_centre)) / fp + 0.5, 0.0, 1.0)
+        first = k < 1
+        groove[first] = 0.0
+        lip[first] = 0.0
+        return groove, lip
+
+    def _wall_marks(self, albedo, region, hits: _Hits, z) -> None:
+        """Cracks, connection openings and markers painted on the wall, anti-aliased."""
+        r_eq = self.r_eq
+        for c in self.scene.of_type(Crack):
+            if c.orientation == "circumferential":
+                band = np.nonzero(np.abs(z - c.z_mm) < c.width_mm + 40)[0]
+                if band.size == 0:
+                    continue
+                th = hits.theta[band]
+                t0, t1 = clock_to_theta(c.clock_from), clock_to_theta(c.clock_to)
+                inside = ((t0 - th) % (2 * np.pi)) <= ((t0 - t1) % (2 * np.pi))
+                centre = c.z_mm + 12.0 * np.sin(3.0 * th + 0.7)
+                dist = np.abs(z[band] - centre)
+            else:
+                band = np.nonzero((z > c.z_mm - 20) & (z < c.z_mm + c.length_mm + 20))[0]
+                if band.size == 0:
+                    continue
+                zb = z[band]
+                inside = (zb >= c.z_mm) & (zb <= c.z_mm + c.length_mm)
+                centre = clock_to_theta(c.clock) * r_eq + 10.0 * np.sin(zb / 90.0)
+                dist = np.abs(_wrap(hits.theta[band] * r_eq - centre, 2 * np.pi * r_eq))
+            cov = np.clip((c.width_mm / 2 - dist) / hits.fp[band] + 0.5, 0.0, 1.0) * inside
+            albedo[band] *= 1.0 - 0.9 * cov
+        for m in self.scene.of_type(Marker):
+            band = np.nonzero(np.abs(z - m.z_mm) < m.radius_mm + 30)[0]
+            if band.size == 0:
+                continue
+            du = _wrap(hits.theta[band] * r_eq - clock_to_theta(m.clock) * r_eq, 2 * np.pi * r_eq)
+            dist = np.hypot(du, z[band] - m.z_mm)
+            cov = np.clip((m.radius_mm - dist) / hits.fp[band] + 0.5, 0.0, 1.0)
+            albedo[band] = albedo[band] * (1 - cov) + 1.6 * cov
+            region[band[cov > 0.5]] = _MARKER
+        for c in self.scene.of_type(Connection):
+            band = np.nonzero(np.abs(z - c.z_mm) < c.diameter_mm / 2 + c.wall_mm + 30)[0]
+            if band.size == 0 or c.intrusion_mm > 0:
+                continue
+            du = _wrap(hits.theta[band] * r_eq - clock_to_theta(c.clock) * r_eq, 2 * np.pi * r_eq)
+            dist = np.hypot(du, z[band] - c.z_mm)
+            hole = np.clip((c.diameter_mm / 2 - dist) / hits.fp[band] + 0.5, 0.0, 1.0)
+            albedo[band] *= 1.0 - 0.92 * hole
+            region[band[hole > 0.5]] = _HOLE
+
+    def _deposits(self, lum, region, s_cur, z_cam: float) -> None:
+        for (d, y_top), s_d, below in zip(self.deposits, self.deposit_s, self.deposit_rays):
+            if d.z_to_mm < z_cam:
+                continue
+            # Rays meeting the deposit's top plane before the wall; the front face is only
+            # reachable by the same rays (it lies below the top plane).
+            cand = below[s_d[below] < s_cur[below]]
+            if cand.size == 0:
+                continue
+            dz = self.dz[cand]
+            sd = s_d[cand]
+            zd = z_cam + sd * dz
+            top = (zd >= d.z_from_mm) & (zd <= d.z_to_mm)
+            with np.errstate(divide="ignore", invalid="ignore"):
+                sf = np.where(dz > 1e-6, (d.z_from_mm - z_cam) / dz, np.inf)
+            face = (sf > 0) & (sf < s_cur[cand]) & (self.oy + sf * self.dy[cand] < y_top) & ~top
+            for mask, s_hit, cos in ((top, sd, np.abs(self.dy[cand])), (face, sf, dz)):
+                if not mask.any():
+                    continue
+                at = cand[mask]
+                sh = s_hit[mask].astype(np.float32)
+                zz = z_cam + sh * self.dz[at]
+                xx = self.ox + sh * self.dx[at]
+                grain = self.tex[(zz / TEXEL_MM).astype(np.int64) % self.tex.shape[0],
+                                 ((xx + 5000.0) / TEXEL_MM).astype(np.int64) % self.tex.shape[1]]
+                lum[at] = (0.35 + 0.6 * grain) * _GAIN * cos[mask] * (self.s_ref / sh) ** 2
+                region[at] = _DEPOSIT
+                s_cur[at] = sh
+
+    def _connections(self, lum, region, s_cur, z_cam: float) -> None:
+        """Intruding laterals: the protruding tube (lit) and its open end (dark)."""
+        for c, (wx, wy), th in self.laterals:
+            if not (0 < c.z_mm - z_cam < 8000):
+                continue
+            axis = np.array([-math.cos(th), -math.sin(th), 0.0])          # into the pipe
+            w = np.array([self.ox - wx, self.oy - wy, z_cam - c.z_mm])
+            # Only rays inside the cone around the tube's bounding sphere can meet it.
+            centre = -w + 0.5 * c.intrusion_mm * axis
+            dist = float(np.linalg.norm(centre))
+            radius = math.hypot(c.diameter_mm / 2 + c.wall_mm, c.intrusion_mm / 2) + 5.0
+            if dist <= radius:
+                continue
+            cone = (self.dx * centre[0] + self.dy * centre[1] + self.dz * centre[2]) > dist * math.sqrt(1 - (radius / dist) ** 2)
+            sub = np.nonzero(cone)[0]
+            if sub.size == 0:
+                continue
+            dx, dy, dz = self.dx[sub], self.dy[sub], self.dz[sub]
+            wd = dx * axis[0] + dy * axis[1]
+            ww = float(w @ axis)
+            dpx, dpy, dpz = dx - wd * axis[0], dy - wd * axis[1], dz
+            wp = w - ww * axis
+            r_in, r_out = c.diameter_mm / 2, c.diameter_mm / 2 + c.wall_mm
+            A = dpx**2 + dpy**2 + dpz**2
+            B = 2 * (wp[0] * dpx + wp[1] * dpy + wp[2] * dpz)
+            C = float(wp @ wp) - r_out**2
+            disc = B * B - 4 * A * C
+            with np.errstate(invalid="ignore", divide="ignore"):
+                s_side = (-B - np.sqrt(disc)) / (2 * A)
+                t_side = ww + s_side * wd
+                side = (disc > 0) & (s_side > 0) & (t_side >= 0) & (t_side <= c.intrusion_mm) & (s_side < s_cur[sub])
+                s_cap = (c.intrusion_mm - ww) / wd
+                px = wp[0] + s_cap * dpx
+                py = wp[1] + s_cap * dpy
+                pz = wp[2] + s_cap * dpz
+                rho = np.sqrt(px**2 + py**2 + pz**2)
+            cap = (s_cap > 0) & (rho < r_out) & (s_cap < s_cur[sub]) & (~side | (s_cap < s_side))
+            if side.any():
+                sh = s_side[side]
+                nx = (wp[0] + sh * dpx[side]) / r_out
+                ny = (wp[1] + sh * dpy[side]) / r_out
+                nz = (wp[2] + sh * dpz[side]) / r_out
+                cos = np.abs(nx * dx[side] + ny * dy[side] + nz * dz[side])
+                at = sub[side]
+                lum[at] = 0.7 * _GAIN * cos * (self.s_ref / sh) ** 2
+                region[at] = _LATERAL
+                s_cur[at] = sh
+            if cap.any():
+                sh = s_cap[cap]
+                rim = rho[cap] >= r_in
+                at = sub[cap]
+                lum[at] = np.where(rim, 0.7 * _GAIN * np.abs(wd[cap]) * (self.s_ref / sh) ** 2, 0.02)
+                region[at] = np.where(rim, _LATERAL, _HOLE)
+                s_cur[at] = sh
+
+
+def _copy(h: _Hits) -> _Hits:
+    return _Hits(h.s.copy(), h.theta.copy(), h.cos.copy(), h.fp.copy(), h.light.copy(), h.iu.copy())
+
+
+def _ramp(z, z0: float, z1: float, ramp: float):
+    """0 outside [z0 - ramp, z1 + ramp], 1 inside [z0, z1], cosine transitions between."""
+    up = np.clip((z - (z0 - ramp)) / ramp, 0, 1)
+    down = np.clip(((z1 + ramp) - z) / ramp, 0, 1)
+    return 0.5 - 0.5 * np.cos(np.pi * np.minimum(up, down))
+
+
+def _wrap(d, period: float):
+    return (d + period / 2) % period - period / 2

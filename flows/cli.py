@@ -92,6 +92,30 @@ def cmd_certificate_convert(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
+# -- samples -------------------------------------------------------------------
+
+def cmd_samples(args: argparse.Namespace) -> int:
+    from pipeline.synth.samples import generate_samples, sample_specs
+
+    known = [spec.package_id for spec, _ in sample_specs()]
+    unknown = sorted(set(args.only or []) - set(known))
+    if unknown:
+        _say(f"pipegauge samples: error: unknown package {unknown[0]!r}; choose from {known}")
+        return EXIT_USAGE
+    last = {}
+
+    def progress(message: str) -> None:
+        package = message.split(":")[0]
+        if last.get(package) != message:
+            last[package] = message
+            _say(message)
+
+    written = generate_samples(args.out, only=args.only, progress=progress)
+    for path in written:
+        print(path)
+    return EXIT_OK
+
+
 # -- parser --------------------------------------------------------------------
 
 def build_parser() -> argparse.ArgumentParser:
@@ -113,6 +137,14 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--json", action="store_true", help="print the full result as JSON instead of tables")
     p.add_argument("--seed", type=int, default=1, help="seed of the Monte Carlo runs (default: %(default)s)")
     p.set_defaults(func=cmd_paper)
+
+    sm = verbs.add_parser("samples", help="regenerate the synthetic inspection packages with ground truth",
+                          description="Render the sample inspection packages (video, header, observation log, "
+                                      "marks, ground truth) and their camera certificates, deterministically. "
+                                      "Formats: docs/formats.md.")
+    sm.add_argument("--out", default="sample_videos", help="where to write them (default: %(default)s)")
+    sm.add_argument("--only", action="append", metavar="PACKAGE_ID", help="regenerate only this package (repeatable)")
+    sm.set_defaults(func=cmd_samples)
 
     c = verbs.add_parser("certificate", help="check or convert a camera calibration certificate",
                          description="Validate a calibration certificate (docs/certificate-format.md) or convert it "

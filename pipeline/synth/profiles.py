@@ -14,13 +14,14 @@ Shapes:
 
 from __future__ import annotations
 
+import functools
 import math
 
 import numpy as np
 
 __all__ = [
     "SHAPES", "profile_polygon", "profile_width", "segment_height_for_area_fraction", "chord_at_height",
-    "exit_table", "wall_point", "clock_to_theta", "theta_to_clock",
+    "exit_table", "wall_point", "clock_to_theta", "theta_to_clock", "perimeter",
 ]
 
 SHAPES = ("circular", "egg")
@@ -53,6 +54,13 @@ def profile_polygon(shape: str, H: float, n: int = 1440) -> np.ndarray:
         ]
         return np.concatenate(parts)
     raise ValueError(f"unknown shape {shape!r}; use one of {SHAPES}")
+
+
+def perimeter(shape: str, H: float) -> float:
+    """Internal perimeter [mm] of a profile of height H [mm]."""
+    poly = profile_polygon(shape, H)
+    closed = np.vstack([poly, poly[:1]])
+    return float(np.sum(np.hypot(*np.diff(closed, axis=0).T)))
 
 
 def profile_width(shape: str, H: float) -> float:
@@ -138,9 +146,15 @@ def exit_table(poly: np.ndarray, origin: tuple[float, float], n: int = 8192) -> 
     return phi, t_min, normal
 
 
+@functools.lru_cache(maxsize=16)
+def _radius_table(shape: str, H: float) -> tuple[np.ndarray, np.ndarray]:
+    phi, t, _ = exit_table(profile_polygon(shape, H), (0.0, 0.0), n=4096)
+    return phi, t
+
+
 def wall_point(shape: str, H: float, theta: float) -> tuple[float, float]:
     """(X, Y) [mm] of the wall in direction theta [rad] from the profile centre (0, 0)."""
-    phi, t, _ = exit_table(profile_polygon(shape, H), (0.0, 0.0), n=4096)
+    phi, t = _radius_table(shape, float(H))
     r = float(np.interp((theta + np.pi) % (2 * np.pi) - np.pi, phi, t, period=2 * np.pi))
     return r * float(np.cos(theta)), r * float(np.sin(theta))
 

@@ -23,7 +23,7 @@ import cv2
 import numpy as np
 
 from ..camera.certificate import Certificate
-from .profiles import clock_to_theta, exit_table, profile_polygon, segment_height_for_area_fraction, wall_point
+from .profiles import clock_to_theta, exit_table, perimeter, profile_polygon, segment_height_for_area_fraction, wall_point
 from .rig import camera_rotation, pixel_rays
 from .scene import Connection, Crack, Deformation, Deposit, DisplacedJoint, Marker, Scene
 from .texture import MATERIALS, TEXEL_MM, wall_texture
@@ -31,12 +31,12 @@ from .texture import MATERIALS, TEXEL_MM, wall_texture
 __all__ = ["Renderer"]
 
 S_MAX = 60_000.0        # [mm] rays along the axis end here (black)
-_GAIN = 1.0
+_GAIN = 0.6
 _AMBIENT = 0.015
 _GAMMA = 1 / 1.4
-_TONE_K, _WHITE = 30.0, 8.0
+_TONE_K, _WHITE = 20.0, 6.0
 _LUT_SIZE, _LUT_MAX = 4096, 16.0
-_LIP_MM = 20.0                         # width of the socket face seen before each joint gap
+LIP_MM = 20.0                         # width of the socket face seen before each joint gap
 _TEX_PERIOD_MM = 2048 * TEXEL_MM      # a power of two of texels: the z index wraps with a bit mask
 
 # Region palette (BGR); index 0 is the wall, whose tint comes from the material.
@@ -77,14 +77,14 @@ class Renderer:
         self.pipe = pipe
         self.material = MATERIALS[pipe.material]
         self.poly = profile_polygon(pipe.shape, pipe.height_mm)
-        closed = np.vstack([self.poly, self.poly[:1]])
-        self.perimeter = float(np.sum(np.hypot(*np.diff(closed, axis=0).T)))
+        self.perimeter = perimeter(pipe.shape, pipe.height_mm)
         self.r_eq = self.perimeter / (2 * math.pi)
         self.s_ref = 1.0 * pipe.height_mm
         self.tex = wall_texture(self.material, self.perimeter, _TEX_PERIOD_MM, self.rng)
         self.tex_mean = float(self.tex.mean())
 
         self.seg1 = self._wall_hits((0.0, 0.0))
+        self._deformed: dict[str, tuple[np.ndarray, np.ndarray]] = {}
         joints = scene.of_type(DisplacedJoint)
         if len(joints) > 1:
             raise ValueError("the renderer supports one displaced joint per scene")
@@ -191,7 +191,7 @@ class Renderer:
         oy, ox = self.rng.integers(0, 16, size=2)
         out = cv2.add(out, self.noise_up[oy:oy + self.H, ox:ox + self.W])
         out = cv2.subtract(out, self.noise_down[oy:oy + self.H, ox:ox + self.W])
-        return cv2.GaussianBlur(out, (3, 3), 0.6)
+        return cv2.GaussianBlur(out, (5, 5), 0.9)
 
     def _segments(self, z_cam: float) -> _Hits:
         """Wall hits for this frame: the first segment, the displaced one beyond its joint, and the step face."""
@@ -218,30 +218,45 @@ class Renderer:
                 getattr(out, name)[face] = getattr(h, name)
         return out
 
+    def _deformed_hits(self, d: Deformation) -> tuple[np.ndarray, np.ndarray]:
+        """(s, cos) of every ray against the fully deformed section: an ellipse, invert in place."""
+        R, e = self.pipe.height_mm / 2, d.percent / 100.0
+        a, b = R * (1 + e), R * (1 - e)
+        oy = self.oy + R * e                       # camera relative to the ellipse centre (-R + b)
+        dx, dy = self.dx.astype(np.float64), self.dy.astype(np.float64)
+        A = dx * dx / a**2 + dy * dy / b**2
+        B = 2 * (self.ox * dx / a**2 + oy * dy / b**2)
+        C = self.ox**2 / a**2 + oy**2 / b**2 - 1
+        with np.errstate(divide="ignore", invalid="ignore"):
+            s = np.minimum((-B + np.sqrt(np.maximum(B * B - 4 * A * C, 0))) / (2 * A), S_MAX)
+        nx, ny = (self.ox + s * dx) / a**2, (oy + s * dy) / b**2
+        cos = np.abs(nx * dx + ny * dy) / np.hypot(nx, ny)
+        return s.astype(np.float32), cos.astype(np.float32)
+
     def _deform(self, hits: _Hits, z: np.ndarray, z_cam: float) -> _Hits:
-        """Re-intersect rays landing in a deformation zone with the deformed (elliptical) section."""
+        """Rays landing in a deformation zone meet the deformed wall instead.
+
+        Along each ray the wall moves from the circle (outside the zone) to the
+        fully deformed ellipse (inside it) as the zone's smooth ramp w(Z) goes
+        from 0 to 1: s = s_circle + w(Z(s)) (s_ellipse - s_circle), solved by
+        two fixed-point steps. Inside the zone the section is exactly the ellipse.
+        """
         for d in self.scene.of_type(Deformation):
             if self.pipe.shape != "circular":
                 raise ValueError(f"deformation {d.id}: supported on circular pipes only")
-            band = np.nonzero((z > d.z_from_mm - d.ramp_mm - 300) & (z < d.z_to_mm + d.ramp_mm + 300))[0]
+            if d.id not in self._deformed:
+                self._deformed[d.id] = self._deformed_hits(d)
+            s_def, cos_def = self._deformed[d.id]
+            margin = d.ramp_mm + 2 * d.percent / 100 * self.pipe.height_mm + 50
+            band = np.nonzero((z > d.z_from_mm - margin) & (z < d.z_to_mm + margin))[0]
             if band.size == 0:
                 continue
-            R = self.pipe.height_mm / 2
-            dx, dy, dz = self.dx[band], self.dy[band], self.dz[band]
-            s = hits.s[band].astype(np.float64)
-            for _ in range(4):
-                e = (d.percent / 100.0) * _ramp(z_cam + s * dz, d.z_from_mm, d.z_to_mm, d.ramp_mm)
-                a, b = R * (1 + e), R * (1 - e)
-                yc = -R + b                         # invert stays in place
-                ox, oy = self.ox, self.oy - yc
-                A = dx**2 / a**2 + dy**2 / b**2
-                B = 2 * (ox * dx / a**2 + oy * dy / b**2)
-                C = ox**2 / a**2 + oy**2 / b**2 - 1
-                s = np.minimum((-B + np.sqrt(np.maximum(B * B - 4 * A * C, 0))) / (2 * np.maximum(A, 1e-12)), S_MAX)
-            X, Y = self.ox + s * dx, self.oy + s * dy - yc
-            nx, ny = X / a**2, Y / b**2
-            cos = np.abs(nx * dx + ny * dy) / np.hypot(nx, ny)
-            h = self._hits(s, np.arctan2(Y + yc, X), cos)
+            s0, ds, dz = hits.s[band], s_def[band] - hits.s[band], self.dz[band]
+            w = _ramp(z_cam + s0 * dz, d.z_from_mm, d.z_to_mm, d.ramp_mm)
+            w = _ramp(z_cam + (s0 + w * ds) * dz, d.z_from_mm, d.z_to_mm, d.ramp_mm)
+            s = s0 + w * ds
+            cos = hits.cos[band] + w * (cos_def[band] - hits.cos[band])
+            h = self._hits(s, np.arctan2(self.oy + s * self.dy[band], self.ox + s * self.dx[band]), cos)
             if hits is self.seg1 or hits is self.seg2:
                 hits = _copy(hits)
             for name in ("s", "theta", "cos", "fp", "light", "iu"):
@@ -257,8 +272,8 @@ class Renderer:
         if self.djoint is not None:
             half[k == self.djoint.joint] = self.djoint.gap_mm / 2
         groove = np.clip((half - np.abs(dz)) / fp + 0.5, 0.0, 1.0)
-        lip_centre = dz + half + _LIP_MM / 2
-        lip = np.clip((_LIP_MM / 2 - np.abs(lip_centre)) / fp + 0.5, 0.0, 1.0)
+        lip_centre = dz + half + LIP_MM / 2
+        lip = np.clip((LIP_MM / 2 - np.abs(lip_centre)) / fp + 0.5, 0.0, 1.0)
         first = k < 1
         groove[first] = 0.0
         lip[first] = 0.0
@@ -275,7 +290,7 @@ class Renderer:
                 th = hits.theta[band]
                 t0, t1 = clock_to_theta(c.clock_from), clock_to_theta(c.clock_to)
                 inside = ((t0 - th) % (2 * np.pi)) <= ((t0 - t1) % (2 * np.pi))
-                centre = c.z_mm + 12.0 * np.sin(3.0 * th + 0.7)
+                centre = c.centre_z(th)
                 dist = np.abs(z[band] - centre)
             else:
                 band = np.nonzero((z > c.z_mm - 20) & (z < c.z_mm + c.length_mm + 20))[0]
@@ -283,7 +298,7 @@ class Renderer:
                     continue
                 zb = z[band]
                 inside = (zb >= c.z_mm) & (zb <= c.z_mm + c.length_mm)
-                centre = clock_to_theta(c.clock) * r_eq + 10.0 * np.sin(zb / 90.0)
+                centre = c.centre_u(zb, r_eq)
                 dist = np.abs(_wrap(hits.theta[band] * r_eq - centre, 2 * np.pi * r_eq))
             cov = np.clip((c.width_mm / 2 - dist) / hits.fp[band] + 0.5, 0.0, 1.0) * inside
             albedo[band] *= 1.0 - 0.9 * cov
@@ -294,7 +309,8 @@ class Renderer:
             du = _wrap(hits.theta[band] * r_eq - clock_to_theta(m.clock) * r_eq, 2 * np.pi * r_eq)
             dist = np.hypot(du, z[band] - m.z_mm)
             cov = np.clip((m.radius_mm - dist) / hits.fp[band] + 0.5, 0.0, 1.0)
-            albedo[band] = albedo[band] * (1 - cov) + 1.6 * cov
+            # Retro-reflective: as bright at any distance, a clear target even in the dark far field.
+            albedo[band] = albedo[band] * (1 - cov) + cov * (4.0 / np.maximum(hits.light[band], 1e-6))
             region[band[cov > 0.5]] = _MARKER
         for c in self.scene.of_type(Connection):
             band = np.nonzero(np.abs(z - c.z_mm) < c.diameter_mm / 2 + c.wall_mm + 30)[0]
@@ -396,10 +412,9 @@ def _copy(h: _Hits) -> _Hits:
 
 
 def _ramp(z, z0: float, z1: float, ramp: float):
-    """0 outside [z0 - ramp, z1 + ramp], 1 inside [z0, z1], cosine transitions between."""
-    up = np.clip((z - (z0 - ramp)) / ramp, 0, 1)
-    down = np.clip(((z1 + ramp) - z) / ramp, 0, 1)
-    return 0.5 - 0.5 * np.cos(np.pi * np.minimum(up, down))
+    """0 outside [z0 - ramp, z1 + ramp], 1 inside [z0, z1], smooth (smoothstep) transitions between."""
+    t = np.clip(np.minimum(z - (z0 - ramp), (z1 + ramp) - z) * (1.0 / ramp), 0, 1)
+    return t * t * (3 - 2 * t)
 
 
 def _wrap(d, period: float):

@@ -6,6 +6,12 @@ Frames (docs/conventions.md):
   the direction of survey [mm]; the profile's centre line is X = Y = 0;
 * camera (OpenCV): x right, y down, z forward along the optical axis.
 
+The world frame is left-handed (it is how one draws a cross-section and
+walks the pipe) while the camera frame is OpenCV's right-handed one, so the
+map between them includes a reflection: det(R_wc) = -1. Poses are therefore
+never handed to OpenCV as (rvec, tvec); points are taken into the camera
+frame here (``CameraPose.to_camera``) and projected from there.
+
 A camera looking straight downstream has R_wc = diag(1, -1, 1) (camera axes
 expressed in world axes). Tilts are applied as R_wc = Ry(yaw) Rx(pitch)
 Rz(roll) diag(1, -1, 1): yaw turns the view to the right (+X), pitch turns
@@ -68,12 +74,6 @@ class CameraPose:
     def centre(self) -> np.ndarray:
         return np.array([self.X, self.Y, self.Z])
 
-    def rvec_tvec(self) -> tuple[np.ndarray, np.ndarray]:
-        """OpenCV's (rvec, tvec) mapping world points into the camera frame."""
-        R_cw = self.R_wc.T
-        rvec, _ = cv2.Rodrigues(R_cw)
-        return rvec.reshape(3), -R_cw @ self.centre
-
     def to_camera(self, points_w: np.ndarray) -> np.ndarray:
         """World points (..., 3) [mm] in camera coordinates (..., 3) [mm]."""
         return (np.asarray(points_w, float) - self.centre) @ self.R_wc
@@ -99,8 +99,10 @@ def pixel_rays(cert: Certificate) -> np.ndarray:
 
 def project_points(points_w: np.ndarray, pose: CameraPose, cert: Certificate) -> np.ndarray:
     """Distorted image positions (n, 2) [px] of world points (n, 3) [mm], by cv2.projectPoints."""
-    rvec, tvec = pose.rvec_tvec()
-    out, _ = cv2.projectPoints(np.asarray(points_w, float).reshape(-1, 1, 3), rvec, tvec,
+    pc = pose.to_camera(np.asarray(points_w, float).reshape(-1, 3))
+    if np.any(pc[:, 2] <= 0):
+        raise ValueError("a point lies behind the camera")
+    out, _ = cv2.projectPoints(pc.reshape(-1, 1, 3), np.zeros(3), np.zeros(3),
                                cert.camera_matrix(), cert.opencv_distortion())
     return out.reshape(-1, 2)
 

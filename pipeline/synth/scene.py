@@ -10,7 +10,9 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Union
 
-from .profiles import SHAPES, profile_width
+import numpy as np
+
+from .profiles import SHAPES, clock_to_theta, profile_width
 from .texture import MATERIALS
 
 __all__ = [
@@ -62,6 +64,16 @@ class Crack:
     clock_to: float = 12.0
     clock: float = 12.0
     length_mm: float = 0.0
+
+    # A real crack wanders; these centre lines are what the renderer draws and
+    # what the ground truth measures across.
+    def centre_z(self, theta):
+        """Circumferential crack: its centre line's Z [mm] at wall angle theta [rad]."""
+        return self.z_mm + 12.0 * np.sin(3.0 * np.asarray(theta) + 0.7)
+
+    def centre_u(self, z, r_eq: float):
+        """Longitudinal crack: its centre line's arc position theta * r_eq [mm] at Z [mm]."""
+        return clock_to_theta(self.clock) * r_eq + 10.0 * np.sin(np.asarray(z) / 90.0)
 
 
 @dataclass(frozen=True)

@@ -32,7 +32,7 @@ class Material:
 
 
 MATERIALS = {
-    "concrete": Material("concrete", "Concrete", (0.74, 0.78, 0.82), 0.55, 0.10, 0.60, 0.25, 8.0),
+    "concrete": Material("concrete", "Concrete", (0.60, 0.66, 0.72), 0.42, 0.10, 0.60, 0.25, 8.0),
     "vitrified clay": Material("vitrified clay", "Vitrified Clay", (0.30, 0.50, 0.85), 0.50, 0.06, 0.70, 0.0, 6.0),
     "plastic": Material("plastic", "PVC", (0.40, 0.60, 0.85), 0.65, 0.02, 0.15, 0.0, 4.0),
 }
@@ -58,4 +58,7 @@ def wall_texture(material: Material, circumference_mm: float, period_mm: float, 
     if material.speckle:
         spots = rng.random((nz, nu)) < 0.03
         tex[spots] += material.speckle * material.albedo * rng.choice([-1.0, 1.0], size=int(spots.sum()))
+    # Soften texel edges: hard per-texel steps cost video bitrate and look synthetic.
+    padded = np.pad(tex, 4, mode="wrap")
+    tex = cv2.GaussianBlur(padded, (0, 0), 1.0)[4:-4, 4:-4]
     return np.clip(tex, 0.02, 1.0).astype(np.float32)

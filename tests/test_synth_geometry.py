@@ -1,0 +1,90 @@
+"""The renderer's geometry against OpenCV's camera model, through a real encoded video."""
+
+import math
+
+import cv2
+import numpy as np
+import pytest
+
+from pipeline.synth.profiles import clock_to_theta, wall_point
+from pipeline.synth.render import LIP_MM, Renderer
+from pipeline.synth.rig import CameraPose, project_points
+from pipeline.synth.samples import sample_certificate
+from pipeline.synth.scene import Marker, Pipe, Scene
+
+
+def encode_and_decode(frames, path):
+    """Frames through a real mp4v file and back, as every later stage will see them."""
+    h, w = frames[0].shape[:2]
+    writer = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*"mp4v"), 25.0, (w, h))
+    assert writer.isOpened()
+    for f in frames:
+        writer.write(f)
+    writer.release()
+    cap = cv2.VideoCapture(str(path))
+    out = []
+    while True:
+        ok, f = cap.read()
+        if not ok:
+            break
+        out.append(f)
+    assert len(out) == len(frames)
+    return out
+
+
+MARKERS = [Marker(600.0, c, 3.0) for c in (1, 3, 5, 7, 9, 11)] + [Marker(900.0, c, 4.0) for c in (2, 4, 8, 10, 12)]
+
+
+@pytest.mark.parametrize("shape", ["circular", "egg"])
+def test_wall_points_appear_where_opencv_projects_them(tmp_path, shape):
+    cert = sample_certificate(720, 576)
+    pipe = Pipe(shape, 450.0, "plastic", 3000.0)
+    mount = dict(offset_mm=(25.0, -30.0), yaw=math.radians(2.0), pitch=math.radians(1.5), roll=math.radians(1.0))
+    with_markers = Renderer(Scene(pipe, features=tuple(MARKERS)), cert, noise=0.0, **mount)
+    without = Renderer(Scene(pipe), cert, noise=0.0, **mount)
+    z_cam = 200.0
+    # Each frame in its own file, so both are key frames and neither is predicted from the other.
+    frames = [encode_and_decode([with_markers.render(z_cam)], tmp_path / "a.mp4")[0],
+              encode_and_decode([without.render(z_cam)], tmp_path / "b.mp4")[0]]
+    diff = cv2.absdiff(frames[0], frames[1]).max(axis=2).astype(np.float32)
+
+    pose = CameraPose(25.0, -30.0, z_cam, mount["yaw"], mount["pitch"], mount["roll"])
+    world = np.array([[*wall_point(shape, 450.0, clock_to_theta(m.clock)), m.z_mm] for m in MARKERS])
+    expected = project_points(world, pose, cert)
+    errors = []
+    for (x, y) in expected:
+        x0, y0 = int(round(x)), int(round(y))
+        win = diff[y0 - 8:y0 + 9, x0 - 8:x0 + 9].copy()
+        win[win < 0.25 * win.max()] = 0           # keep the marker, drop compression ripples
+        ys, xs = np.mgrid[y0 - 8:y0 + 9, x0 - 8:x0 + 9]
+        cx, cy = (win * xs).sum() / win.sum(), (win * ys).sum() / win.sum()
+        errors.append(math.hypot(cx - x, cy - y))
+    assert max(errors) < 0.5, f"marker position errors [px]: {np.round(errors, 3)}"
+
+
+def test_joint_ring_radius_is_f_R_over_d(tmp_path):
+    """The bright ring of a joint (the socket's end face, lit head-on) has radius f R / d in the ideal image."""
+    cert = sample_certificate(720, 576)
+    R, L, gap = 200.0, 1000.0, 10.0
+    renderer = Renderer(Scene(Pipe("circular", 2 * R, "plastic", L, joint_gap_mm=gap)), cert, noise=0.0)
+    K, dist = cert.camera_matrix(), cert.opencv_distortion()
+    f, cx, cy = cert.focal_px[0], cert.value("cx"), cert.value("cy")
+    checks = []
+    for d_joint in (900.0, 1400.0, 2000.0):
+        frame = encode_and_decode([renderer.render(L - d_joint)], tmp_path / f"r{d_joint:.0f}.mp4")[0]
+        ideal = cv2.undistort(frame, K, dist).astype(np.float32).mean(axis=2)
+        d = d_joint - gap / 2 - LIP_MM / 2          # the face's centre plane, just before the gap
+        expected = f * R / d
+        radii = np.arange(expected - 8, expected + 8, 0.05)
+        angles = np.linspace(0, 2 * np.pi, 720, endpoint=False)
+        map_x = (cx + radii[:, None] * np.cos(angles)[None, :]).astype(np.float32)
+        map_y = (cy + radii[:, None] * np.sin(angles)[None, :]).astype(np.float32)
+        profile = cv2.remap(ideal, map_x, map_y, cv2.INTER_LINEAR).mean(axis=1)
+        # Brightness above the wall's smooth trend (fitted away from the ring) marks the face.
+        outside = np.abs(radii - expected) > 5
+        trend = np.polyval(np.polyfit(radii[outside], profile[outside], 2), radii)
+        excess = np.clip(profile - trend, 0, None) * (np.abs(radii - expected) < 5)
+        measured = float((excess * radii).sum() / excess.sum())
+        checks.append((d, expected, measured))
+    for d, expected, measured in checks:
+        assert measured == pytest.approx(expected, abs=0.5), f"d = {d} mm: f R / d = {expected:.2f} px, ring at {measured:.2f} px"

@@ -11,6 +11,7 @@ from __future__ import annotations
 import argparse
 import datetime as dt
 import json
+import os
 import sys
 from pathlib import Path
 from typing import Callable, Sequence
@@ -110,7 +111,7 @@ def cmd_samples(args: argparse.Namespace) -> int:
             last[package] = message
             _say(message)
 
-    written = generate_samples(args.out, only=args.only, progress=progress)
+    written = generate_samples(args.out, only=args.only, progress=progress, workers=args.workers)
     for path in written:
         print(path)
     return EXIT_OK
@@ -144,6 +145,8 @@ def build_parser() -> argparse.ArgumentParser:
                                       "Formats: docs/formats.md.")
     sm.add_argument("--out", default="sample_videos", help="where to write them (default: %(default)s)")
     sm.add_argument("--only", action="append", metavar="PACKAGE_ID", help="regenerate only this package (repeatable)")
+    sm.add_argument("--workers", type=int, default=os.cpu_count() or 1,
+                    help="processes rendering frames (default: the number of cores, %(default)s); the files do not depend on it")
     sm.set_defaults(func=cmd_samples)
 
     c = verbs.add_parser("certificate", help="check or convert a camera calibration certificate",

@@ -91,8 +91,8 @@ def test_ground_truth_matches_the_files(tiny):
     assert water["quantities"][0]["true_value"] == 20.0
 
 
-def test_regeneration_is_deterministic(tiny, tmp_path):
-    again = build_package(tiny_spec(), sample_certificate(720, 576), tmp_path)
+def test_regeneration_is_deterministic_whatever_the_number_of_workers(tiny, tmp_path):
+    again = build_package(tiny_spec(), sample_certificate(720, 576), tmp_path, workers=2)
     for name in ("package.json", "header.json", "observations.csv", "marks.csv", "truth/truth.json", "truth/frames.csv"):
         assert (again / name).read_bytes() == (tiny / name).read_bytes(), name
     a, b = decode_all(tiny / "video.mp4"), decode_all(again / "video.mp4")
@@ -137,3 +137,10 @@ def test_overlay_shows_the_true_counter_reading(ocr, package):
         assert ok
         result = ocr(frame[y0:y1, x0:x1], use_det=False, use_cls=False)
         assert "".join(result.txts) == frames[index]["displayed"], f"frame {index}"
+
+
+def test_samples_command_rejects_an_unknown_package(capsys):
+    from flows.cli import main
+
+    assert main(["samples", "--only", "S99-nothing", "--out", "/nonexistent"]) == 2
+    assert "unknown package 'S99-nothing'" in capsys.readouterr().err

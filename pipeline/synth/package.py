@@ -17,12 +17,13 @@ from __future__ import annotations
 import csv
 import json
 import math
+import multiprocessing
 import os
 import shutil
 import tempfile
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
-from typing import Callable
+from typing import Callable, Iterator
 
 import cv2
 import numpy as np
@@ -39,7 +40,7 @@ from .scene import Connection, Crack, Deformation, Deposit, DisplacedJoint, Scen
 from .texture import MATERIALS
 from .trajectory import Stop, counter_reading, travel
 
-__all__ = ["CameraMount", "PackageSpec", "build_package", "PACKAGE_FORMAT"]
+__all__ = ["CameraMount", "PackageSpec", "build_package", "renderer_for", "render_frames", "PACKAGE_FORMAT"]
 
 PACKAGE_FORMAT = "pipegauge-inspection-package"
 OBSERVATION_COLUMNS = ["row", "distance_m", "code", "char1", "char2", "q1", "q1_unit", "q2", "q2_unit",
@@ -219,6 +220,42 @@ def _observations(spec: PackageSpec) -> list[_Observation]:
     return obs
 
 
+def renderer_for(spec: PackageSpec, cert: Certificate) -> Renderer:
+    """The renderer of a package's scene seen from its camera mount."""
+    m = spec.mount
+    return Renderer(spec.scene, cert, offset_mm=m.offset_mm, yaw=math.radians(m.yaw_deg),
+                    pitch=math.radians(m.pitch_deg), roll=math.radians(m.roll_deg), seed=spec.seed, noise=spec.noise)
+
+
+_WORKER: dict = {}
+
+
+def _worker_init(spec: PackageSpec, cert: Certificate) -> None:
+    _WORKER["renderer"] = renderer_for(spec, cert)
+
+
+def _worker_render(job: tuple[int, float, float]) -> np.ndarray:
+    i, z, t = job
+    return _WORKER["renderer"].render(z, t, i)
+
+
+def render_frames(spec: PackageSpec, cert: Certificate, z_mm: np.ndarray, workers: int = 1) -> Iterator[np.ndarray]:
+    """Frames (in order) with the camera at each Z [mm], rendered by ``workers`` processes.
+
+    Every frame depends only on its index and position, so the result is the
+    same for any number of workers.
+    """
+    jobs = [(i, float(z), i / spec.fps) for i, z in enumerate(z_mm)]
+    if workers <= 1:
+        renderer = renderer_for(spec, cert)
+        for job in jobs:
+            yield renderer.render(job[1], job[2], job[0])
+        return
+    method = "fork" if "fork" in multiprocessing.get_all_start_methods() else "spawn"
+    with multiprocessing.get_context(method).Pool(workers, _worker_init, (spec, cert)) as pool:
+        yield from pool.imap(_worker_render, jobs, chunksize=4)
+
+
 def _operator_estimate(value: float, unit: str, rng: np.random.Generator) -> float:
     """An operator's coded quantification: the truth seen by eye, rounded as logs are."""
     guess = value * (1 + 0.2 * rng.standard_normal())
@@ -231,8 +268,11 @@ def _video_time(frame: int, fps: float) -> str:
 
 
 def build_package(spec: PackageSpec, cert: Certificate, out_dir: str | os.PathLike,
-                  progress: Callable[[str], None] | None = None) -> Path:
-    """Render and write the package ``out_dir/<package_id>``; replaces an older one atomically."""
+                  progress: Callable[[str], None] | None = None, workers: int = 1) -> Path:
+    """Render and write the package ``out_dir/<package_id>``; replaces an older one atomically.
+
+    workers : processes rendering frames in parallel (the files are the same for any number)
+    """
     say = progress or (lambda message: None)
     rng = np.random.default_rng(spec.seed)
     scene, pipe = spec.scene, spec.scene.pipe
@@ -248,8 +288,6 @@ def build_package(spec: PackageSpec, cert: Certificate, out_dir: str | os.PathLi
 
     mount = spec.mount
     yaw, pitch, roll = (math.radians(v) for v in (mount.yaw_deg, mount.pitch_deg, mount.roll_deg))
-    renderer = Renderer(scene, cert, offset_mm=mount.offset_mm, yaw=yaw, pitch=pitch, roll=roll,
-                        seed=spec.seed, noise=spec.noise)
     overlay = Overlay(cert.image_width_px, cert.image_height_px, _header_lines(spec))
 
     def pose_at(frame: int) -> CameraPose:
@@ -276,8 +314,7 @@ def build_package(spec: PackageSpec, cert: Certificate, out_dir: str | os.PathLi
         if not writer.isOpened():
             raise RuntimeError(f"OpenCV cannot write {video} with the mp4v codec")
         n = len(chainage)
-        for i in range(n):
-            frame = renderer.render(1000.0 * chainage[i], i / spec.fps)
+        for i, frame in enumerate(render_frames(spec, cert, 1000.0 * chainage, workers)):
             writer.write(overlay.apply(frame, counter[i]))
             if i % 100 == 0 or i == n - 1:
                 say(f"{spec.package_id}: frame {i + 1}/{n}")

@@ -114,8 +114,10 @@ class Renderer:
         # A logarithmic response, like a CCTV camera's auto-exposure and knee: the far wall
         # stays visible for metres before the centre turns black.
         tone = np.clip(np.log1p(_TONE_K * x) / np.log1p(_TONE_K * _WHITE) + _AMBIENT, 0, 1)
-        self.colour_lut = np.rint(255 * (tone[None, :, None] * self.palette[:, None, :]) ** _GAMMA).astype(np.uint8)
-        self.colour_lut = self.colour_lut.reshape(-1, 3)
+        self.tone_lut = np.rint(255 * tone**_GAMMA).astype(np.uint8)
+        levels = np.arange(256, dtype=np.float64)
+        # tint_luts[region, channel, brightness] -> display value
+        self.tint_luts = np.rint(levels[None, None, :] * (self.palette[:, :, None] ** _GAMMA)).astype(np.uint8)
         bank = np.rint(noise * self.rng.standard_normal((self.H + 16, self.W + 16, 3)))
         self.noise_up = np.clip(bank, 0, 255).astype(np.uint8)
         self.noise_down = np.clip(-bank, 0, 255).astype(np.uint8)
@@ -150,8 +152,12 @@ class Renderer:
         return s.astype(np.float32)
 
     # -- one frame ---------------------------------------------------------------
-    def render(self, z_cam: float, time_s: float = 0.0) -> np.ndarray:
-        """The frame (H, W, 3) uint8 BGR with the camera centre at Z = z_cam [mm] (no overlay)."""
+    def render(self, z_cam: float, time_s: float = 0.0, frame: int = 0) -> np.ndarray:
+        """The frame (H, W, 3) uint8 BGR with the camera centre at Z = z_cam [mm] (no overlay).
+
+        ``frame`` picks the sensor-noise pattern, so a frame renders the same
+        whichever process renders it and in whatever order.
+        """
         hits = self._segments(z_cam)
         z = z_cam + hits.s * self.dz
         deformed = self._deform(hits, z, z_cam)
@@ -160,7 +166,8 @@ class Renderer:
             z = z_cam + hits.s * self.dz
 
         iz = (z * (1.0 / TEXEL_MM)).astype(np.int32) & (self.tex.shape[0] - 1)
-        amp = np.clip(2.0 * TEXEL_MM / hits.fp, 0.0, 1.0)
+        # Where a pixel covers many texels, the texture averages out towards its mean.
+        amp = np.minimum(2.0 * TEXEL_MM / hits.fp, 1.0)
         albedo = self.tex_mean + (self.tex[iz, hits.iu] - self.tex_mean) * amp
         groove, lip = self._joint_coverage(z, hits.fp)
         albedo *= 1.0 - 0.85 * groove
@@ -169,7 +176,8 @@ class Renderer:
 
         lum = albedo * hits.light
         # The socket's end face looks at the camera: lit almost head-on, unlike the grazing wall.
-        lum *= 1.0 + lip * (np.minimum(0.8 / np.maximum(hits.cos, 0.05), 8.0) - 1.0)
+        faces = np.nonzero(lip)[0]
+        lum[faces] *= 1.0 + lip[faces] * (np.minimum(0.8 / np.maximum(hits.cos[faces], 0.05), 8.0) - 1.0)
         s_cur = hits.s.copy()
         self._deposits(lum, region, s_cur, z_cam)
         self._connections(lum, region, s_cur, z_cam)
@@ -179,16 +187,22 @@ class Renderer:
                 sw = self.s_water[water]
                 zw = z_cam + sw * self.dz[water]
                 xw = self.ox + sw * self.dx[water]
-                ripple = 1.0 + 0.15 * np.sin(0.045 * zw + 3.0 * time_s) * np.sin(0.07 * xw + 1.3 * time_s)
+                ripple = 1.0 + 0.15 * np.sin(0.045 * zw + 0.07 * xw + 3.0 * time_s)
                 lum[water] = 0.12 * ripple * _GAIN * np.abs(self.dy[water]) * (self.s_ref / sw) ** 2
                 region[water] = _WATER
                 s_cur[water] = sw
 
-        # One table maps (region, light) to display BGR: tone curve, tint and gamma at once.
+        # Tone curve and gamma give an 8-bit brightness; each region's tint then scales it per
+        # channel ((lum * tint)^g = lum^g * tint^g), through 256-entry tables.
         idx = np.minimum((lum * (_LUT_SIZE / _LUT_MAX)).astype(np.int32), _LUT_SIZE - 1)
-        idx += region.astype(np.int32) * _LUT_SIZE
-        out = self.colour_lut[idx].reshape(self.H, self.W, 3)
-        oy, ox = self.rng.integers(0, 16, size=2)
+        bright = self.tone_lut[idx].reshape(self.H, self.W)
+        out = cv2.merge([cv2.LUT(bright, self.tint_luts[0][c]) for c in range(3)])
+        present = np.nonzero(np.bincount(region, minlength=len(self.palette)))[0]
+        region = region.reshape(self.H, self.W)
+        for r in present[present > 0]:
+            tinted = cv2.merge([cv2.LUT(bright, self.tint_luts[r][c]) for c in range(3)])
+            cv2.copyTo(tinted, (region == r).view(np.uint8), out)
+        oy, ox = (frame * 7) % 16, (frame * 11 + frame // 16) % 16
         out = cv2.add(out, self.noise_up[oy:oy + self.H, ox:ox + self.W])
         out = cv2.subtract(out, self.noise_down[oy:oy + self.H, ox:ox + self.W])
         return cv2.GaussianBlur(out, (5, 5), 0.9)
@@ -256,27 +270,30 @@ class Renderer:
             w = _ramp(z_cam + (s0 + w * ds) * dz, d.z_from_mm, d.z_to_mm, d.ramp_mm)
             s = s0 + w * ds
             cos = hits.cos[band] + w * (cos_def[band] - hits.cos[band])
-            h = self._hits(s, np.arctan2(self.oy + s * self.dy[band], self.ox + s * self.dx[band]), cos)
             if hits is self.seg1 or hits is self.seg2:
                 hits = _copy(hits)
-            for name in ("s", "theta", "cos", "fp", "light", "iu"):
-                getattr(hits, name)[band] = getattr(h, name)
+            # The wall angle of the hit moves by well under a degree: texture and marks keep it.
+            hits.s[band] = s
+            hits.cos[band] = cos
+            hits.fp[band] = s / (self.f * np.maximum(cos, 0.05))
+            hits.light[band] = _GAIN * cos * (self.s_ref / np.maximum(s, 1.0)) ** 2
         return hits
 
     def _joint_coverage(self, z: np.ndarray, fp: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Coverage of each pixel by a joint's gap (dark) and by the socket face just before it (bright)."""
         L = self.pipe.unit_length_mm
-        k = np.rint(z / L)
+        k = np.rint(z * (1.0 / L))
         dz = z - k * L
-        half = np.full(z.shape, self.pipe.gap_mm / 2, np.float32)
+        widest = max(self.pipe.gap_mm, self.djoint.gap_mm if self.djoint else 0.0) / 2 + LIP_MM
+        near = np.nonzero((np.abs(dz) < widest + fp) & (k >= 1))[0]
+        groove = np.zeros(z.shape, np.float32)
+        lip = np.zeros(z.shape, np.float32)
+        dzn, fpn = dz[near], fp[near]
+        half = np.full(near.shape, self.pipe.gap_mm / 2, np.float32)
         if self.djoint is not None:
-            half[k == self.djoint.joint] = self.djoint.gap_mm / 2
-        groove = np.clip((half - np.abs(dz)) / fp + 0.5, 0.0, 1.0)
-        lip_centre = dz + half + LIP_MM / 2
-        lip = np.clip((LIP_MM / 2 - np.abs(lip_centre)) / fp + 0.5, 0.0, 1.0)
-        first = k < 1
-        groove[first] = 0.0
-        lip[first] = 0.0
+            half[k[near] == self.djoint.joint] = self.djoint.gap_mm / 2
+        groove[near] = np.clip((half - np.abs(dzn)) / fpn + 0.5, 0.0, 1.0)
+        lip[near] = np.clip((LIP_MM / 2 - np.abs(dzn + half + LIP_MM / 2)) / fpn + 0.5, 0.0, 1.0)
         return groove, lip
 
     def _wall_marks(self, albedo, region, hits: _Hits, z) -> None:

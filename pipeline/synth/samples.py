@@ -97,7 +97,7 @@ def sample_specs() -> list[tuple[PackageSpec, tuple[int, int]]]:
 
 
 def generate_samples(out_dir: str | os.PathLike, only: list[str] | None = None,
-                     progress: Callable[[str], None] | None = None) -> list[Path]:
+                     progress: Callable[[str], None] | None = None, workers: int = 1) -> list[Path]:
     """Write the sample certificates and packages under ``out_dir``; return the package folders."""
     out_dir = Path(out_dir)
     certs = out_dir / "certificates"
@@ -107,5 +107,5 @@ def generate_samples(out_dir: str | os.PathLike, only: list[str] | None = None,
             continue
         cert = sample_certificate(w, h)
         cert.save(certs / f"{cert.certificate_id}.json")
-        written.append(build_package(spec, cert, out_dir, progress))
+        written.append(build_package(spec, cert, out_dir, progress, workers))
     return written

@@ -117,6 +117,39 @@ def cmd_samples(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
+# -- calibrate -----------------------------------------------------------------
+
+def cmd_calibrate(args: argparse.Namespace) -> int:
+    from pipeline.calibration.certificate import certificate_from_calibration
+    from pipeline.calibration.pattern import parse_pattern
+    from pipeline.calibration.report import write_calibration_report
+    from pipeline.calibration.solve import PARAMETERS, calibrate
+    from pipeline.calibration.views import read_views
+    from pipeline.text import format_table
+
+    pattern = parse_pattern(args.pattern)
+    _say(f"pipegauge calibrate: looking for the {pattern.cols}x{pattern.rows} chessboard in {len(args.inputs)} input(s) ...")
+    views, rejected = read_views(args.inputs, pattern, every=args.every)
+    for source, reason in rejected:
+        _say(f"  rejected {source}: {reason}")
+    _say(f"  pattern found in {len(views)} view(s); calibrating with {args.bootstrap} bootstrap runs ...")
+    cal = calibrate(views, pattern, rejected=rejected, bootstrap=args.bootstrap, seed=args.seed)
+    cert = certificate_from_calibration(cal, pattern, camera_id=args.camera_id,
+                                        certificate_id=args.certificate_id or f"CAL-{args.camera_id}-{args.date}",
+                                        issuer=args.issuer, issue_date=args.date, valid_days=args.valid_days,
+                                        pixel_pitch_um=args.pixel_pitch_um)
+    path = cert.save(args.out)
+    report = write_calibration_report(cal, cert, args.report or path.with_suffix(".pdf"))
+    rows = [(n, f"{cal.values[n]:.6g}", f"{cal.u[n]:.2g}", f"{1.96 * cal.u[n]:.2g}") for n in PARAMETERS]
+    print(format_table(("parameter", "value", "u", "U95"), rows,
+                       title=f"{len(cal.view_rms_px)} views used, {len(cal.rejected)} rejected; "
+                             f"RMS reprojection error {cal.rms_px:.3f} px"))
+    for source, rms in cal.view_rms_px.items():
+        print(f"  {source}: {rms:.3f} px")
+    _say(f"wrote {path} and {report}")
+    return EXIT_OK
+
+
 # -- parser --------------------------------------------------------------------
 
 def build_parser() -> argparse.ArgumentParser:
@@ -148,6 +181,25 @@ def build_parser() -> argparse.ArgumentParser:
     sm.add_argument("--workers", type=int, default=os.cpu_count() or 1,
                     help="processes rendering frames (default: the number of cores, %(default)s); the files do not depend on it")
     sm.set_defaults(func=cmd_samples)
+
+    cal = verbs.add_parser("calibrate", help="calibrate a camera from images of a chessboard into a certificate",
+                           description="Zhang's method (OpenCV, pinned solver) with bootstrap and pattern "
+                                       "uncertainties; writes the certificate and a PDF report.")
+    cal.add_argument("inputs", nargs="+", help="images and/or videos of the pattern")
+    cal.add_argument("--pattern", required=True,
+                     help="chessboard:COLSxROWS:SQUARE_MM[:U_MM[:FLATNESS_MM]] (inner corners), e.g. chessboard:9x6:25:0.02")
+    cal.add_argument("--camera-id", required=True, help="serial or id of the camera")
+    cal.add_argument("--out", type=Path, required=True, help="certificate file to write (JSON)")
+    cal.add_argument("--report", type=Path, help="PDF report (default: beside the certificate)")
+    cal.add_argument("--certificate-id", help="default: CAL-<camera-id>-<date>")
+    cal.add_argument("--issuer", default="pipegauge calibrate", help="who calibrated (default: %(default)s)")
+    cal.add_argument("--date", type=_date, default=dt.date.today(), help="issue date YYYY-MM-DD (default: today)")
+    cal.add_argument("--valid-days", type=int, default=365, help="validity in days (default: %(default)s)")
+    cal.add_argument("--pixel-pitch-um", type=float, default=5.0, help="sensor pixel pitch [um] (default: %(default)s)")
+    cal.add_argument("--every", type=int, default=25, help="use every n-th frame of a video (default: %(default)s)")
+    cal.add_argument("--bootstrap", type=int, default=40, help="bootstrap recalibrations (default: %(default)s)")
+    cal.add_argument("--seed", type=int, default=0, help="seed of the bootstrap (default: %(default)s)")
+    cal.set_defaults(func=cmd_calibrate)
 
     c = verbs.add_parser("certificate", help="check or convert a camera calibration certificate",
                          description="Validate a calibration certificate (docs/certificate-format.md) or convert it "

@@ -21,3 +21,7 @@ class CertificateExpiredError(CertificateError):
 
 class ModelError(PipegaugeError):
     """A measurement model was called outside its domain (for example p_H <= 0)."""
+
+
+class CalibrationError(PipegaugeError):
+    """A camera calibration cannot be made from the views given."""

@@ -1,0 +1,1 @@
+"""Camera calibration from images of a reference pattern (Zhang's method) into a certificate."""

@@ -82,3 +82,14 @@ def test_distortion_uncertainty_linear_and_monte_carlo_agree_at_a_corner():
     assert lin["d"].U == pytest.approx(0.001, abs=0.0002)
     with pytest.raises(ValueError, match="method"):
         distortion_uncertainty(cert, 0, 0, method="guess")
+
+
+def test_distortion_uncertainty_is_the_same_in_both_conventions():
+    from pipeline.camera.lens import distortion_uncertainty
+
+    cert = load_certificate(sample_certificate_path())
+    pix = distortion_uncertainty(cert, 600.0, 40.0)
+    cv = distortion_uncertainty(cert.in_convention("opencv"), 600.0, 40.0)
+    for key in ("dx", "dy", "d"):
+        assert cv[key].value == pytest.approx(pix[key].value, rel=1e-9, abs=1e-12)
+        assert cv[key].u == pytest.approx(pix[key].u, rel=1e-3)

@@ -14,14 +14,26 @@ from ..metrology import LinearResult, MonteCarloResult, coverage_factor, propaga
 from .certificate import Certificate
 from .distortion import brown_distortion_px
 
-__all__ = ["DISTORTION_PARAMETERS", "distortion_components", "distortion_uncertainty"]
+__all__ = ["DISTORTION_PARAMETERS", "distortion_components", "opencv_distortion_components", "distortion_uncertainty"]
 
 DISTORTION_PARAMETERS = ("cx", "cy", "k1", "k2", "k3", "p1", "p2")
+OPENCV_PARAMETERS = ("fx", "fy", "cx", "cy", "k1", "k2", "k3", "p1", "p2")
 
 
 def distortion_components(x, y, cx, cy, k1, k2, p1, p2, k3=0.0):
     """{"dx", "dy", "d"} [px]: displacement of ideal point (x, y) [px] and its magnitude (eqs. 16-19)."""
     dx, dy = brown_distortion_px(x, y, cx, cy, k1, k2, p1, p2, k3)
+    return {"dx": dx, "dy": dy, "d": np.hypot(dx, dy)}
+
+
+def opencv_distortion_components(x, y, fx, fy, cx, cy, k1, k2, p1, p2, k3=0.0):
+    """{"dx", "dy", "d"} [px] of ideal point (x, y) [px] under OpenCV's normalised model (fx may differ from fy)."""
+    xn, yn = (np.subtract(x, cx)) / fx, (np.subtract(y, cy)) / fy
+    r2 = xn * xn + yn * yn
+    radial = k1 * r2 + k2 * r2 * r2 + k3 * r2 * r2 * r2
+    dxn = xn * radial + 2 * p1 * xn * yn + p2 * (r2 + 2 * xn * xn)
+    dyn = yn * radial + p1 * (r2 + 2 * yn * yn) + 2 * p2 * xn * yn
+    dx, dy = fx * dxn, fy * dyn
     return {"dx": dx, "dy": dy, "d": np.hypot(dx, dy)}
 
 
@@ -38,9 +50,14 @@ def distortion_uncertainty(
     method : "linear" (k = 1.96) or "montecarlo" (adaptive, JCGM 101 7.9)
     Returns {"dx", "dy", "d"} -> result.
     """
-    inputs = cert.in_convention("pixel").input_set(DISTORTION_PARAMETERS).extended({"x": float(x), "y": float(y)})
+    # Each convention's own model, so no conversion (which needs fx = fy) stands in between.
+    if cert.convention == "pixel":
+        model, names = distortion_components, DISTORTION_PARAMETERS
+    else:
+        model, names = opencv_distortion_components, OPENCV_PARAMETERS
+    inputs = cert.input_set(names).extended({"x": float(x), "y": float(y)})
     if method == "linear":
-        return propagate_linear(distortion_components, inputs, k=coverage_factor(math.inf))
+        return propagate_linear(model, inputs, k=coverage_factor(math.inf))
     if method == "montecarlo":
-        return propagate_monte_carlo(distortion_components, inputs, seed=seed)
+        return propagate_monte_carlo(model, inputs, seed=seed)
     raise ValueError(f"method must be 'linear' or 'montecarlo', got {method!r}")

@@ -1,0 +1,118 @@
+"""Camera calibration from chessboard images: accuracy against a known camera, errors, and the certificate."""
+
+import json
+
+import cv2
+import numpy as np
+import pytest
+from pypdf import PdfReader
+
+from flows.cli import main
+from pipeline.calibration.demo import write_calibration_set
+from pipeline.calibration.pattern import parse_pattern
+from pipeline.calibration.solve import PARAMETERS, calibrate
+from pipeline.calibration.views import View, read_views
+from pipeline.camera import load_certificate
+from pipeline.camera.lens import distortion_uncertainty
+from pipeline.errors import CalibrationError
+from pipeline.synth.samples import sample_certificate
+
+TRUE = sample_certificate(720, 576)
+PATTERN = parse_pattern("chessboard:9x6:25:0.02:0.05")
+
+
+def true_value(name):
+    if name in ("fx", "fy", "cx", "cy"):
+        return TRUE.value(name)
+    return float(dict(zip(("k1", "k2", "p1", "p2", "k3"), TRUE.opencv_distortion()))[name])
+
+
+@pytest.fixture(scope="module")
+def images(tmp_path_factory):
+    return write_calibration_set(TRUE, PATTERN, tmp_path_factory.mktemp("cal"), n=10, seed=3)
+
+
+@pytest.fixture(scope="module")
+def calibration(images):
+    views, rejected = read_views(images, PATTERN)
+    return calibrate(views, PATTERN, rejected=rejected, bootstrap=20, pattern_runs=8, seed=1)
+
+
+def test_recovers_the_known_camera_within_its_uncertainty(calibration):
+    z = {n: (calibration.values[n] - true_value(n)) / calibration.u[n] for n in PARAMETERS}
+    assert all(abs(v) < 3 for v in z.values()), z
+    assert len(calibration.view_rms_px) == 10 and not calibration.rejected
+    # The synthetic corners carry about 0.1 px of detection noise; the fit should show no more than that.
+    assert 0.03 < calibration.image_coordinate_u_px < 0.2
+
+
+def test_certificate_uncertainty_is_never_below_the_solver_or_the_bootstrap(calibration):
+    for n in PARAMETERS:
+        assert calibration.u[n] >= max(calibration.u_solver[n], calibration.u_bootstrap[n])
+    cov = calibration.covariance
+    assert np.allclose(np.sqrt(np.diag(cov)), [calibration.u[n] for n in PARAMETERS])
+
+
+def test_too_few_views(images):
+    views, rejected = read_views(images[:4], PATTERN)
+    with pytest.raises(CalibrationError, match="found in 4 view\\(s\\), at least 6 are needed"):
+        calibrate(views, PATTERN, rejected=rejected)
+
+
+def test_pattern_never_found(tmp_path):
+    paths = []
+    for k in range(3):
+        p = tmp_path / f"blank{k}.png"
+        cv2.imwrite(str(p), np.full((576, 720), 128, np.uint8))
+        paths.append(p)
+    views, rejected = read_views(paths, PATTERN)
+    assert views == [] and [r for _, r in rejected] == ["pattern 9x6 not found"] * 3
+    with pytest.raises(CalibrationError, match=r"blank0.png: pattern 9x6 not found"):
+        calibrate(views, PATTERN, rejected=rejected)
+
+
+def test_mixed_image_sizes(images, tmp_path):
+    small = tmp_path / "small.png"
+    cv2.imwrite(str(small), cv2.resize(cv2.imread(str(images[0])), (640, 512)))
+    with pytest.raises(CalibrationError, match="different sizes .*640x512.*720x576"):
+        read_views(list(images[1:4]) + [small], PATTERN)
+
+
+def test_a_view_that_fits_badly_is_rejected_and_named(images):
+    views, _ = read_views(images, PATTERN)
+    bad = views[2].corners.copy()
+    bad[::3] += 4.0                                  # a third of the corners misplaced by 4 px
+    views[2] = View("bad-view.png", views[2].image_size, bad)
+    cal = calibrate(views, PATTERN, bootstrap=5, pattern_runs=0)
+    assert [s for s, _ in cal.rejected] == ["bad-view.png"]
+    assert "fits badly" in cal.rejected[0][1]
+
+
+@pytest.mark.parametrize("text, message", [
+    ("charuco:5x7:30:22", "not supported yet"),
+    ("chessboard:8x6:25", "looks the same turned"),
+    ("chessboard:9x6", "not understood"),
+    ("chessboard:9by6:25", "not numbers"),
+    ("chessboard:9x6:-2", "must be > 0"),
+])
+def test_bad_pattern_specifications(text, message):
+    with pytest.raises(CalibrationError, match=message):
+        parse_pattern(text)
+
+
+def test_cli_writes_a_certificate_that_drives_the_rest_unchanged(images, tmp_path, capsys):
+    out = tmp_path / "cam.json"
+    code = main(["calibrate", *map(str, images), "--pattern", "chessboard:9x6:25:0.02:0.05", "--camera-id", "SYN-0001",
+                 "--out", str(out), "--bootstrap", "10", "--date", "2026-11-22"])
+    assert code == 0
+    assert "RMS reprojection error" in capsys.readouterr().out
+    cert = load_certificate(out, on_date=__import__("datetime").date(2027, 1, 1), image_size=(720, 576))
+    assert cert.convention == "opencv" and cert.covariance is not None
+    assert "OpenCV" in cert.method and cert.certificate_id == "CAL-SYN-0001-2026-11-22"
+    # The same code paths as a certificate written by hand: conversion, distortion uncertainty.
+    d = distortion_uncertainty(cert, 700.0, 560.0)["d"]
+    truth = distortion_uncertainty(TRUE, 700.0, 560.0)["d"].value
+    assert abs(d.value - truth) <= 3 * d.u
+    text = " ".join(page.extract_text() for page in PdfReader(out.with_suffix(".pdf")).pages)
+    assert "Calibration report" in text and "bootstrap" in text and "view00.png" in text
+    assert json.loads(out.read_text())["image_size_px"] == {"width": 720, "height": 576}

@@ -20,9 +20,8 @@ from pathlib import Path
 import cv2
 
 from pipeline.synth.overlay import Overlay
-from pipeline.synth.package import _header_lines, _observations, render_frames, renderer_for
+from pipeline.synth.package import header_lines, plan_travel, render_frames, renderer_for
 from pipeline.synth.samples import sample_certificate, sample_specs
-from pipeline.synth.trajectory import Stop, travel
 
 
 def main() -> None:
@@ -35,9 +34,7 @@ def main() -> None:
         t0 = time.perf_counter()
         renderer = renderer_for(spec, cert)
         setup = time.perf_counter() - t0
-        keys = sorted({o.stop_key for o in _observations(spec) if o.quantities})
-        stops = [Stop((k - spec.view_distance_mm) / 1000, spec.stop_s) for k in keys] + list(spec.extra_stops)
-        chainage, _ = travel(spec.start_m, max(s.chainage_m for s in stops) + spec.end_margin_m, spec.speed_m_s, stops, spec.fps)
+        chainage, _, _ = plan_travel(spec)
         zs = 1000.0 * chainage[::args.step]
         t0 = time.perf_counter()
         frames = [renderer.render(z, 0.0, i) for i, z in enumerate(zs)]
@@ -45,7 +42,7 @@ def main() -> None:
         t0 = time.perf_counter()
         parallel = list(render_frames(spec, cert, zs, args.workers))
         t_par = time.perf_counter() - t0
-        overlay = Overlay(w, h, _header_lines(spec))
+        overlay = Overlay(w, h, header_lines(spec))
         with tempfile.TemporaryDirectory() as tmp:
             writer = cv2.VideoWriter(str(Path(tmp) / "b.mp4"), cv2.VideoWriter_fourcc(*"mp4v"), spec.fps, (w, h))
             t0 = time.perf_counter()

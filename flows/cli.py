@@ -231,6 +231,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     except PipegaugeError as exc:
         _say(f"pipegauge {args.verb}: error: {exc}")
         return EXIT_FAILED
+    except OSError as exc:  # a folder that cannot be written, a disk that is full...
+        _say(f"pipegauge {args.verb}: error: {exc.strerror or exc}: {exc.filename or ''}; check the path and its permissions")
+        return EXIT_FAILED
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -40,7 +40,8 @@ from .scene import Connection, Crack, Deformation, Deposit, DisplacedJoint, Scen
 from .texture import MATERIALS
 from .trajectory import Stop, counter_reading, travel
 
-__all__ = ["CameraMount", "PackageSpec", "build_package", "renderer_for", "render_frames", "PACKAGE_FORMAT"]
+__all__ = ["CameraMount", "PackageSpec", "build_package", "plan_travel", "header_lines", "renderer_for",
+           "render_frames", "PACKAGE_FORMAT"]
 
 PACKAGE_FORMAT = "pipegauge-inspection-package"
 OBSERVATION_COLUMNS = ["row", "distance_m", "code", "char1", "char2", "q1", "q1_unit", "q2", "q2_unit",
@@ -113,7 +114,8 @@ class _Observation:
     stop_key: float = 0.0     # observations sharing a stop share this key (the plane Z)
 
 
-def _header_lines(spec: PackageSpec) -> list[str]:
+def header_lines(spec: PackageSpec) -> list[str]:
+    """The overlay's header lines: site, section and nodes, shape size material."""
     pipe = spec.scene.pipe
     size = (f"{spec.nominal_height_mm:.0f}mm" if pipe.shape == "circular"
             else f"{spec.nominal_height_mm:.0f}x{pipe.width_mm * spec.nominal_height_mm / pipe.height_mm:.0f}mm")
@@ -220,6 +222,20 @@ def _observations(spec: PackageSpec) -> list[_Observation]:
     return obs
 
 
+def plan_travel(spec: PackageSpec, obs: list[_Observation] | None = None):
+    """(camera chainage [m] per frame, (first, last) frame of each stop, the stops) of a package.
+
+    The crawler stops ``view_distance_mm`` before every observation measured
+    in the image, plus the spec's extra stops.
+    """
+    obs = _observations(spec) if obs is None else obs
+    stop_keys = sorted({o.stop_key for o in obs if o.quantities})
+    stops = [Stop((z - spec.view_distance_mm) / 1000.0, spec.stop_s) for z in stop_keys] + list(spec.extra_stops)
+    end_m = max([s.chainage_m for s in stops] + [spec.start_m]) + spec.end_margin_m
+    chainage, spans = travel(spec.start_m, end_m, spec.speed_m_s, stops, spec.fps)
+    return chainage, spans, stops
+
+
 def renderer_for(spec: PackageSpec, cert: Certificate) -> Renderer:
     """The renderer of a package's scene seen from its camera mount."""
     m = spec.mount
@@ -278,17 +294,14 @@ def build_package(spec: PackageSpec, cert: Certificate, out_dir: str | os.PathLi
     scene, pipe = spec.scene, spec.scene.pipe
     obs = _observations(spec)
 
-    stop_keys = sorted({o.stop_key for o in obs if o.quantities})
-    stops = [Stop((z - spec.view_distance_mm) / 1000.0, spec.stop_s) for z in stop_keys] + list(spec.extra_stops)
-    end_m = max([s.chainage_m for s in stops] + [spec.start_m]) + spec.end_margin_m
-    chainage, spans = travel(spec.start_m, end_m, spec.speed_m_s, stops, spec.fps)
+    chainage, spans, stops = plan_travel(spec, obs)
     frame_of_stop = {round(s.chainage_m, 6): (a + b) // 2 for s, (a, b) in
                      zip(sorted(stops, key=lambda s: s.chainage_m), spans)}
     counter = counter_reading(chainage, spec.counter_scale_error, spec.counter_offset_m)
 
     mount = spec.mount
     yaw, pitch, roll = (math.radians(v) for v in (mount.yaw_deg, mount.pitch_deg, mount.roll_deg))
-    overlay = Overlay(cert.image_width_px, cert.image_height_px, _header_lines(spec))
+    overlay = Overlay(cert.image_width_px, cert.image_height_px, header_lines(spec))
 
     def pose_at(frame: int) -> CameraPose:
         return CameraPose(mount.offset_mm[0], mount.offset_mm[1], 1000.0 * chainage[frame], yaw, pitch, roll)

@@ -54,6 +54,13 @@ class _Hits:
     light: np.ndarray   # lamp irradiance factor (before albedo)
     iu: np.ndarray      # texture column
 
+    FIELDS = ("s", "theta", "cos", "fp", "light", "iu")
+
+    def put(self, where, other: "_Hits", other_where=slice(None)) -> None:
+        """Take the hits of ``other`` at ``other_where`` into the pixels ``where``."""
+        for name in self.FIELDS:
+            getattr(self, name)[where] = getattr(other, name)[other_where]
+
 
 class Renderer:
     """Renders frames of ``scene`` for a camera at a fixed offset and orientation.
@@ -221,15 +228,12 @@ class Renderer:
         out = _copy(seg1)
         z2 = z_cam + seg2.s * self.dz
         use2 = beyond & (z2 > zj)
-        for name in ("s", "theta", "cos", "fp", "light", "iu"):
-            getattr(out, name)[use2] = getattr(seg2, name)[use2]
+        out.put(use2, seg2, use2)
         face = np.nonzero(beyond & ~use2)[0]
         if face.size:
             sf = (zj - z_cam) / self.dz[face]
             X, Y = self.ox + sf * self.dx[face], self.oy + sf * self.dy[face]
-            h = self._hits(sf, np.arctan2(Y, X), self.dz[face])
-            for name in ("s", "theta", "cos", "fp", "light", "iu"):
-                getattr(out, name)[face] = getattr(h, name)
+            out.put(face, self._hits(sf, np.arctan2(Y, X), self.dz[face]))
         return out
 
     def _deformed_hits(self, d: Deformation) -> tuple[np.ndarray, np.ndarray]:
@@ -425,7 +429,7 @@ class Renderer:
 
 
 def _copy(h: _Hits) -> _Hits:
-    return _Hits(h.s.copy(), h.theta.copy(), h.cos.copy(), h.fp.copy(), h.light.copy(), h.iu.copy())
+    return _Hits(*(getattr(h, name).copy() for name in _Hits.FIELDS))
 
 
 def _ramp(z, z0: float, z1: float, ramp: float):

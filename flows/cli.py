@@ -150,6 +150,57 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
+# -- probe ---------------------------------------------------------------------
+
+def cmd_probe(args: argparse.Namespace) -> int:
+    import cv2
+
+    from pipeline.camera import load_certificate
+    from pipeline.video.overlay_ocr import OverlayReader, parse_chainage
+    from pipeline.video.reader import check_integrity, iter_frames, read_frame
+    from pipeline.video.undistort import Undistorter
+
+    path = Path(args.source)
+    is_image = path.suffix.lower() in {".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff"}
+    reader = OverlayReader()
+    report: dict = {"source": str(path)}
+    if is_image:
+        frame = cv2.imread(str(path), cv2.IMREAD_COLOR)
+        if frame is None:
+            _say(f"pipegauge probe: error: {path}: not a readable image")
+            return EXIT_FAILED
+        index, first = 0, [frame]
+    else:
+        info = check_integrity(path)
+        report["video"] = {"width": info.width, "height": info.height, "fps": info.fps,
+                           "frames": info.frame_count, "duration_s": round(info.duration_s, 3), "codec": info.codec}
+        index = int(round(args.time * info.fps)) if args.time is not None else (args.frame or 0)
+        if not 0 <= index < info.frame_count:
+            _say(f"pipegauge probe: error: frame {index} is outside the video (0-{info.frame_count - 1})")
+            return EXIT_USAGE
+        first = [f for _, f in iter_frames(path, every=max(1, info.frame_count // 4))][:3]
+        frame = read_frame(path, index)
+    box = reader.locate_chainage(first, str(path))
+    read = reader.read(frame, box, index)
+    report["frame"] = index
+    report["chainage"] = {"text": read.text, "m": read.value, "score": round(read.score, 4), "box_px": list(box)}
+    report["overlay_lines"] = [t for t, _, _ in reader.lines(frame) if parse_chainage(t) is None]
+    if args.certificate:
+        cert = load_certificate(args.certificate)
+        und = Undistorter(cert, frame.shape[1], frame.shape[0], str(path))
+        report["certificate"] = cert.certificate_id
+        if args.debug_image:
+            cv2.imwrite(str(args.debug_image), und.frame(frame))
+    elif args.debug_image:
+        cv2.imwrite(str(args.debug_image), frame)
+    if args.json:
+        print(json.dumps(report, indent=2))
+    else:
+        for key, value in report.items():
+            print(f"{key}: {value}")
+    return EXIT_OK
+
+
 # -- parser --------------------------------------------------------------------
 
 def build_parser() -> argparse.ArgumentParser:
@@ -200,6 +251,18 @@ def build_parser() -> argparse.ArgumentParser:
     cal.add_argument("--bootstrap", type=int, default=40, help="bootstrap recalibrations (default: %(default)s)")
     cal.add_argument("--seed", type=int, default=0, help="seed of the bootstrap (default: %(default)s)")
     cal.set_defaults(func=cmd_calibrate)
+
+    pr = verbs.add_parser("probe", help="show what pipegauge reads in a video or image (chainage, overlay lines)",
+                          description="Check a video, read its chainage overlay at a frame and list the overlay's "
+                                      "other text; with a certificate, check it fits and write the undistorted frame.")
+    pr.add_argument("source", help="video or image")
+    where = pr.add_mutually_exclusive_group()
+    where.add_argument("--time", type=float, help="time in the video [s]")
+    where.add_argument("--frame", type=int, help="frame index in the video")
+    pr.add_argument("--certificate", type=Path, help="calibration certificate to check against the video")
+    pr.add_argument("--json", action="store_true", help="print JSON")
+    pr.add_argument("--debug-image", type=Path, metavar="OUT.png", help="write the (undistorted) frame here")
+    pr.set_defaults(func=cmd_probe)
 
     c = verbs.add_parser("certificate", help="check or convert a camera calibration certificate",
                          description="Validate a calibration certificate (docs/certificate-format.md) or convert it "

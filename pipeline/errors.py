@@ -25,3 +25,11 @@ class ModelError(PipegaugeError):
 
 class CalibrationError(PipegaugeError):
     """A camera calibration cannot be made from the views given."""
+
+
+class CorruptVideoError(PipegaugeError):
+    """A video cannot be opened or decoded to its end."""
+
+
+class OverlayError(PipegaugeError):
+    """The chainage overlay cannot be found or read."""

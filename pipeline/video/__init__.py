@@ -1,0 +1,1 @@
+"""Video ingest: reading and checking videos, the overlay chainage, undistortion."""

@@ -1,0 +1,113 @@
+"""Reading inspection videos with OpenCV: metadata and an integrity check."""
+
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Iterator
+
+import cv2
+import numpy as np
+
+from ..errors import CorruptVideoError
+
+__all__ = ["VideoInfo", "probe_video", "check_integrity", "iter_frames", "read_frame"]
+
+
+@dataclass(frozen=True)
+class VideoInfo:
+    """What a video's container says about it."""
+
+    path: str
+    width: int
+    height: int
+    fps: float
+    frame_count: int
+    codec: str
+
+    @property
+    def duration_s(self) -> float:
+        return self.frame_count / self.fps if self.fps > 0 else 0.0
+
+
+def _open(path: str | os.PathLike) -> cv2.VideoCapture:
+    p = Path(path)
+    if not p.is_file():
+        raise CorruptVideoError(f"{p}: no such video file; check the package's file list")
+    if p.stat().st_size == 0:
+        raise CorruptVideoError(f"{p}: the video file is empty; ask the contractor to deliver it again")
+    cap = cv2.VideoCapture(str(p))
+    if not cap.isOpened():
+        raise CorruptVideoError(f"{p}: OpenCV cannot open this video (unknown container or damaged header); "
+                                "ask the contractor for an MP4/AVI file that plays")
+    return cap
+
+
+def probe_video(path: str | os.PathLike) -> VideoInfo:
+    """Metadata of a video; raises CorruptVideoError when it cannot be opened or has no frames."""
+    cap = _open(path)
+    try:
+        fourcc = int(cap.get(cv2.CAP_PROP_FOURCC))
+        codec = "".join(chr((fourcc >> (8 * i)) & 0xFF) for i in range(4)).strip("\x00") or "unknown"
+        info = VideoInfo(str(path), int(cap.get(cv2.CAP_PROP_FRAME_WIDTH)), int(cap.get(cv2.CAP_PROP_FRAME_HEIGHT)),
+                         float(cap.get(cv2.CAP_PROP_FPS)), int(cap.get(cv2.CAP_PROP_FRAME_COUNT)), codec)
+    finally:
+        cap.release()
+    if info.width <= 0 or info.height <= 0 or not info.fps > 0:
+        raise CorruptVideoError(f"{path}: the video reports no image size or frame rate; the file is damaged")
+    return info
+
+
+def check_integrity(path: str | os.PathLike) -> VideoInfo:
+    """Decode the whole video (grab only) and compare with its frame count.
+
+    A video that stops early raises CorruptVideoError naming the last good frame.
+    """
+    info = probe_video(path)
+    cap = _open(path)
+    good = 0
+    try:
+        while cap.grab():
+            good += 1
+    finally:
+        cap.release()
+    if good == 0:
+        raise CorruptVideoError(f"{path}: no frame can be decoded; the file is damaged")
+    if info.frame_count > 0 and good < info.frame_count:
+        raise CorruptVideoError(
+            f"{path}: truncated or corrupt: decoding stops after frame {good - 1} "
+            f"({(good - 1) / info.fps:.2f} s) of {info.frame_count}; last good frame {good - 1}; "
+            "ask the contractor to deliver the complete video")
+    return VideoInfo(info.path, info.width, info.height, info.fps, good, info.codec)
+
+
+def iter_frames(path: str | os.PathLike, every: int = 1, grab_only_between: bool = True) -> Iterator[tuple[int, np.ndarray]]:
+    """(index, BGR frame) of every ``every``-th frame, reading forward (cheaper than seeking)."""
+    cap = _open(path)
+    try:
+        index = 0
+        while True:
+            if index % every == 0:
+                ok, frame = cap.read()
+                if not ok:
+                    return
+                yield index, frame
+            elif not cap.grab():
+                return
+            index += 1
+    finally:
+        cap.release()
+
+
+def read_frame(path: str | os.PathLike, index: int) -> np.ndarray:
+    """One frame by index (seeks: use iter_frames for many)."""
+    cap = _open(path)
+    try:
+        cap.set(cv2.CAP_PROP_POS_FRAMES, int(index))
+        ok, frame = cap.read()
+    finally:
+        cap.release()
+    if not ok:
+        raise CorruptVideoError(f"{path}: frame {index} cannot be decoded")
+    return frame

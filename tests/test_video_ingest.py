@@ -1,0 +1,125 @@
+"""Video ingest: integrity, overlay chainage (real and synthetic), the chainage track, undistortion."""
+
+import csv
+import json
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pytest
+
+from flows.cli import main
+from pipeline.camera import load_certificate
+from pipeline.errors import CertificateError, CorruptVideoError, OverlayError
+from pipeline.video.chainage_track import fit_track
+from pipeline.video.overlay_ocr import OverlayRead, OverlayReader, parse_chainage
+from pipeline.video.reader import check_integrity, iter_frames, probe_video
+from pipeline.video.undistort import Undistorter
+
+ROOT = Path(__file__).resolve().parent.parent
+SAMPLES = ROOT / "sample_videos"
+REAL = Path(__file__).resolve().parent / "data" / "real_frames"
+PACKAGES = ["S01-circular-clean", "S02-circular-water-offset", "S03-egg-concrete"]
+
+
+@pytest.fixture(scope="module")
+def reader():
+    return OverlayReader()
+
+
+@pytest.mark.parametrize("name, expected", [("0001", 5.52), ("0002", 7.74), ("0003", 15.46), ("0004", 20.66)])
+def test_real_frames_chainage_read_exactly(reader, name, expected):
+    frame = cv2.imread(str(REAL / f"1.045-1.040_{name}.jpg"))
+    box = reader.locate_chainage([frame])
+    assert reader.read(frame, box).value == expected
+
+
+@pytest.mark.parametrize("text, value", [("5.52m", 5.52), ("24.5 M", 24.5), ("12,34 m", 12.34), ("0.00m", 0.0),
+                                         ("5.52", None), ("abc", None), ("-1.00m", None), ("99999.0m", None)])
+def test_chainage_forms(text, value):
+    assert parse_chainage(text) == value
+
+
+@pytest.mark.parametrize("package", PACKAGES)
+def test_sample_chainage_reads_and_track(reader, package):
+    video = SAMPLES / package / "video.mp4"
+    truth = list(csv.DictReader(open(SAMPLES / package / "truth" / "frames.csv")))
+    info = check_integrity(video)
+    assert info.frame_count == len(truth)
+    box = reader.locate_chainage([f for _, f in iter_frames(video, every=200)][:2], str(video))
+    reads = [reader.read(frame, box, i) for i, frame in iter_frames(video, every=4)]
+    correct = sum(r.text == truth[r.frame]["displayed"] for r in reads)
+    assert correct >= 0.99 * len(reads), f"{correct}/{len(reads)} read correctly"
+    track = fit_track(reads, info.frame_count, info.fps, source=str(video))
+    error = np.abs(track.values - np.array([float(t["counter_m"]) for t in truth]))
+    assert error.max() < 0.02, f"largest track error {error.max():.4f} m"
+    assert any(kind == "stopped" for _, _, kind in track.segments)
+    value, u = track.at_frame(len(truth) // 2)
+    assert u > 0.02 and abs(value - float(truth[len(truth) // 2]["counter_m"])) < 0.02
+
+
+def test_track_rejects_impossible_reads():
+    reads = [OverlayRead(i, f"{0.5 + 0.006 * i:.2f}m", round(0.5 + 0.006 * i, 2), 1.0) for i in range(0, 200, 4)]
+    reads[20] = OverlayRead(80, "8.98m", 8.98, 0.9)        # a misread digit
+    reads[30] = OverlayRead(120, "1.2?m", None, 0.5)
+    track = fit_track(reads, 200, 25.0)
+    assert {f for f, _, _ in track.rejected} == {80, 120}
+    assert abs(track.values[80] - (0.5 + 0.006 * 80)) < 0.01
+
+
+def _write_video(path, frames, fourcc="mp4v"):
+    h, w = frames[0].shape[:2]
+    writer = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*fourcc), 25.0, (w, h))
+    for f in frames:
+        writer.write(f)
+    writer.release()
+
+
+def test_truncated_videos_are_refused_with_the_last_good_frame(tmp_path):
+    frames = [cv2.imread(str(REAL / "1.045-1.040_0002.jpg"))] * 40
+    avi = tmp_path / "cut.avi"
+    _write_video(avi, frames, "MJPG")
+    data = avi.read_bytes()
+    avi.write_bytes(data[: len(data) // 2])
+    with pytest.raises(CorruptVideoError, match=r"cut.avi: truncated or corrupt: .*last good frame \d+"):
+        check_integrity(avi)
+    mp4 = tmp_path / "cut.mp4"
+    mp4.write_bytes((SAMPLES / PACKAGES[0] / "video.mp4").read_bytes()[:200_000])
+    with pytest.raises(CorruptVideoError, match="cut.mp4"):
+        check_integrity(mp4)
+    empty = tmp_path / "empty.mp4"
+    empty.write_bytes(b"")
+    with pytest.raises(CorruptVideoError, match="empty"):
+        probe_video(empty)
+
+
+def test_video_without_overlay(reader, tmp_path):
+    plain = np.full((288, 360, 3), 90, np.uint8)
+    cv2.circle(plain, (180, 144), 60, (20, 20, 20), -1)
+    video = tmp_path / "plain.mp4"
+    _write_video(video, [plain] * 10)
+    with pytest.raises(OverlayError, match=r"plain.mp4: no chainage reading .* found"):
+        reader.locate_chainage([f for _, f in iter_frames(video, every=5)], str(video))
+
+
+def test_certificate_of_another_resolution_is_refused():
+    cert = load_certificate(SAMPLES / "certificates" / "SYN-720x576.json")
+    with pytest.raises(CertificateError, match="calibrated for 720x576 px but .*video.mp4 is 1280x720 px"):
+        Undistorter(cert, 1280, 720, str(SAMPLES / PACKAGES[2] / "video.mp4"))
+
+
+def test_point_undistortion_inverts_the_projection():
+    cert = load_certificate(SAMPLES / "certificates" / "SYN-720x576.json")
+    und = Undistorter(cert, 720, 576)
+    ideal = np.random.default_rng(0).uniform([20, 20], [700, 556], (50, 2))
+    fx, fy = cert.focal_px
+    rays = np.c_[(ideal[:, 0] - cert.value("cx")) / fx, (ideal[:, 1] - cert.value("cy")) / fy, np.ones(50)]
+    distorted, _ = cv2.projectPoints(rays, np.zeros(3), np.zeros(3), cert.camera_matrix(), cert.opencv_distortion())
+    assert np.abs(und.points(distorted.reshape(-1, 2)) - ideal).max() < 1e-6
+
+
+def test_probe_command_on_a_real_frame(capsys):
+    assert main(["probe", str(REAL / "1.045-1.040_0004.jpg"), "--json"]) == 0
+    report = json.loads(capsys.readouterr().out)
+    assert report["chainage"]["m"] == 20.66
+    assert any("Vitrified Clay" in line for line in report["overlay_lines"])

@@ -123,3 +123,22 @@ def test_probe_command_on_a_real_frame(capsys):
     report = json.loads(capsys.readouterr().out)
     assert report["chainage"]["m"] == 20.66
     assert any("Vitrified Clay" in line for line in report["overlay_lines"])
+
+
+def test_overlay_lines_against_the_header(reader):
+    from pipeline.video.overlay_check import overlay_header_mismatches
+
+    real = cv2.imread(str(REAL / "1.045-1.040_0001.jpg"))
+    lines = [t for t, _, _ in reader.lines(real) if parse_chainage(t) is None]
+    problems = overlay_header_mismatches(lines, {"height_mm": 300, "width_mm": 300, "material": "concrete",
+                                                 "shape": "circular"})
+    assert any("150 mm" in p and "300 mm" in p for p in problems)
+    assert any("vitrified clay" in p and "concrete" in p for p in problems)
+    assert overlay_header_mismatches(lines, {"height_mm": 150, "width_mm": 150, "material": "vitrified clay",
+                                             "shape": "circular"}) == []
+    for package in PACKAGES:
+        video = SAMPLES / package / "video.mp4"
+        frame = next(iter_frames(video))[1]
+        header = json.loads((SAMPLES / package / "header.json").read_text())
+        lines = [t for t, _, _ in reader.lines(frame) if parse_chainage(t) is None]
+        assert overlay_header_mismatches(lines, header) == [], (package, lines)

@@ -31,7 +31,7 @@ import numpy as np
 from .. import __version__
 from ..camera.certificate import Certificate
 from .overlay import Overlay, chainage_text
-from .profiles import (
+from ..profiles import (
     chord_at_height, clock_to_theta, perimeter, segment_height_for_area_fraction, theta_to_clock, wall_point,
 )
 from .render import Renderer

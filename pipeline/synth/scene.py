@@ -12,7 +12,7 @@ from typing import Union
 
 import numpy as np
 
-from .profiles import SHAPES, clock_to_theta, profile_width
+from ..profiles import SHAPES, clock_to_theta, profile_width
 from .texture import MATERIALS
 
 __all__ = [

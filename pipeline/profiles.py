@@ -20,16 +20,40 @@ import math
 import numpy as np
 
 __all__ = [
-    "SHAPES", "profile_polygon", "profile_width", "segment_height_for_area_fraction", "chord_at_height",
+    "SHAPES", "profile_arcs", "profile_polygon", "ray_to_wall", "profile_width", "segment_height_for_area_fraction", "chord_at_height",
     "exit_table", "wall_point", "clock_to_theta", "theta_to_clock", "perimeter",
 ]
 
 SHAPES = ("circular", "egg")
 
 
-def _arc(cx: float, cy: float, r: float, a0: float, a1: float, n: int) -> np.ndarray:
-    a = np.linspace(a0, a1, n, endpoint=False)
-    return np.stack([cx + r * np.cos(a), cy + r * np.sin(a)], axis=1)
+def profile_arcs(shape: str, H: float) -> tuple[tuple[float, float, float, float, float], ...]:
+    """The profile's wall as circular arcs (cx, cy, r, a0, a1) [mm, mm, mm, rad, rad], counter-clockwise from the invert.
+
+    Each arc runs from angle a0 to a1 (a0 < a1) about its centre. Both shapes
+    are made of arcs, so rays can be cast to the wall exactly
+    (``ray_to_wall``) and polygons drawn at any resolution.
+    shape : "circular" or "egg"; H : internal height [mm] > 0
+    """
+    if H <= 0:
+        raise ValueError(f"profile height must be > 0, got {H}")
+    if shape == "circular":
+        return ((0.0, 0.0, H / 2.0, -math.pi / 2, 3 * math.pi / 2),)
+    if shape == "egg":
+        r = H / 3.0                      # crown arc radius = B/2
+        y0 = -H / 2.0                    # invert level
+        tangent = math.atan2(-0.6, 0.8)  # side/invert tangent direction (3-4-5 triangle)
+        return (
+            (0.0, y0 + 0.5 * r, 0.5 * r, -math.pi / 2, tangent),                # invert, right half
+            (-2.0 * r, y0 + 2.0 * r, 3.0 * r, tangent, 0.0),                    # right side
+            (0.0, y0 + 2.0 * r, r, 0.0, math.pi),                                # crown
+            (2.0 * r, y0 + 2.0 * r, 3.0 * r, math.pi, math.pi - tangent),       # left side
+            (0.0, y0 + 0.5 * r, 0.5 * r, math.pi - tangent, 3 * math.pi / 2),   # invert, left half
+        )
+    raise ValueError(f"unknown shape {shape!r}; use one of {SHAPES}")
+
+
+_ARC_SHARE = {"circular": (1.0,), "egg": (1 / 8, 1 / 8, 1 / 2, 1 / 8, 1 / 8)}
 
 
 def profile_polygon(shape: str, H: float, n: int = 1440) -> np.ndarray:
@@ -37,23 +61,34 @@ def profile_polygon(shape: str, H: float, n: int = 1440) -> np.ndarray:
 
     shape : "circular" or "egg"; H : internal height [mm] > 0
     """
-    if H <= 0:
-        raise ValueError(f"profile height must be > 0, got {H}")
-    if shape == "circular":
-        return _arc(0.0, 0.0, H / 2.0, -math.pi / 2, 3 * math.pi / 2, n)
-    if shape == "egg":
-        r = H / 3.0                      # crown arc radius = B/2
-        y0 = -H / 2.0                    # invert level
-        tangent = math.atan2(-0.6, 0.8)  # side/invert tangent direction (3-4-5 triangle)
-        parts = [
-            _arc(0.0, y0 + 0.5 * r, 0.5 * r, -math.pi / 2, tangent, n // 8),          # invert, right half
-            _arc(-2.0 * r, y0 + 2.0 * r, 3.0 * r, tangent, 0.0, n // 8),              # right side
-            _arc(0.0, y0 + 2.0 * r, r, 0.0, math.pi, n // 2),                          # crown
-            _arc(2.0 * r, y0 + 2.0 * r, 3.0 * r, math.pi, math.pi - tangent, n // 8),  # left side
-            _arc(0.0, y0 + 0.5 * r, 0.5 * r, math.pi - tangent, 3 * math.pi / 2, n // 8),  # invert, left half
-        ]
-        return np.concatenate(parts)
-    raise ValueError(f"unknown shape {shape!r}; use one of {SHAPES}")
+    parts = []
+    for (cx, cy, r, a0, a1), share in zip(profile_arcs(shape, H), _ARC_SHARE[shape]):
+        a = np.linspace(a0, a1, int(n * share), endpoint=False)
+        parts.append(np.stack([cx + r * np.cos(a), cy + r * np.sin(a)], axis=1))
+    return np.concatenate(parts)
+
+
+def ray_to_wall(shape: str, H: float, origin, directions) -> np.ndarray:
+    """Distance [mm] from ``origin`` (2,) [mm] to the wall along unit ``directions`` (n, 2).
+
+    Exact ray-arc intersection (``profile_arcs``); origin must lie inside
+    the profile. Returns shape (n,); inf where no wall is hit (origin outside).
+    """
+    o = np.asarray(origin, float)
+    u = np.asarray(directions, float).reshape(-1, 2)
+    best = np.full(len(u), np.inf)
+    for cx, cy, r, a0, a1 in profile_arcs(shape, H):
+        oc = o - (cx, cy)
+        b = u @ oc
+        disc = b * b - (oc @ oc - r * r)
+        root = np.sqrt(np.where(disc >= 0, disc, np.nan))
+        for lam in (-b - root, -b + root):
+            px, py = oc[0] + lam * u[:, 0], oc[1] + lam * u[:, 1]
+            ang = np.arctan2(py, px)
+            ang = a0 + np.mod(ang - a0, 2 * math.pi)          # into [a0, a0 + 2 pi)
+            on_arc = (lam > 0) & (ang <= a1 + 1e-9)
+            best = np.where(on_arc & (lam < best), lam, best)
+    return best
 
 
 def perimeter(shape: str, H: float) -> float:

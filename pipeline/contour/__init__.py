@@ -1,0 +1,12 @@
+"""Automatic pipe contour: the cross-section rings of a pipe seen in an ideal (undistorted) frame.
+
+Conventions: image points are (x, y) = (column, row) [px] in the ideal image
+(undistorted with the certificate, same camera matrix); pipe coordinates are
+the world frame of docs/conventions.md scaled by the pipe's height H, so the
+wall is the header's profile of height 1.
+"""
+
+from .detect import ContourError, PipeContour, PlaneContour, detect_contour
+from .view import PipeView
+
+__all__ = ["ContourError", "PipeContour", "PlaneContour", "PipeView", "detect_contour"]

@@ -1,0 +1,491 @@
+"""Detection of the cross-section rings and the camera's pose in the pipe, and p_H with u(p_H) anywhere.
+
+Method (docs/contour.md):
+
+1. candidate ridge points about the frame's dark centre (``ridges``);
+2. a pose search: every wall point of one joint ring lies at one depth, so
+   the pose (camera offset, yaw, pitch, and roll for non-circular shapes)
+   that concentrates the depths of the candidates most sharply is sought,
+   shape prior included (the header's profile);
+3. rings are the peaks of that depth histogram with enough arc coverage;
+   laterals, the water line and texture do not share a depth and do not vote;
+4. a least-squares fit of the pose and the ring depths to the ring points
+   (reprojection error [px]), with outliers gated out, and the covariance
+   of the pose from the fit;
+5. for any image point, the cross-section through it and its p_H, with
+   u(p_H) propagated from the pose covariance.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.optimize import least_squares
+
+from ..errors import PipegaugeError
+from .ridges import dark_centre, ridge_points
+from .view import POSE_PARAMETERS, PipeView
+
+__all__ = ["ContourError", "Ring", "PlaneContour", "PipeContour", "detect_contour", "wall_u_from_tolerance"]
+
+MAX_CANDIDATES_PER_FRAME = 2000
+MIN_CURVE_POINTS = 30       # ridge curves shorter than this are texture
+SEARCH_FRAMES = 7           # frames whose candidates steer the pose search (all frames enter the fit)
+OFFSET_PRIOR_H = 0.3        # standard deviation of the camera offset prior [H]: cameras ride near the axis
+INLIER_PX = 2.0             # gate on a ring point's reprojection residual [px]
+MIN_RING_POINTS = 40
+MIN_RING_COVERAGE_DEG = 90.0
+MAX_RMS_PX = 1.5
+MAX_RING_RMS_PX = 1.0       # a ring fitting worse than this (or twice the median ring) is not of the family
+MAX_RELATIVE_U = 0.02       # u(p_H)/p_H above which a plane is not trusted
+
+
+class ContourError(PipegaugeError):
+    """No pipe contour could be found with confidence."""
+
+
+@dataclass(frozen=True)
+class Ring:
+    """One detected cross-section ring."""
+
+    frame: int              # index in the frames given to detect_contour
+    depth: float            # t [H]
+    p_H: float              # [px]
+    n_points: int
+    coverage_deg: float     # share of the circumference seen [deg]
+    rms_px: float           # reprojection residual [px]
+
+
+@dataclass(frozen=True)
+class PlaneContour:
+    """The cross-section through an image point."""
+
+    point: tuple[float, float]     # (x, y) ideal [px]
+    depth: float                   # t [H]
+    p_H: float                     # [px]
+    u_p_H: float                   # standard uncertainty [px]: pose fit and the wall's departure from the profile
+    dp_H_dpoint: tuple[float, float]   # sensitivity of p_H to the point's x and y [px/px]
+    polygon: np.ndarray            # the cross-section's contour, ideal image (n, 2) [px]
+    confident: bool
+    reasons: tuple[str, ...]       # why not confident (empty when confident)
+
+
+@dataclass
+class PipeContour:
+    """The pipe seen in one ideal frame: camera pose, rings, and the pose covariance."""
+
+    view: PipeView
+    covariance: np.ndarray         # (5, 5) over POSE_PARAMETERS [H, H, rad, rad, rad]
+    rings: list[Ring]
+    rms_px: float
+    n_candidates: int
+    seed: tuple[float, float]
+    problems: list[str] = field(default_factory=list)
+    wall_u: float = 0.0            # standard uncertainty of the wall's radial position against the profile [H]
+
+    @property
+    def confident(self) -> bool:
+        return not self.problems
+
+    @property
+    def vanishing_point(self) -> np.ndarray:
+        return self.view.vanishing_point
+
+    def _p_H_at(self, pose: np.ndarray, point: np.ndarray) -> float:
+        view = self.view.with_pose(pose)
+        return float(view.p_H(view.depths(point[None])[0])[0])
+
+    def at_point(self, point) -> PlaneContour:
+        """The cross-section plane through the ideal wall point (x, y) [px], its p_H and u(p_H)."""
+        q = np.asarray(point, float).reshape(2)
+        t = float(self.view.depths(q[None])[0])
+        reasons = list(self.problems)
+        if not np.isfinite(t):
+            return PlaneContour(tuple(q), float("nan"), float("nan"), float("nan"), (float("nan"),) * 2,
+                                np.empty((0, 2)), False, tuple(reasons + ["the point does not lie on the pipe wall"]))
+        pose = self.view.pose
+        p_H = float(self.view.p_H(t)[0])
+        grad = np.zeros(5)
+        for i in range(5):
+            h = 1e-6 if i < 2 else 1e-7
+            up, down = pose.copy(), pose.copy()
+            up[i] += h
+            down[i] -= h
+            grad[i] = (self._p_H_at(up, q) - self._p_H_at(down, q)) / (2 * h)
+        u_fit2 = float(grad @ self.covariance @ grad) if np.all(np.isfinite(self.covariance)) else float("inf")
+        xy, _ = self.view.wall_hits(q[None])
+        reach = float(np.hypot(*(xy[0] - (self.view.ox, self.view.oy))))
+        u = float(np.sqrt(max(u_fit2, 0.0) + (p_H * self.wall_u / reach) ** 2))
+        dq = np.array([(self._p_H_at(pose, q + e) - self._p_H_at(pose, q - e)) / 0.2 for e in (np.array([0.1, 0.0]), np.array([0.0, 0.1]))])
+        depths = [r.depth for r in self.rings]
+        if depths and not (min(depths) / 1.5 <= t <= max(depths) * 1.5):
+            reasons.append(f"the plane (depth {t:.2f} H) lies far outside the detected rings ({min(depths):.2f}-{max(depths):.2f} H)")
+        if u > MAX_RELATIVE_U * p_H:
+            reasons.append(f"u(p_H) is {100 * u / p_H:.1f} % of p_H")
+        return PlaneContour(tuple(q), t, p_H, u, tuple(dq), self.view.ring(t), not reasons, tuple(reasons))
+
+
+def _pose_mask(shape: str) -> np.ndarray:
+    """Which pose parameters are free: roll is invisible in a circular pipe's rings."""
+    return np.array([True, True, True, True, shape != "circular"])
+
+
+_FRAME_SPACING = 100.0     # log-depth offset that keeps the frames' histograms apart
+
+
+def _log_depths(view: PipeView, pts: np.ndarray, frame_of: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Log depth of each candidate, offset by its frame, and the mask of finite ones."""
+    t = view.depths(pts)
+    ok = np.isfinite(t)
+    return np.log(np.where(ok, t, 1.0)) + _FRAME_SPACING * frame_of, ok
+
+
+def _concentration(view: PipeView, pts: np.ndarray, frame_of: np.ndarray, width: float) -> float:
+    """How sharply the candidates' depths pile up, frame by frame: sum of squared histogram counts, per point."""
+    lt, ok = _log_depths(view, pts, frame_of)
+    if ok.sum() < 10:
+        return 0.0
+    lt = lt[ok]
+    counts = np.bincount(np.floor((lt - lt.min()) / width).astype(int))
+    return float(np.sum(counts.astype(float) ** 2) / len(pts))
+
+
+def _initial_view(view: PipeView, seed: np.ndarray) -> PipeView:
+    """Yaw and pitch that put the vanishing point on the dark centre."""
+    def gap(yp):
+        return view.with_pose([0, 0, yp[0], yp[1], 0]).vanishing_point - seed
+    sol = least_squares(gap, [0.0, 0.0])
+    return view.with_pose([0, 0, sol.x[0], sol.x[1], 0])
+
+
+def _circle_fit(pts: np.ndarray) -> tuple[np.ndarray, float, np.ndarray]:
+    """Algebraic circle fit (Kasa), refined by dropping points off by more than INLIER_PX: centre, radius, inliers."""
+    keep = np.ones(len(pts), bool)
+    for _ in range(3):
+        P = pts[keep]
+        if len(P) < 3:
+            break
+        sol = np.linalg.lstsq(np.c_[2 * P, np.ones(len(P))], (P ** 2).sum(1), rcond=None)[0]
+        c = sol[:2]
+        r = float(np.sqrt(max(sol[2] + c @ c, 0.0)))
+        keep = np.abs(np.hypot(*(pts - c).T) - r) < INLIER_PX
+    return c, r, keep
+
+
+def _template_fit(pts: np.ndarray, shape: str) -> tuple[np.ndarray, float, np.ndarray]:
+    """Fit the header's profile, scaled and shifted (no tilt, no roll), to one ring's points.
+
+    Returns the image position of the profile's centre (x, y) [px], the
+    scale s = the ring's pixel height [px], and the inliers (within INLIER_PX).
+    """
+    from ..profiles import ray_to_wall
+
+    c, r, keep = _circle_fit(pts)
+    x0 = np.array([c[0], c[1], 2.0 * r])
+
+    def fun(x, P):
+        d = P - x[:2]
+        dist = np.hypot(*d.T)
+        rho = ray_to_wall(shape, 1.0, (0.0, 0.0), np.stack([d[:, 0], -d[:, 1]], 1) / dist[:, None])
+        return dist - x[2] * rho
+
+    if shape != "circular":
+        for _ in range(2):
+            if keep.sum() < 5:
+                break
+            x0 = least_squares(fun, x0, args=(pts[keep],), loss="soft_l1", f_scale=1.0).x
+            keep = np.abs(fun(x0, pts)) < INLIER_PX
+    return x0[:2], float(x0[2]), keep
+
+
+def _line_consensus(rows: np.ndarray, tol_px: float = 2.0) -> np.ndarray:
+    """Largest set of ring centres (x, y, s) on one line c = VP + s m, by trying every pair of distinct scales."""
+    best = np.zeros(len(rows), bool)
+    for i in range(len(rows)):
+        for j in range(i + 1, len(rows)):
+            ds = rows[j, 2] - rows[i, 2]
+            if abs(ds) < 0.05 * max(rows[i, 2], rows[j, 2]):
+                continue
+            m = (rows[j, :2] - rows[i, :2]) / ds
+            if np.hypot(*m) > 0.45:
+                continue
+            pred = rows[i, :2] + (rows[:, 2:3] - rows[i, 2]) * m
+            inl = np.hypot(*(rows[:, :2] - pred).T) < tol_px
+            if inl.sum() > best.sum():
+                best = inl
+    return best
+
+
+def _pose_from_templates(view: PipeView, pts: np.ndarray, curve_of: np.ndarray) -> PipeView | None:
+    """First pose from the header's profile fitted to each long ridge curve.
+
+    For a camera that is not tilted much, the ring of pixel height s is the
+    profile scaled by s around VP - s (ox, -oy): the fitted centres of the
+    curves that are rings lie on a straight line in s whose intercept is
+    the vanishing point and whose slope is the camera offset. Curves that
+    are not rings (water line, a lateral's rim) fit the profile badly, or
+    fall off that line, and are dropped.
+    """
+    rows = []
+    for cid in np.unique(curve_of):
+        mine = pts[curve_of == cid]
+        if len(mine) < MIN_RING_POINTS:
+            continue
+        c, scale, keep = _template_fit(mine, view.shape)
+        if keep.sum() < max(MIN_RING_POINTS, 0.7 * len(mine)) or not 4.0 < scale < 20.0 * max(view.cx, view.cy):
+            continue
+        arc = np.degrees(np.arctan2(*(mine[keep] - c).T[::-1])) % 360
+        if 10.0 * len(np.unique(np.floor(arc / 10))) < MIN_RING_COVERAGE_DEG:
+            continue
+        rows.append((c[0], c[1], scale))
+    if len({round(np.log(s), 1) for _, _, s in rows}) < 2:
+        return None
+    a = np.asarray(rows)
+    use = _line_consensus(a)
+    if use.sum() < 2:
+        return None
+    A = np.c_[np.ones(use.sum()), a[use, 2]]
+    (vpx, sx), *_ = np.linalg.lstsq(A, a[use, 0], rcond=None)
+    (vpy, sy), *_ = np.linalg.lstsq(A, a[use, 1], rcond=None)
+    ox, oy = -sx, sy
+    if np.hypot(ox, oy) > 0.45:
+        return None
+    start = _initial_view(view, np.array([vpx, vpy]))
+    return start.with_pose([ox, oy, start.yaw, start.pitch, 0.0])
+
+
+def _pose_from_peaks(view: PipeView, pts: np.ndarray, frame_of: np.ndarray, curve_of: np.ndarray) -> PipeView | None:
+    """First pose from rings found as depth peaks seen from the dark centre (good when the offset is small)."""
+    rows = []
+    for frame, t in _ring_peaks(view, pts, frame_of, width=0.01):
+        mine = pts[frame_of == frame]
+        near = np.abs(np.log(view.depths(mine)) - np.log(t)) < 0.04
+        if near.sum() >= MIN_RING_POINTS:
+            rows.append(mine[near])
+    if not rows:
+        return None
+    labels = np.concatenate([np.full(len(r), i) for i, r in enumerate(rows)])
+    return _pose_from_templates(view, np.concatenate(rows), labels)
+
+
+def _refine(view: PipeView, pts: np.ndarray, frame_of: np.ndarray):
+    """Rings as depth peaks of the pose, then the least-squares fit, misfit rings dropped, repeated."""
+    rings = _ring_peaks(view, pts, frame_of)
+    sol = free = None
+    for loss in ("soft_l1", "soft_l1", "soft_l1", "linear"):
+        rings = _keep_rings(view, pts, frame_of, rings)
+        if not rings:
+            return None
+        ring_of, _ = _assign(view, pts, frame_of, rings)
+        sel = ring_of >= 0
+        view, depths, sol, free = _fit(view, pts[sel], ring_of[sel], [t for _, t in rings], loss)
+        rings = [(frame, t) for (frame, _), t in zip(rings, depths)]
+        if loss != "linear":
+            rings = _drop_misfits(view, pts, frame_of, rings)
+    return view, rings, sol, free
+
+
+def _ring_rms(view: PipeView, pts: np.ndarray, frame_of: np.ndarray, rings) -> float:
+    """RMS distance [px] of the ring points from their rings: how well a pose explains what it claims."""
+    ring_of, res = _assign(view, pts, frame_of, rings)
+    return float(np.sqrt(np.mean(res[ring_of >= 0] ** 2)))
+
+
+def _search_pose(view: PipeView, pts: np.ndarray, frame_of: np.ndarray) -> PipeView:
+    """Coordinate search of the pose maximising the depth concentration, coarse to fine."""
+    free = np.nonzero(_pose_mask(view.shape))[0]
+    pose = view.pose
+    step = np.array([0.06, 0.06, np.radians(1.0), np.radians(1.0), np.radians(2.0)])
+    for width in (0.02, 0.01, 0.005, 0.005):
+        best = _concentration(view.with_pose(pose), pts, frame_of, width)
+        for _ in range(3):
+            improved = False
+            for i in free:
+                for k in (-3, -2, -1, 1, 2, 3):
+                    trial = pose.copy()
+                    trial[i] += k * step[i]
+                    if np.hypot(trial[0], trial[1]) > 0.45:
+                        continue
+                    score = _concentration(view.with_pose(trial), pts, frame_of, width)
+                    if score > best:
+                        best, pose, improved = score, trial, True
+            if not improved:
+                break
+        step = step / 2.5
+    return view.with_pose(pose)
+
+
+def _ring_peaks(view: PipeView, pts: np.ndarray, frame_of: np.ndarray, width: float = 0.004) -> list[tuple[int, float]]:
+    """(frame, depth [H]) where each frame's depth histogram peaks."""
+    lt, ok = _log_depths(view, pts, frame_of)
+    if ok.sum() == 0:
+        return []
+    lt = lt[ok]
+    lo = lt.min()
+    counts = np.bincount(np.floor((lt - lo) / width).astype(int)).astype(float)
+    smooth = np.convolve(counts, [0.25, 0.5, 0.25], mode="same")
+    peaks = [i for i in range(len(smooth)) if smooth[i] >= MIN_RING_POINTS / 3
+             and smooth[i] == smooth[max(0, i - 3):i + 4].max()]
+    out = []
+    for i in peaks:
+        v = lo + (i + 0.5) * width
+        frame = int(np.floor(v / _FRAME_SPACING + 0.5))
+        out.append((frame, float(np.exp(v - _FRAME_SPACING * frame))))
+    return out
+
+
+def _coverage_deg(view: PipeView, pts: np.ndarray) -> float:
+    """Share of the circumference [deg] covered by wall points, in 10 degree bins."""
+    xy, _ = view.wall_hits(pts)
+    ang = np.degrees(np.arctan2(xy[:, 1], xy[:, 0])) % 360
+    return 10.0 * len(np.unique(np.floor(ang / 10)))
+
+
+def _residuals(view: PipeView, pts: np.ndarray, depth: np.ndarray) -> np.ndarray:
+    """Distances [px] of points from the ring at their assigned depth, per point (n,)."""
+    return np.hypot(*(view.reproject(pts, depth) - pts).T)
+
+
+def _assign(view: PipeView, pts: np.ndarray, frame_of: np.ndarray, rings: list[tuple[int, float]]) -> tuple[np.ndarray, np.ndarray]:
+    """Nearest ring of its own frame for each point, within INLIER_PX: (ring index or -1 (n,), residual (n,))."""
+    if not rings:
+        return np.full(len(pts), -1), np.full(len(pts), np.inf)
+    res = np.full((len(pts), len(rings)), np.inf)
+    for i, (frame, t) in enumerate(rings):
+        mine = frame_of == frame
+        res[mine, i] = _residuals(view, pts[mine], np.full(int(mine.sum()), t))
+    res = np.where(np.isfinite(res), res, np.inf)
+    k = np.argmin(res, axis=1)
+    r = res[np.arange(len(pts)), k]
+    return np.where(r < INLIER_PX, k, -1), r
+
+
+def _fit(view: PipeView, pts: np.ndarray, ring_of: np.ndarray, depths: list[float], loss: str, max_nfev: int | None = None):
+    """Least squares of the shared pose and every ring's depth to the ring points' reprojection [px]."""
+    from scipy.sparse import lil_matrix
+
+    free = np.nonzero(_pose_mask(view.shape))[0]
+    x0 = np.concatenate([view.pose[free], np.log(depths)])
+    sparsity = lil_matrix((2 * len(pts) + 2, len(x0)), dtype=int)
+    sparsity[:, :len(free)] = 1
+    rows = np.arange(len(pts))
+    sparsity[2 * rows, len(free) + ring_of] = 1
+    sparsity[2 * rows + 1, len(free) + ring_of] = 1
+
+    def unpack(x):
+        pose = view.pose.copy()
+        pose[free] = x[:len(free)]
+        return view.with_pose(pose), np.exp(x[len(free):])
+
+    def fun(x):
+        v, t = unpack(x)
+        d = v.reproject(pts, t[ring_of]) - pts
+        d = np.where(np.isfinite(d), d, 50.0)
+        prior = np.array([v.ox, v.oy]) / OFFSET_PRIOR_H
+        return np.concatenate([d.ravel(), prior])
+
+    sol = least_squares(fun, x0, loss=loss, f_scale=1.0, x_scale="jac", diff_step=1e-7,
+                        jac_sparsity=sparsity, max_nfev=max_nfev)
+    v, t = unpack(sol.x)
+    return v, list(t), sol, free
+
+
+def _drop_misfits(view, pts, frame_of, rings):
+    """Rings that do not follow the family (a lateral's rim, a deformed section) are dropped."""
+    ring_of, res = _assign(view, pts, frame_of, rings)
+    rms = np.array([np.sqrt(np.mean(res[ring_of == i] ** 2)) if np.any(ring_of == i) else np.inf for i in range(len(rings))])
+    limit = max(MAX_RING_RMS_PX, 2.0 * float(np.median(rms[np.isfinite(rms)]))) if np.isfinite(rms).any() else MAX_RING_RMS_PX
+    return [r for r, e in zip(rings, rms) if e <= limit]
+
+
+def _keep_rings(view, pts, frame_of, rings):
+    ring_of, _ = _assign(view, pts, frame_of, rings)
+    return [r for i, r in enumerate(rings) if np.sum(ring_of == i) >= MIN_RING_POINTS
+            and _coverage_deg(view, pts[ring_of == i]) >= MIN_RING_COVERAGE_DEG]
+
+
+def detect_contour(ideal_grays, camera_matrix: np.ndarray, shape: str, *,
+                   mask: np.ndarray | None = None, seed=None, wall_u: float = 0.0) -> PipeContour:
+    """Find the pipe's rings and the camera pose from ideal (undistorted) grey frames.
+
+    ideal_grays : one frame (rows, cols) or a sequence of frames of one
+        video taken close together (the camera's mount does not move on
+        it, so they share one pose; each frame adds its own rings at its own
+        depths, which pins the camera offset); the first is the reference
+        frame of ``PipeContour.at_point``.
+    camera_matrix : K (3, 3) [px] of the ideal image; shape : the header's
+    shape ("circular" or "egg"); mask : (rows, cols), non-zero where ring
+    points may be taken (exclude overlay boxes); seed : (x, y) [px] first
+    guess of the vanishing point (default: the frames' median dark centre);
+    wall_u : standard uncertainty [H] of the wall's radial position against
+    the nominal profile (``wall_u_from_tolerance``), which moves the plane
+    found through a wall point.
+    Never raises for a poor frame: the result lists its problems and
+    ``confident`` is False.
+    """
+    frames = [ideal_grays] if isinstance(ideal_grays, np.ndarray) and ideal_grays.ndim == 2 else list(ideal_grays)
+    K = np.asarray(camera_matrix, float)
+    view = PipeView(shape, K[0, 0], K[1, 1], K[0, 2], K[1, 2])
+    centres = np.array([dark_centre(g) for g in frames])
+    seed = np.median(centres, axis=0) if seed is None else np.asarray(seed, float)
+    all_pts, all_frame, all_curve = [], [], []
+    for j, g in enumerate(frames):
+        pts, strength, curve = ridge_points(g, centres[j], mask=mask)
+        ids, sizes = np.unique(curve, return_counts=True)
+        long_curves = ids[sizes >= MIN_CURVE_POINTS]
+        on = np.isin(curve, long_curves)
+        pts, strength, curve = pts[on], strength[on], curve[on]
+        if len(pts) > MAX_CANDIDATES_PER_FRAME:
+            top = np.argsort(strength)[::-1][:MAX_CANDIDATES_PER_FRAME]
+            pts, curve = pts[top], curve[top]
+        all_pts.append(pts)
+        all_frame.append(np.full(len(pts), j))
+        all_curve.append(curve + 1_000_000 * j)
+    pts, frame_of, curve_of = np.concatenate(all_pts), np.concatenate(all_frame), np.concatenate(all_curve)
+    empty = PipeContour(view, np.full((5, 5), np.inf), [], float("nan"), len(pts), tuple(seed))
+    if len(pts) < 2 * MIN_RING_POINTS:
+        empty.problems.append(f"only {len(pts)} ridge points: no rings visible")
+        return empty
+    steer = np.isin(frame_of, np.unique(np.linspace(0, len(frames) - 1, SEARCH_FRAMES).round().astype(int)))
+    start = _initial_view(view, seed)
+    starts = [v for v in (_pose_from_templates(start, pts, curve_of),
+                          _pose_from_peaks(start, pts, frame_of, curve_of)) if v is not None]
+    if not starts:
+        starts = [_search_pose(start, pts[steer], frame_of[steer])]
+    fits = [f for f in (_refine(v, pts, frame_of) for v in starts) if f is not None]
+    if not fits:
+        empty.problems.append("no cross-section ring with enough points and arc coverage")
+        return empty
+    view, rings, sol, free = min(fits, key=lambda f: _ring_rms(f[0], pts, frame_of, f[1]))
+    ring_of, res = _assign(view, pts, frame_of, rings)
+    sel = ring_of >= 0
+    dof = max(2 * int(sel.sum()) - len(sol.x), 1)
+    # Residuals along one ring share its error (blur, texture, the ring's own shape), so the
+    # rings, not the points, are the independent observations: scale by points per ring.
+    s2 = float(np.sum(sol.fun[:-2] ** 2) / dof) * int(sel.sum()) / len(rings)
+    try:
+        J = sol.jac.toarray() if hasattr(sol.jac, "toarray") else sol.jac
+        cov_x = np.linalg.inv(J.T @ J) * s2
+    except np.linalg.LinAlgError:
+        cov_x = np.full((len(sol.x), len(sol.x)), np.inf)
+    cov = np.zeros((5, 5))
+    cov[np.ix_(free, free)] = cov_x[:len(free), :len(free)]
+    found = []
+    for i, (frame, t) in enumerate(rings):
+        on = ring_of == i
+        found.append(Ring(frame, float(t), float(view.p_H(t)[0]), int(on.sum()), _coverage_deg(view, pts[on]),
+                          float(np.sqrt(np.mean(res[on] ** 2))) if on.any() else float("nan")))
+    rms = float(np.sqrt(np.mean(res[sel] ** 2)))
+    problems = []
+    if len({round(np.log(r.depth), 1) for r in found}) < 2:
+        problems.append("rings at one depth only: the camera offset rests on its prior")
+    if rms > MAX_RMS_PX:
+        problems.append(f"ring residual {rms:.2f} px exceeds {MAX_RMS_PX} px")
+    return PipeContour(view, cov, sorted(found, key=lambda r: (r.frame, r.depth)), rms, len(pts), tuple(seed),
+                       problems, wall_u)
+
+
+def wall_u_from_tolerance(height_mm: float, tolerance_mm: float) -> float:
+    """u of the wall's radial position [H] from the header's height tolerance +-tol [mm], rectangular, shared by two walls."""
+    return tolerance_mm / 2.0 / np.sqrt(3.0) / height_mm

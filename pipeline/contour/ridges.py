@@ -1,0 +1,97 @@
+"""Candidate wall-ring points in an ideal frame: thin bright ridges crossing rays from the pipe's dark centre.
+
+Joint rings and the socket faces before them appear as thin bright curves
+around the far, dark centre of the pipe. Unwrapping the frame to polar
+coordinates about the dark centre (``cv2.warpPolar``) turns them into
+roughly vertical lines; a ridge is a local maximum along the radius that
+stands out of the locally smoothed profile.
+"""
+
+from __future__ import annotations
+
+import cv2
+import numpy as np
+
+__all__ = ["dark_centre", "ridge_points", "static_overlay_mask"]
+
+DARK_FLOOR = 16.0   # grey levels added before the log: compression banding in the dark far pipe is not a ring
+
+
+def dark_centre(gray: np.ndarray, sigma_frac: float = 0.03) -> np.ndarray:
+    """(x, y) [px] of the darkest blob of a frame: a first guess of the pipe's vanishing point.
+
+    gray : (rows, cols) image; sigma_frac : blur sigma as a share of the
+    larger image side (the far pipe is a dark disc, texture must vanish).
+    """
+    sigma = sigma_frac * max(gray.shape)
+    blur = cv2.GaussianBlur(gray.astype(np.float32), (0, 0), sigma)
+    row, col = np.unravel_index(int(np.argmin(blur)), blur.shape)
+    return np.array([float(col), float(row)])
+
+
+def ridge_points(gray: np.ndarray, centre, *, n_angles: int = 720, min_radius: float = 8.0,
+                 k_noise: float = 4.0, mask: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Sub-pixel ridge points (n, 2) (x, y) [px], their strengths (n,), and their curve labels (n,).
+
+    Points that continue one another from ray to ray (radius changing by at
+    most one pixel) share a curve label; a ring is one long curve.
+
+    centre : (x, y) [px] of the polar unwrap; a ridge must exceed ``k_noise``
+    robust standard deviations of the detrended polar image; ``mask``
+    (rows, cols), non-zero where points are allowed (e.g. off the overlay).
+    """
+    g = np.log(gray.astype(np.float32) + DARK_FLOOR) * 32.0   # contrast relative to the light level, above the noise floor
+    x0, y0 = float(centre[0]), float(centre[1])
+    rows, cols = g.shape
+    reach = int(np.ceil(max(np.hypot(x0 - cx, y0 - cy) for cx in (0, cols) for cy in (0, rows))))
+    polar = cv2.warpPolar(g, (reach, n_angles), (x0, y0), reach, cv2.WARP_POLAR_LINEAR + cv2.WARP_FILL_OUTLIERS)
+    inside = cv2.warpPolar(np.ones_like(g), (reach, n_angles), (x0, y0), reach, cv2.WARP_POLAR_LINEAR + cv2.WARP_FILL_OUTLIERS)
+    ridge = polar - cv2.GaussianBlur(polar, (0, 0), sigmaX=6, sigmaY=2)
+    valid = inside > 0.999
+    mad = np.median(np.abs(ridge[valid] - np.median(ridge[valid])))
+    threshold = max(3.0, k_noise * 1.4826 * mad)
+    ridge = np.abs(ridge)    # bright socket faces and dark joint gaps alike
+    centre_v, left, right = ridge[:, 1:-1], ridge[:, :-2], ridge[:, 2:]
+    peak = (centre_v > left) & (centre_v >= right) & (centre_v > threshold) & valid[:, 1:-1] & valid[:, :-2] & valid[:, 2:]
+    peak_map = np.zeros(ridge.shape, np.uint8)
+    peak_map[:, 1:-1] = peak
+    _, curves = cv2.connectedComponents(peak_map, connectivity=8)
+    a_idx, r_idx = np.nonzero(peak)
+    r_idx = r_idx + 1
+    label = curves[a_idx, r_idx]
+    keep = r_idx >= min_radius
+    a_idx, r_idx, label = a_idx[keep], r_idx[keep], label[keep]
+    y_l, y_c, y_r = ridge[a_idx, r_idx - 1], ridge[a_idx, r_idx], ridge[a_idx, r_idx + 1]
+    denom = y_l - 2 * y_c + y_r
+    shift = np.where(denom < 0, 0.5 * (y_l - y_r) / np.where(denom < 0, denom, -1.0), 0.0)
+    radius = r_idx + np.clip(shift, -0.5, 0.5)   # one polar column per pixel of radius
+    theta = 2 * np.pi * a_idx / n_angles
+    pts = np.stack([x0 + radius * np.cos(theta), y0 + radius * np.sin(theta)], axis=1)
+    strength = y_c
+    if mask is not None:
+        xi = np.clip(np.round(pts[:, 0]).astype(int), 0, cols - 1)
+        yi = np.clip(np.round(pts[:, 1]).astype(int), 0, rows - 1)
+        ok = mask[yi, xi] > 0
+        pts, strength, label = pts[ok], strength[ok], label[ok]
+    return pts, strength, label
+
+
+def static_overlay_mask(grays, *, max_std: float = 3.0, min_contrast: float = 25.0, grow_px: int = 8) -> np.ndarray:
+    """Where ring points may be taken (255) and where the burned-in overlay is (0).
+
+    grays : frames (rows, cols) spread over one video. The overlay is what
+    stays put while the pipe moves past: low temporal standard deviation
+    [grey levels] together with strong local contrast (text, box edges),
+    grown by ``grow_px`` [px], with the holes filled.
+    """
+    stack = np.stack([g.astype(np.float32) for g in grays])
+    steady = stack.std(axis=0) < max_std
+    median = np.median(stack, axis=0).astype(np.uint8)
+    kernel = np.ones((3, 3), np.uint8)
+    contrast = cv2.dilate(median, kernel) - cv2.erode(median, kernel)
+    overlay = (steady & (contrast > min_contrast)).astype(np.uint8)
+    grow = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * grow_px + 1, 2 * grow_px + 1))
+    overlay = cv2.morphologyEx(cv2.dilate(overlay, grow), cv2.MORPH_CLOSE, grow)
+    outlines, _ = cv2.findContours(overlay, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_SIMPLE)
+    cv2.drawContours(overlay, outlines, -1, 1, thickness=cv2.FILLED)     # a box is masked whole
+    return np.where(overlay > 0, 0, 255).astype(np.uint8)

@@ -1,0 +1,110 @@
+"""The camera inside a pipe: where each ideal image point meets the wall, and where each cross-section appears.
+
+A pinhole camera (camera matrix K of the certificate) sits at (ox, oy, 0) in
+pipe coordinates scaled by H (docs/conventions.md: X right, Y up, Z along the
+pipe), turned by yaw, pitch and roll (``pipeline.synth.rig.camera_rotation``).
+The cross-section at depth t (= distance along the axis / H) is the profile
+scaled by f / (t H) up to perspective; with no tilt it is exactly a scaled
+copy centred at VP - (f/t) (ox, -oy).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from ..profiles import profile_polygon, ray_to_wall
+from ..synth.rig import camera_rotation
+
+__all__ = ["PipeView", "POSE_PARAMETERS"]
+
+POSE_PARAMETERS = ("ox", "oy", "yaw", "pitch", "roll")
+
+
+@dataclass(frozen=True)
+class PipeView:
+    """Pose of the camera in a pipe of unit height.
+
+    shape : header shape ("circular" or "egg"); fx, fy, cx, cy : camera
+    matrix [px]; ox, oy : camera centre off the pipe axis [H]; yaw, pitch,
+    roll [rad].
+    """
+
+    shape: str
+    fx: float
+    fy: float
+    cx: float
+    cy: float
+    ox: float = 0.0
+    oy: float = 0.0
+    yaw: float = 0.0
+    pitch: float = 0.0
+    roll: float = 0.0
+
+    @property
+    def pose(self) -> np.ndarray:
+        return np.array([getattr(self, name) for name in POSE_PARAMETERS])
+
+    def with_pose(self, values) -> "PipeView":
+        return replace(self, **dict(zip(POSE_PARAMETERS, map(float, values))))
+
+    @property
+    def R_wc(self) -> np.ndarray:
+        return camera_rotation(self.yaw, self.pitch, self.roll)
+
+    def rays(self, points_px) -> np.ndarray:
+        """World directions (n, 3) of the rays through ideal image points (n, 2) [px]."""
+        q = np.asarray(points_px, float).reshape(-1, 2)
+        dc = np.stack([(q[:, 0] - self.cx) / self.fx, (q[:, 1] - self.cy) / self.fy, np.ones(len(q))], axis=1)
+        return dc @ self.R_wc.T
+
+    def wall_hits(self, points_px) -> tuple[np.ndarray, np.ndarray]:
+        """Where the rays through ideal points (n, 2) [px] meet the wall: (X, Y) (n, 2) [H] and depth t (n,) [H].
+
+        t is nan for rays that do not go forward to the wall (the far pipe
+        itself, or points behind the camera's plane).
+        """
+        d = self.rays(points_px)
+        lateral = np.hypot(d[:, 0], d[:, 1])
+        with np.errstate(invalid="ignore", divide="ignore"):
+            u = d[:, :2] / lateral[:, None]
+            reach = ray_to_wall(self.shape, 1.0, (self.ox, self.oy), u)
+            t = reach / lateral * d[:, 2]
+        xy = np.array([self.ox, self.oy]) + reach[:, None] * u
+        t = np.where(np.isfinite(t) & (t > 0), t, np.nan)
+        return xy, t
+
+    def depths(self, points_px) -> np.ndarray:
+        """Depth t [H] of the cross-section through each ideal wall point (n, 2) [px]."""
+        return self.wall_hits(points_px)[1]
+
+    def project(self, points_pipe) -> np.ndarray:
+        """Ideal image points (n, 2) [px] of pipe points (n, 3) [H]."""
+        p = np.asarray(points_pipe, float).reshape(-1, 3) - (self.ox, self.oy, 0.0)
+        pc = p @ self.R_wc
+        return np.stack([self.cx + self.fx * pc[:, 0] / pc[:, 2], self.cy + self.fy * pc[:, 1] / pc[:, 2]], axis=1)
+
+    def reproject(self, points_px, t) -> np.ndarray:
+        """Ideal points (n, 2) [px] of the wall points seen at ``points_px`` moved along the pipe to depth t [H]."""
+        xy, _ = self.wall_hits(points_px)
+        tt = np.broadcast_to(np.asarray(t, float), (len(xy),))
+        return self.project(np.column_stack([xy, tt]))
+
+    def ring(self, t: float, n: int = 360) -> np.ndarray:
+        """The cross-section at depth t [H] as an ideal image polygon (n, 2) [px]."""
+        poly = profile_polygon(self.shape, 1.0, n)
+        return self.project(np.column_stack([poly, np.full(n, t)]))
+
+    def p_H(self, t) -> np.ndarray:
+        """Pixel height of the cross-section at depth t [H]: |crown - invert| in the ideal image [px]."""
+        t = np.atleast_1d(np.asarray(t, float))
+        crown = self.project(np.column_stack([np.zeros_like(t), np.full_like(t, 0.5), t]))
+        invert = self.project(np.column_stack([np.zeros_like(t), np.full_like(t, -0.5), t]))
+        return np.hypot(*(crown - invert).T)
+
+    @property
+    def vanishing_point(self) -> np.ndarray:
+        """Ideal image point (2,) [px] of the pipe axis direction."""
+        d = self.R_wc.T @ np.array([0.0, 0.0, 1.0])
+        return np.array([self.cx + self.fx * d[0] / d[2], self.cy + self.fy * d[1] / d[2]])

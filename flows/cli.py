@@ -16,6 +16,8 @@ import sys
 from pathlib import Path
 from typing import Callable, Sequence
 
+import numpy as np
+
 from pipeline import __version__
 from pipeline.errors import PipegaugeError
 
@@ -189,8 +191,21 @@ def cmd_probe(args: argparse.Namespace) -> int:
         cert = load_certificate(args.certificate)
         und = Undistorter(cert, frame.shape[1], frame.shape[0], str(path))
         report["certificate"] = cert.certificate_id
+        grays = [cv2.cvtColor(und.frame(frame), cv2.COLOR_BGR2GRAY)]
+        mask = None
+        if not is_image:
+            from pipeline.video.pipe_contour import overlay_mask, read_ideal_grays
+
+            around = [k for k in range(index - 3 * int(info.fps), index + 3 * int(info.fps) + 1, 6)
+                      if 0 <= k < info.frame_count and k != index]
+            more = read_ideal_grays(path, around, und)
+            grays += [more[k] for k in around if k in more]
+            mask = overlay_mask(path, und)
+        report["contour"] = _probe_contour(grays, und, args.shape, mask)
         if args.debug_image:
-            cv2.imwrite(str(args.debug_image), und.frame(frame))
+            _draw_contour(und.frame(frame), report["contour"], args.debug_image)
+        report["contour"].pop("_polygons", None)
+        report["contour"].pop("_vp", None)
     elif args.debug_image:
         cv2.imwrite(str(args.debug_image), frame)
     if args.json:
@@ -199,6 +214,42 @@ def cmd_probe(args: argparse.Namespace) -> int:
         for key, value in report.items():
             print(f"{key}: {value}")
     return EXIT_OK
+
+
+def _probe_contour(grays, und, shape: str, mask) -> dict:
+    """The pipe contour of the first frame (pose from all), summarised for the probe report."""
+    from pipeline.contour import detect_contour
+
+    pc = detect_contour(grays, und.K, shape, mask=mask)
+    out = {"confident": pc.confident, "problems": pc.problems, "rings": len(pc.rings),
+           "ring_rms_px": None if not pc.rings else round(pc.rms_px, 3)}
+    if pc.rings:
+        v = pc.view
+        out.update(vanishing_point_px=[round(float(c), 2) for c in v.vanishing_point],
+                   camera_offset_H=[round(v.ox, 4), round(v.oy, 4)],
+                   yaw_pitch_roll_deg=[round(float(np.degrees(a)), 3) for a in (v.yaw, v.pitch, v.roll)])
+        own = [r for r in pc.rings if r.frame == 0] or pc.rings
+        out["rings_in_frame"] = [{"depth_H": round(r.depth, 4), "p_H_px": round(r.p_H, 2), "arc_coverage_deg": r.coverage_deg,
+                                  "rms_px": round(r.rms_px, 3)} for r in own if r.frame == 0]
+        mid = np.median([r.depth for r in own])
+        plane = pc.at_point(v.project([[0.0, 0.5, mid]])[0])
+        out["plane_at_median_ring"] = {"depth_H": round(plane.depth, 4), "p_H_px": round(plane.p_H, 2),
+                                       "u_p_H_px": round(plane.u_p_H, 3), "confident": plane.confident}
+        out["_polygons"] = [v.ring(r.depth).tolist() for r in own if r.frame == 0] or [plane.polygon.tolist()]
+        out["_vp"] = v.vanishing_point.tolist()
+    return out
+
+
+def _draw_contour(image, contour: dict, out_path) -> None:
+    """The ideal frame with the rings found (green) and the vanishing point (red)."""
+    import cv2
+
+    for poly in contour.pop("_polygons", []):
+        cv2.polylines(image, [np.round(np.asarray(poly)).astype(np.int32)], True, (0, 255, 0), 1, cv2.LINE_AA)
+    vp = contour.pop("_vp", None)
+    if vp is not None:
+        cv2.drawMarker(image, (int(round(vp[0])), int(round(vp[1]))), (0, 0, 255), cv2.MARKER_CROSS, 15, 2)
+    cv2.imwrite(str(out_path), image)
 
 
 # -- parser --------------------------------------------------------------------
@@ -262,6 +313,8 @@ def build_parser() -> argparse.ArgumentParser:
     pr.add_argument("--certificate", type=Path, help="calibration certificate to check against the video")
     pr.add_argument("--json", action="store_true", help="print JSON")
     pr.add_argument("--debug-image", type=Path, metavar="OUT.png", help="write the (undistorted) frame here")
+    pr.add_argument("--shape", choices=["circular", "egg"], default="circular",
+                    help="the section's shape, for the contour (default: %(default)s)")
     pr.set_defaults(func=cmd_probe)
 
     c = verbs.add_parser("certificate", help="check or convert a camera calibration certificate",

@@ -6,7 +6,7 @@ import cv2
 import numpy as np
 import pytest
 
-from pipeline.synth.profiles import clock_to_theta, wall_point
+from pipeline.profiles import clock_to_theta, wall_point
 from pipeline.synth.render import LIP_MM, Renderer
 from pipeline.synth.rig import CameraPose, project_points
 from pipeline.synth.samples import sample_certificate

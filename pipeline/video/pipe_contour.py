@@ -1,0 +1,74 @@
+"""The pipe contour at a frame of a video: frames chosen along the chainage, the overlay masked, the pose fitted.
+
+The camera's mount does not move within a few metres of travel, so the
+rings seen from frames spread along the chainage around the frame of
+interest (one joint sweeps through many depths as the camera approaches
+it) are fitted with one pose (``pipeline.contour.detect_contour``).
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Iterable
+
+import cv2
+import numpy as np
+
+from ..contour import PipeContour, detect_contour
+from ..contour.detect import wall_u_from_tolerance
+from ..contour.ridges import static_overlay_mask
+from .chainage_track import ChainageTrack
+from .reader import iter_frames, probe_video
+from .undistort import Undistorter
+
+__all__ = ["overlay_mask", "window_frames", "read_ideal_grays", "contour_at_frame"]
+
+SPAN_M = 2.0       # travel either side of the frame whose rings are used [m]
+STEP_M = 0.1       # chainage step between those frames [m]
+
+
+def _gray(frame: np.ndarray) -> np.ndarray:
+    return cv2.cvtColor(frame, cv2.COLOR_BGR2GRAY) if frame.ndim == 3 else frame
+
+
+def overlay_mask(path: str | os.PathLike, undistorter: Undistorter, n_frames: int = 16) -> np.ndarray:
+    """Mask (rows, cols) of the ideal image, 0 on the burned-in overlay, from frames spread over the video."""
+    info = probe_video(path)
+    every = max(1, info.frame_count // n_frames)
+    return static_overlay_mask([_gray(undistorter.frame(f)) for _, f in iter_frames(path, every=every)])
+
+
+def window_frames(track: ChainageTrack, frame: int, span_m: float = SPAN_M, step_m: float = STEP_M) -> list[int]:
+    """The frame itself, then one frame per ``step_m`` of chainage within ``span_m`` of it (first frame at each)."""
+    c0, _ = track.at_frame(frame)
+    chosen = [frame]
+    for c in np.arange(c0 - span_m, c0 + span_m + 1e-9, step_m):
+        k = int(np.argmin(np.abs(track.values - c)))
+        if abs(track.values[k] - c) < step_m / 2 and k not in chosen:
+            chosen.append(k)
+    return chosen
+
+
+def read_ideal_grays(path: str | os.PathLike, frames: Iterable[int], undistorter: Undistorter) -> dict[int, np.ndarray]:
+    """Ideal grey images of the given frames, reading forward once."""
+    wanted = set(frames)
+    out = {}
+    for i, f in iter_frames(path):
+        if i in wanted:
+            out[i] = _gray(undistorter.frame(f))
+            if len(out) == len(wanted):
+                break
+    return out
+
+
+def contour_at_frame(path: str | os.PathLike, frame: int, track: ChainageTrack, undistorter: Undistorter,
+                     shape: str, *, height_mm: float, tolerance_mm: float, mask: np.ndarray | None = None) -> PipeContour:
+    """The pipe contour for a frame: pose from the rings of the frames around it along the chainage.
+
+    shape, height_mm, tolerance_mm : from the section header (the wall's
+    departure from the nominal profile enters u(p_H)).
+    """
+    order = window_frames(track, frame)
+    grays = read_ideal_grays(path, order, undistorter)
+    return detect_contour([grays[i] for i in order if i in grays], undistorter.K, shape, mask=mask,
+                          wall_u=wall_u_from_tolerance(height_mm, tolerance_mm))

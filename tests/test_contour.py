@@ -1,0 +1,90 @@
+"""Pipe contour: the camera-in-pipe model against the renderer's truth, and detection on a sample video."""
+
+import csv
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from pipeline.camera import load_certificate
+from pipeline.contour import PipeView, detect_contour
+from pipeline.contour.ridges import static_overlay_mask
+from pipeline.profiles import exit_table, profile_polygon, ray_to_wall
+from pipeline.video.pipe_contour import read_ideal_grays
+from pipeline.video.reader import iter_frames
+from pipeline.video.undistort import Undistorter
+
+SAMPLES = Path(__file__).resolve().parent.parent / "sample_videos"
+S02 = SAMPLES / "S02-circular-water-offset"
+
+
+def _truth(folder):
+    truth = json.loads((folder / "truth" / "truth.json").read_text())
+    frames = list(csv.DictReader(open(folder / "truth" / "frames.csv")))
+    cert = load_certificate(SAMPLES / "certificates" / f"{truth['camera']['certificate_id']}.json")
+    return truth, frames, cert
+
+
+def _truth_view(truth, K):
+    cam, H = truth["camera"], truth["pipe"]["height_mm"]
+    return PipeView(truth["pipe"]["shape"], K[0, 0], K[1, 1], K[0, 2], K[1, 2], cam["offset_mm"][0] / H,
+                    cam["offset_mm"][1] / H, *np.radians([cam["yaw_deg"], cam["pitch_deg"], cam["roll_deg"]]))
+
+
+@pytest.mark.parametrize("shape", ["circular", "egg"])
+def test_ray_to_wall_matches_polygon_exit_distances(shape):
+    phi, t, _ = exit_table(profile_polygon(shape, 300.0), (20.0, -30.0))
+    exact = ray_to_wall(shape, 300.0, (20.0, -30.0), np.stack([np.cos(phi), np.sin(phi)], axis=1))
+    assert np.max(np.abs(exact - t)) < 1e-3      # the 1440-gon's chords lie within 1e-3 mm of the arcs
+
+
+def test_pipe_view_reproduces_the_rendered_geometry():
+    truth, frames, cert = _truth(S02)
+    und = Undistorter(cert, cert.image_width_px, cert.image_height_px)
+    view, H = _truth_view(truth, und.K), truth["pipe"]["height_mm"]
+    for obs in truth["observations"]:
+        for q in obs.get("quantities", []):
+            t = q["plane_distance_mm"] / H
+            assert view.p_H(t)[0] == pytest.approx(q["p_H_px"], abs=1e-3)
+            assert np.allclose(view.project([[0.0, 0.5 * truth["pipe"]["height_mm"] / H, t]])[0], q["crown_px_ideal"], atol=1e-3)
+            world = np.asarray(q["points_world_mm"])
+            on_wall = np.abs(np.hypot(world[:, 0], world[:, 1]) - H / 2) < 0.01
+            if on_wall.any():
+                depth = view.depths(und.points(q["points_px_noise_free"])[on_wall]) * H
+                cam_z = float(frames[obs["frame"]]["Z_mm"])
+                assert np.allclose(depth, world[on_wall, 2] - cam_z, atol=1.0)   # [mm], from 0.1 px rounding
+
+
+def test_contour_on_a_sample_with_water_offset_and_tilt():
+    truth, frames, cert = _truth(S02)
+    video = S02 / "video.mp4"
+    und = Undistorter(cert, cert.image_width_px, cert.image_height_px)
+    mask = static_overlay_mask([und.frame(f)[..., 1] for _, f in iter_frames(video, every=60)])
+    obs = next(o for o in truth["observations"] if o["code"] == "BAJ")
+    chainage = np.array([float(r["chainage_m"]) for r in frames])
+    c0 = chainage[obs["frame"]]
+    window = [obs["frame"]] + sorted({int(np.argmin(np.abs(chainage - c))) for c in np.arange(c0 - 2, c0 + 2, 0.2)} - {obs["frame"]})
+    grays = read_ideal_grays(video, window, und)
+    pc = detect_contour([grays[i] for i in window], und.K, "circular", mask=mask)
+    H, cam = truth["pipe"]["height_mm"], truth["camera"]
+    assert pc.confident, pc.problems
+    assert abs(pc.view.ox * H - cam["offset_mm"][0]) < 10 and abs(pc.view.oy * H - cam["offset_mm"][1]) < 10
+    assert abs(np.degrees(pc.view.yaw) - cam["yaw_deg"]) < 0.5 and abs(np.degrees(pc.view.pitch) - cam["pitch_deg"]) < 0.5
+    q = obs["quantities"][0]
+    plane = pc.at_points(und.points(q["points_px_noise_free"]))
+    truth_p_H = _truth_view(truth, und.K).p_H(q["plane_distance_mm"] / H)[0]
+    assert plane.confident
+    assert abs(plane.p_H - truth_p_H) < 0.01 * truth_p_H
+    assert abs(plane.p_H - truth_p_H) < 3 * plane.u_p_H
+    assert len(plane.polygon) > 100
+
+
+def test_a_frame_without_rings_is_not_a_contour():
+    rng = np.random.default_rng(1)
+    flat = np.clip(120 + rng.normal(0, 2, (576, 720)), 0, 255).astype(np.uint8)
+    K = np.array([[380.0, 0, 360], [0, 380.0, 288], [0, 0, 1]])
+    pc = detect_contour(flat, K, "circular")
+    assert not pc.confident and pc.problems
+    plane = pc.at_point((500.0, 288.0))
+    assert not plane.confident and plane.reasons

@@ -97,22 +97,14 @@ class PipeContour:
         return float(view.p_H(view.depths(point[None])[0])[0])
 
     def at_points(self, points) -> PlaneContour:
-        """The cross-section through wall points (n, 2) [px] that lie in one plane (their mean depth)."""
-        pts = np.asarray(points, float).reshape(-1, 2)
-        depths = self.view.depths(pts)
-        if len(pts) == 1 or not np.all(np.isfinite(depths)):
-            return self.at_point(pts[0])
-        # the point of the first mark's ray at the mean depth stands for the plane
-        k = int(np.argmin(np.abs(depths - depths.mean())))
-        return self.at_point(pts[k]) if len(pts) > 2 else self._at_mean(pts, depths)
-
-    def _at_mean(self, pts: np.ndarray, depths: np.ndarray) -> PlaneContour:
-        a, b = self.at_point(pts[0]), self.at_point(pts[1])
-        t = float(depths.mean())
-        p_H = float(self.view.p_H(t)[0])
-        return PlaneContour(a.point, t, p_H, 0.5 * (a.u_p_H + b.u_p_H),
-                            tuple(0.5 * (np.asarray(a.dp_H_dpoint) + np.asarray(b.dp_H_dpoint))),
-                            self.view.ring(t), a.confident and b.confident, tuple(dict.fromkeys(a.reasons + b.reasons)))
+        """The cross-section through wall points (n, 2) [px] marked in one plane: the mean of their depths."""
+        planes = [self.at_point(p) for p in np.asarray(points, float).reshape(-1, 2)]
+        if len(planes) == 1 or not all(np.isfinite(p.depth) for p in planes):
+            return planes[0]
+        t = float(np.mean([p.depth for p in planes]))
+        return PlaneContour(planes[0].point, t, float(self.view.p_H(t)[0]), float(np.mean([p.u_p_H for p in planes])),
+                            tuple(np.mean([p.dp_H_dpoint for p in planes], axis=0)), self.view.ring(t),
+                            all(p.confident for p in planes), tuple(dict.fromkeys(r for p in planes for r in p.reasons)))
 
     def at_point(self, point) -> PlaneContour:
         """The cross-section plane through the ideal wall point (x, y) [px], its p_H and u(p_H)."""

@@ -31,6 +31,8 @@ from pipeline.video.overlay_ocr import OverlayReader
 from pipeline.video.pipe_contour import contour_at_frame, overlay_mask
 from pipeline.video.undistort import Undistorter
 
+from ingest import decode_only   # benchmarks/ingest.py, the same grab loop
+
 SAMPLES = Path(__file__).resolve().parent.parent / "sample_videos"
 
 # Which marked points lie on the nominal wall in the quantity's plane (the rest
@@ -40,17 +42,6 @@ PLANE_POINTS = {("BAA", "Q1"): [1], ("BAG", "Q1"): [0], ("BAJ", "Q1", "B"): [0]}
 
 def plane_points(code: str, char1: str, quantity: str) -> list[int]:
     return PLANE_POINTS.get((code, quantity, char1), PLANE_POINTS.get((code, quantity), [0, 1]))
-
-
-def decode_only(path: Path) -> float:
-    import cv2
-
-    t0 = time.perf_counter()
-    cap = cv2.VideoCapture(str(path))
-    while cap.grab():
-        pass
-    cap.release()
-    return time.perf_counter() - t0
 
 
 def truth_view(truth: dict, K: np.ndarray) -> PipeView:

@@ -228,14 +228,14 @@ def _probe_contour(grays, und, shape: str, mask) -> dict:
         out.update(vanishing_point_px=[round(float(c), 2) for c in v.vanishing_point],
                    camera_offset_H=[round(v.ox, 4), round(v.oy, 4)],
                    yaw_pitch_roll_deg=[round(float(np.degrees(a)), 3) for a in (v.yaw, v.pitch, v.roll)])
-        own = [r for r in pc.rings if r.frame == 0] or pc.rings
+        own = [r for r in pc.rings if r.frame == 0]
         out["rings_in_frame"] = [{"depth_H": round(r.depth, 4), "p_H_px": round(r.p_H, 2), "arc_coverage_deg": r.coverage_deg,
-                                  "rms_px": round(r.rms_px, 3)} for r in own if r.frame == 0]
-        mid = np.median([r.depth for r in own])
+                                  "rms_px": round(r.rms_px, 3)} for r in own]
+        mid = np.median([r.depth for r in own or pc.rings])
         plane = pc.at_point(v.project([[0.0, 0.5, mid]])[0])
         out["plane_at_median_ring"] = {"depth_H": round(plane.depth, 4), "p_H_px": round(plane.p_H, 2),
                                        "u_p_H_px": round(plane.u_p_H, 3), "confident": plane.confident}
-        out["_polygons"] = [v.ring(r.depth).tolist() for r in own if r.frame == 0] or [plane.polygon.tolist()]
+        out["_polygons"] = [v.ring(r.depth).tolist() for r in own] or [plane.polygon.tolist()]
         out["_vp"] = v.vanishing_point.tolist()
     return out
 

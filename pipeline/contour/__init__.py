@@ -6,7 +6,7 @@ the world frame of docs/conventions.md scaled by the pipe's height H, so the
 wall is the header's profile of height 1.
 """
 
-from .detect import ContourError, PipeContour, PlaneContour, detect_contour
+from .detect import PipeContour, PlaneContour, detect_contour
 from .view import PipeView
 
-__all__ = ["ContourError", "PipeContour", "PlaneContour", "PipeView", "detect_contour"]
+__all__ = ["PipeContour", "PlaneContour", "PipeView", "detect_contour"]

@@ -2,18 +2,19 @@
 
 Method (docs/contour.md):
 
-1. candidate ridge points about the frame's dark centre (``ridges``);
-2. a pose search: every wall point of one joint ring lies at one depth, so
-   the pose (camera offset, yaw, pitch, and roll for non-circular shapes)
-   that concentrates the depths of the candidates most sharply is sought,
-   shape prior included (the header's profile);
-3. rings are the peaks of that depth histogram with enough arc coverage;
-   laterals, the water line and texture do not share a depth and do not vote;
-4. a least-squares fit of the pose and the ring depths to the ring points
-   (reprojection error [px]), with outliers gated out, and the covariance
-   of the pose from the fit;
-5. for any image point, the cross-section through it and its p_H, with
-   u(p_H) propagated from the pose covariance.
+1. ridge curves about each frame's dark centre (``ridges``);
+2. a first pose: the header's profile fitted to each long curve, and the
+   line of ring centres against ring size found by consensus (vanishing
+   point and camera offset); a second first pose from the depth peaks seen
+   from the dark centre; a coordinate search only when neither exists;
+3. from each first pose: rings as the peaks of each frame's depth histogram
+   with enough points and arc coverage, a least-squares fit of the shared
+   pose and every ring's depth to the ring points (reprojection error
+   [px]), rings that do not follow the family dropped, repeated; the fit
+   whose rings are closest to their points is kept;
+4. the pose covariance from that fit;
+5. for any wall point, the cross-section through it and its p_H, with
+   u(p_H) from the pose covariance and the wall's departure from the profile.
 """
 
 from __future__ import annotations
@@ -23,11 +24,13 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.optimize import least_squares
 
-from ..errors import PipegaugeError
+from scipy.sparse import lil_matrix
+
+from ..profiles import ray_to_wall
 from .ridges import dark_centre, ridge_points
 from .view import POSE_PARAMETERS, PipeView
 
-__all__ = ["ContourError", "Ring", "PlaneContour", "PipeContour", "detect_contour", "wall_u_from_tolerance"]
+__all__ = ["Ring", "PlaneContour", "PipeContour", "detect_contour", "wall_u_from_tolerance"]
 
 MAX_CANDIDATES_PER_FRAME = 2000
 MIN_CURVE_POINTS = 30       # ridge curves shorter than this are texture
@@ -39,10 +42,6 @@ MIN_RING_COVERAGE_DEG = 90.0
 MAX_RMS_PX = 1.5
 MAX_RING_RMS_PX = 1.0       # a ring fitting worse than this (or twice the median ring) is not of the family
 MAX_RELATIVE_U = 0.02       # u(p_H)/p_H above which a plane is not trusted
-
-
-class ContourError(PipegaugeError):
-    """No pipe contour could be found with confidence."""
 
 
 @dataclass(frozen=True)
@@ -87,10 +86,6 @@ class PipeContour:
     @property
     def confident(self) -> bool:
         return not self.problems
-
-    @property
-    def vanishing_point(self) -> np.ndarray:
-        return self.view.vanishing_point
 
     def _p_H_at(self, pose: np.ndarray, point: np.ndarray) -> float:
         view = self.view.with_pose(pose)
@@ -189,8 +184,6 @@ def _template_fit(pts: np.ndarray, shape: str) -> tuple[np.ndarray, float, np.nd
     Returns the image position of the profile's centre (x, y) [px], the
     scale s = the ring's pixel height [px], and the inliers (within INLIER_PX).
     """
-    from ..profiles import ray_to_wall
-
     c, r, keep = _circle_fit(pts)
     x0 = np.array([c[0], c[1], 2.0 * r])
 
@@ -265,7 +258,7 @@ def _pose_from_templates(view: PipeView, pts: np.ndarray, curve_of: np.ndarray) 
     return start.with_pose([ox, oy, start.yaw, start.pitch, 0.0])
 
 
-def _pose_from_peaks(view: PipeView, pts: np.ndarray, frame_of: np.ndarray, curve_of: np.ndarray) -> PipeView | None:
+def _pose_from_peaks(view: PipeView, pts: np.ndarray, frame_of: np.ndarray) -> PipeView | None:
     """First pose from rings found as depth peaks seen from the dark centre (good when the offset is small)."""
     rows = []
     for frame, t in _ring_peaks(view, pts, frame_of, width=0.01):
@@ -294,12 +287,6 @@ def _refine(view: PipeView, pts: np.ndarray, frame_of: np.ndarray):
         if loss != "linear":
             rings = _drop_misfits(view, pts, frame_of, rings)
     return view, rings, sol, free
-
-
-def _ring_rms(view: PipeView, pts: np.ndarray, frame_of: np.ndarray, rings) -> float:
-    """RMS distance [px] of the ring points from their rings: how well a pose explains what it claims."""
-    ring_of, res = _assign(view, pts, frame_of, rings)
-    return float(np.sqrt(np.mean(res[ring_of >= 0] ** 2)))
 
 
 def _search_pose(view: PipeView, pts: np.ndarray, frame_of: np.ndarray) -> PipeView:
@@ -371,10 +358,8 @@ def _assign(view: PipeView, pts: np.ndarray, frame_of: np.ndarray, rings: list[t
     return np.where(r < INLIER_PX, k, -1), r
 
 
-def _fit(view: PipeView, pts: np.ndarray, ring_of: np.ndarray, depths: list[float], loss: str, max_nfev: int | None = None):
+def _fit(view: PipeView, pts: np.ndarray, ring_of: np.ndarray, depths: list[float], loss: str):
     """Least squares of the shared pose and every ring's depth to the ring points' reprojection [px]."""
-    from scipy.sparse import lil_matrix
-
     free = np.nonzero(_pose_mask(view.shape))[0]
     x0 = np.concatenate([view.pose[free], np.log(depths)])
     sparsity = lil_matrix((2 * len(pts) + 2, len(x0)), dtype=int)
@@ -396,7 +381,7 @@ def _fit(view: PipeView, pts: np.ndarray, ring_of: np.ndarray, depths: list[floa
         return np.concatenate([d.ravel(), prior])
 
     sol = least_squares(fun, x0, loss=loss, f_scale=1.0, x_scale="jac", diff_step=1e-7,
-                        jac_sparsity=sparsity, max_nfev=max_nfev)
+                        jac_sparsity=sparsity)
     v, t = unpack(sol.x)
     return v, list(t), sol, free
 
@@ -460,15 +445,18 @@ def detect_contour(ideal_grays, camera_matrix: np.ndarray, shape: str, *,
     steer = np.isin(frame_of, np.unique(np.linspace(0, len(frames) - 1, SEARCH_FRAMES).round().astype(int)))
     start = _initial_view(view, seed)
     starts = [v for v in (_pose_from_templates(start, pts, curve_of),
-                          _pose_from_peaks(start, pts, frame_of, curve_of)) if v is not None]
+                          _pose_from_peaks(start, pts, frame_of)) if v is not None]
     if not starts:
         starts = [_search_pose(start, pts[steer], frame_of[steer])]
     fits = [f for f in (_refine(v, pts, frame_of) for v in starts) if f is not None]
     if not fits:
         empty.problems.append("no cross-section ring with enough points and arc coverage")
         return empty
-    view, rings, sol, free = min(fits, key=lambda f: _ring_rms(f[0], pts, frame_of, f[1]))
-    ring_of, res = _assign(view, pts, frame_of, rings)
+    # keep the fit whose rings lie closest to their points: how well a pose explains what it claims
+    assigned = [_assign(f[0], pts, frame_of, f[1]) for f in fits]
+    rms_of = [float(np.sqrt(np.mean(res[ring_of >= 0] ** 2))) for ring_of, res in assigned]
+    best = int(np.argmin(rms_of))
+    (view, rings, sol, free), (ring_of, res), rms = fits[best], assigned[best], rms_of[best]
     sel = ring_of >= 0
     dof = max(2 * int(sel.sum()) - len(sol.x), 1)
     # Residuals along one ring share its error (blur, texture, the ring's own shape), so the
@@ -486,7 +474,6 @@ def detect_contour(ideal_grays, camera_matrix: np.ndarray, shape: str, *,
         on = ring_of == i
         found.append(Ring(frame, float(t), float(view.p_H(t)[0]), int(on.sum()), _coverage_deg(view, pts[on]),
                           float(np.sqrt(np.mean(res[on] ** 2))) if on.any() else float("nan")))
-    rms = float(np.sqrt(np.mean(res[sel] ** 2)))
     problems = []
     if len({round(np.log(r.depth), 1) for r in found}) < 2:
         problems.append("rings at one depth only: the camera offset rests on its prior")

@@ -33,3 +33,23 @@ class CorruptVideoError(PipegaugeError):
 
 class OverlayError(PipegaugeError):
     """The chainage overlay cannot be found or read."""
+
+
+class PackageError(PipegaugeError):
+    """An inspection package is incomplete or its manifest (package.json) is malformed."""
+
+
+class HeaderError(PipegaugeError):
+    """A section header (header.json) is missing a field or holds an impossible value."""
+
+
+class ObservationLogError(PipegaugeError):
+    """An observation log (observations.csv) or its marks (marks.csv) cannot be read at all."""
+
+
+class MeasurementError(PipegaugeError):
+    """An observation cannot be measured (no frame, no confident contour, points off the wall)."""
+
+
+class StoreError(PipegaugeError):
+    """The Parquet dataset cannot be read or written."""

@@ -1,0 +1,143 @@
+"""EN 13508-2 observation codes: characterisations, quantification units, and what pipegauge measures.
+
+Source: EN 13508-2:2003+A1:2011 clause 8 as summarised in ../shared/DESIGN.md
+section 4 and the coding notes beside it (RIONED, VSA-KEK 2020, DWA/ISYBAU
+tables). The standard is a paid document: where a utility's catalogue
+differs, this table is the one place to change.
+
+Each quantification says its unit and, when pipegauge measures it from the
+two points marked in the image, its *method* (a key of
+``pipeline.measurement.methods.METHODS``):
+
+* ``length``: distance between two wall points [mm] (crack width, joint
+  gap, opening height and width, break length);
+* ``step``: from a wall point to a point displaced off the wall in the same
+  cross-section (radial joint displacement) [mm];
+* ``deformation``: reduction of the vertical (char. A) or horizontal (B)
+  dimension, % of the pipe's dimension;
+* ``intrusion``: intruding connection, from the wall to the tip, % of the
+  pipe height;
+* ``water_level``: the water line's chord, % of the vertical dimension;
+* ``deposit_area``: the deposit surface's chord, % of the cross-sectional area.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from types import MappingProxyType
+from typing import Mapping
+
+__all__ = ["Quantification", "Code", "CODES", "UNITS", "code_spec", "quantification"]
+
+UNITS = ("mm", "%", "deg", "count")
+ANY = "*"
+
+
+@dataclass(frozen=True)
+class Quantification:
+    """What a quantification of a code means: its unit and how it is measured in the image."""
+
+    unit: str
+    meaning: str
+    method: str | None = None
+
+
+@dataclass(frozen=True)
+class Code:
+    """One main code of EN 13508-2.
+
+    char1, char2 : allowed characterisation letters -> meaning (empty: none is coded)
+    q1, q2 : quantification per characterisation 1 (key ``"*"`` for any)
+    continuous : whether it may be coded as a continuous defect (S/F markers)
+    """
+
+    code: str
+    name: str
+    char1: Mapping[str, str] = field(default_factory=dict)
+    char2: Mapping[str, str] = field(default_factory=dict)
+    q1: Mapping[str, Quantification] = field(default_factory=dict)
+    q2: Mapping[str, Quantification] = field(default_factory=dict)
+    continuous: bool = True
+
+    def quantification(self, which: str, char1: str) -> Quantification | None:
+        """The quantification ``"Q1"`` or ``"Q2"`` for a characterisation 1, or None when the code has none."""
+        table = self.q1 if which == "Q1" else self.q2
+        return table.get(char1, table.get(ANY))
+
+
+def _q(unit: str, meaning: str, method: str | None = None) -> Quantification:
+    return Quantification(unit, meaning, method)
+
+
+_AREA = _q("%", "reduction of the cross-sectional area")
+_CRACK_CHARS = {"A": "surface crack", "B": "crack", "C": "open crack"}
+_CRACK_SHAPES = {"A": "longitudinal", "B": "circumferential", "C": "complex", "D": "spiral", "E": "star"}
+
+_TABLE = (
+    Code("BAA", "deformation", {"A": "vertical", "B": "horizontal"},
+         q1={ANY: _q("%", "change of the dimension in the characterised direction", "deformation")}),
+    Code("BAB", "crack", _CRACK_CHARS, _CRACK_SHAPES,
+         q1={"B": _q("mm", "crack width", "length"), "C": _q("mm", "crack width", "length")}),
+    Code("BAC", "break or collapse", {"A": "break", "B": "missing pieces", "C": "collapse"},
+         q1={ANY: _q("mm", "length of the break", "length")}),
+    Code("BAD", "defective brickwork", {"A": "displaced bricks", "B": "missing bricks", "C": "dropped invert", "D": "collapsed"},
+         q1={"C": _q("mm", "drop of the invert")}),
+    Code("BAE", "missing mortar", q1={ANY: _q("mm", "depth of the missing mortar")}),
+    Code("BAF", "surface damage", {c: "surface damage" for c in "ABCDEFGHIJKZ"}, {c: "cause" for c in "ABCDEZ"}),
+    Code("BAG", "intruding connection", q1={ANY: _q("%", "intrusion, % of the pipe height", "intrusion")},
+         continuous=False),
+    Code("BAH", "defective connection", {c: "defect" for c in "ABCDEZ"}, continuous=False),
+    Code("BAI", "intruding sealing material", {"A": "sealing ring", "Z": "other"}, {c: "position" for c in "ABCD"},
+         q1={"Z": _AREA}, continuous=False),
+    Code("BAJ", "displaced joint", {"A": "longitudinal", "B": "radial", "C": "angular"},
+         q1={"A": _q("mm", "longitudinal displacement (gap)", "length"),
+             "B": _q("mm", "radial displacement (step)", "step"),
+             "C": _q("deg", "angular displacement")}, continuous=False),
+    Code("BAK", "lining defect", {c: "defect" for c in "ABCDEFGZ"}),
+    Code("BAL", "defective repair", {c: "defect" for c in "ABCDZ"}),
+    Code("BAM", "weld failure", {"A": "longitudinal", "B": "circumferential", "C": "spiral"}),
+    Code("BAN", "porous pipe"),
+    Code("BAO", "soil visible through defect", continuous=False),
+    Code("BAP", "void visible through defect", continuous=False),
+    Code("BBA", "roots", {"A": "tap root", "B": "fine roots", "C": "complex roots"}, q1={ANY: _AREA}),
+    Code("BBB", "attached deposits", {"A": "encrustation", "B": "grease", "C": "fouling", "Z": "other"}, q1={ANY: _AREA}),
+    Code("BBC", "settled deposits", {"A": "fine", "B": "coarse", "C": "hard or compacted", "Z": "other"},
+         q1={ANY: _q("%", "reduction of the cross-sectional area", "deposit_area")}),
+    Code("BBD", "ingress of soil", {"A": "sand", "B": "peat", "C": "fine material", "D": "coarse material", "Z": "other"},
+         q1={ANY: _AREA}),
+    Code("BBE", "other obstacles", {c: "obstacle" for c in "ABCDEFGHZ"}, q1={ANY: _AREA}),
+    Code("BBF", "infiltration", {"A": "seeping", "B": "dripping", "C": "running", "D": "gushing"}),
+    Code("BBG", "exfiltration"),
+    Code("BBH", "vermin", {"A": "rat", "B": "cockroach", "Z": "other"}, {"A": "in pipe", "B": "in connection", "C": "in joint", "Z": "other"},
+         q1={ANY: _q("count", "number of animals")}, continuous=False),
+    Code("BCA", "connection", {c: "type" for c in "ABCDEFGZ"}, {"A": "open", "B": "closed"},
+         q1={ANY: _q("mm", "height of the opening (around the pipe)", "length")},
+         q2={ANY: _q("mm", "width of the opening (along the pipe)", "length")}, continuous=False),
+    Code("BCB", "point repair", {c: "repair" for c in "ABCDEFGHIZ"}),
+    Code("BCC", "curvature", {"A": "left", "B": "right"}, {"A": "up", "B": "down"},
+         q1={ANY: _q("deg", "angle of the bend")}),
+    Code("BCD", "start node", continuous=False),
+    Code("BCE", "finish node", continuous=False),
+    Code("BDA", "general photograph", continuous=False),
+    Code("BDB", "general remark", continuous=False),
+    Code("BDC", "survey abandoned", {c: "reason" for c in "ABCZ"}, continuous=False),
+    Code("BDD", "water level", {"A": "clear", "B": "discontinued", "C": "turbid", "D": "coloured", "E": "turbid and coloured"},
+         q1={ANY: _q("%", "water level, % of the vertical dimension", "water_level")}),
+    Code("BDE", "flow from incoming pipe", {c: "flow" for c in "ABCDEY"}, q1={ANY: _q("%", "flow, % of the incoming pipe's height")},
+         continuous=False),
+    Code("BDF", "atmosphere", {"A": "oxygen deficiency", "B": "hydrogen sulphide", "C": "methane", "Z": "other"}),
+    Code("BDG", "loss of vision", {"A": "camera under water", "B": "silt", "C": "steam", "Z": "other"}),
+)
+
+CODES: Mapping[str, Code] = MappingProxyType({c.code: c for c in _TABLE})
+
+
+def code_spec(code: str) -> Code | None:
+    """The table entry of a main code (upper case), or None when the code is unknown."""
+    return CODES.get(code)
+
+
+def quantification(code: str, which: str, char1: str) -> Quantification | None:
+    """The quantification Q1/Q2 of ``code`` with characterisation 1 ``char1``, or None."""
+    spec = CODES.get(code)
+    return spec.quantification(which, char1) if spec else None

@@ -1,0 +1,79 @@
+"""The inspection package's manifest (package.json): what the package holds, validated.
+
+Format: docs/formats.md. Problems raise :class:`PackageError` naming the file,
+the field and the fix.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import re
+from dataclasses import dataclass
+from pathlib import Path
+
+from ..errors import PackageError
+
+__all__ = ["PackageManifest", "load_manifest", "certificate_path", "PACKAGE_FORMAT"]
+
+PACKAGE_FORMAT = "pipegauge-inspection-package"
+_ID = re.compile(r"^[A-Za-z0-9][A-Za-z0-9._-]{0,127}$")
+
+
+@dataclass(frozen=True)
+class PackageManifest:
+    """Where a package's files are and which certificate it names."""
+
+    folder: Path
+    package_id: str
+    certificate_id: str
+    video: Path
+    header: Path
+    observations: Path
+    marks: Path
+
+
+def load_manifest(folder: str | os.PathLike) -> PackageManifest:
+    """Read and validate ``folder/package.json``; every named file must exist inside the folder."""
+    folder = Path(folder)
+    path = folder / "package.json"
+    try:
+        data = json.loads(path.read_text(encoding="utf-8"))
+    except FileNotFoundError:
+        raise PackageError(f"{path}: missing; an inspection package is a folder with a package.json (docs/formats.md)") from None
+    except (UnicodeDecodeError, json.JSONDecodeError) as exc:
+        raise PackageError(f"{path}: not valid UTF-8 JSON ({exc})") from None
+    if not isinstance(data, dict):
+        raise PackageError(f"{path}: expected a JSON object")
+    problems = []
+    if data.get("format") != PACKAGE_FORMAT or data.get("format_version") != 1:
+        problems.append(f"fields 'format'/'format_version': expected {PACKAGE_FORMAT!r} version 1")
+    ids = {}
+    for key in ("package_id", "certificate_id"):
+        value = data.get(key)
+        if not isinstance(value, str) or not _ID.match(value):
+            problems.append(f"field {key!r}: {value!r} is not an id (letters, digits, '.', '_', '-'; at most 128)")
+        ids[key] = value if isinstance(value, str) else ""
+    files = {}
+    for key, default in (("video", "video.mp4"), ("header", "header.json"), ("observations", "observations.csv"),
+                         ("marks", "marks.csv")):
+        name = data.get(key, default)
+        target = (folder / str(name)).resolve()
+        if not isinstance(name, str) or folder.resolve() not in target.parents:
+            problems.append(f"field {key!r}: {name!r} must name a file inside the package folder")
+        elif not target.is_file():
+            problems.append(f"field {key!r}: the file {name!r} is missing from the package")
+        files[key] = folder / str(name)
+    if problems:
+        raise PackageError(f"{path}: " + "; ".join(problems))
+    return PackageManifest(folder, ids["package_id"], ids["certificate_id"], **files)
+
+
+def certificate_path(manifest: PackageManifest, certificates: str | os.PathLike | None = None) -> Path:
+    """The certificate file a package names: ``<certificates>/<id>.json`` (default: beside the package folder)."""
+    folder = Path(certificates) if certificates else manifest.folder.parent / "certificates"
+    path = folder / f"{manifest.certificate_id}.json"
+    if not path.is_file():
+        raise PackageError(f"{manifest.folder / 'package.json'}: certificate {manifest.certificate_id!r} not found "
+                           f"as {path}; put the camera's certificate there or pass --certificates DIR")
+    return path

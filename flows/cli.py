@@ -254,6 +254,48 @@ def _draw_contour(image, contour: dict, out_path) -> None:
 
 # -- parser --------------------------------------------------------------------
 
+# -- measure / export -----------------------------------------------------------
+
+def cmd_measure(args: argparse.Namespace) -> int:
+    from pipeline.measurement import measure_package
+    from pipeline.store import write_inspection
+    from pipeline.video.overlay_ocr import OverlayReader
+
+    reader = OverlayReader()
+    failed = 0
+    for folder in args.packages:
+        result = measure_package(folder, certificates=args.certificates, model=args.model, reader=reader,
+                                 progress=_say if args.verbose else None)
+        files = write_inspection(args.data, result.inspection, result.observations, result.measurements)
+        rec = result.inspection
+        _say(f"{rec['inspection_id']}: {rec['status']}" + (f" ({rec['error']})" if rec["error"] else "")
+             + f"; stored in {files['inspections'].parent.parent.parent}")
+        for problem in rec.get("problems") or []:
+            _say(f"  {problem}")
+        failed += rec["status"] != "ok"
+        if args.json:
+            print(json.dumps({"inspection": rec, "measurements": result.measurements}, default=str))
+            continue
+        for m in result.measurements:
+            if m["status"] == "ok":
+                print(f"{rec['inspection_id']} row {m['row']:3d} {m['code']} {m['char1'] or '-'} {m['quantity']}: "
+                      f"{m['value']:9.2f} +- {m['U95']:.2f} {m['unit']:2s} (U95, {m['interval']})"
+                      + ("" if m["confident"] else "  LOW CONFIDENCE: " + (m["warnings"] or "")))
+            else:
+                print(f"{rec['inspection_id']} row {m['row']:3d} {m['code']} {m['quantity']}: not measured: {m['error']}")
+    return EXIT_FAILED if failed else EXIT_OK
+
+
+def cmd_export(args: argparse.Namespace) -> int:
+    from pipeline.store import export_csv, export_parquet
+
+    fmt = args.format or ("parquet" if args.out.suffix.lower() == ".parquet" else "csv")
+    write = export_parquet if fmt == "parquet" else export_csv
+    n = write(args.data, args.out, args.start, args.end)
+    _say(f"pipegauge export: {n} quantities written to {args.out} ({fmt})")
+    return EXIT_OK
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="pipegauge",
@@ -316,6 +358,31 @@ def build_parser() -> argparse.ArgumentParser:
     pr.add_argument("--shape", choices=["circular", "egg"], default="circular",
                     help="the section's shape, for the contour (default: %(default)s)")
     pr.set_defaults(func=cmd_probe)
+
+    me = verbs.add_parser("measure", help="measure the logged observations of inspection packages into the dataset",
+                          description="Validate each package (manifest, header, log, marks, certificate, video), read "
+                                      "the chainage, fit the pipe contour at each marked frame, measure every marked "
+                                      "quantity with its U95 and store the records in the Parquet dataset "
+                                      "(docs/dataset.md). Exit 1 when a package failed or had bad rows.")
+    me.add_argument("packages", nargs="+", type=Path, help="inspection package folders")
+    me.add_argument("--data", type=Path, default=Path("reports/dataset"), help="dataset folder (default: %(default)s)")
+    me.add_argument("--model", choices=("perspective", "orthographic"), default="perspective",
+                    help="measurement model (default: %(default)s; docs/measurement.md)")
+    me.add_argument("--certificates", type=Path, help="folder of certificates (default: certificates/ beside each package)")
+    me.add_argument("--json", action="store_true", help="print each package's records as JSON")
+    me.add_argument("--verbose", action="store_true", help="report progress within each package")
+    me.set_defaults(func=cmd_measure)
+
+    ex = verbs.add_parser("export", help="export measured quantities with U95 for asset management (CSV or Parquet)",
+                          description="One row per measured quantity with value, U95, unit and interval, joined with "
+                                      "its observation and section. CSV text cells are safe against spreadsheet "
+                                      "formula injection.")
+    ex.add_argument("--data", type=Path, default=Path("reports/dataset"), help="dataset folder (default: %(default)s)")
+    ex.add_argument("--out", type=Path, required=True, help="file to write (.csv or .parquet)")
+    ex.add_argument("--format", choices=("csv", "parquet"), help="default: from the file's extension")
+    ex.add_argument("--from", dest="start", type=_date, help="first inspection date YYYY-MM-DD")
+    ex.add_argument("--to", dest="end", type=_date, help="last inspection date YYYY-MM-DD")
+    ex.set_defaults(func=cmd_export)
 
     c = verbs.add_parser("certificate", help="check or convert a camera calibration certificate",
                          description="Validate a calibration certificate (docs/certificate-format.md) or convert it "

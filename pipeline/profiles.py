@@ -21,7 +21,7 @@ import numpy as np
 
 __all__ = [
     "SHAPES", "profile_arcs", "profile_polygon", "ray_to_wall", "profile_width", "segment_height_for_area_fraction", "chord_at_height",
-    "exit_table", "wall_point", "clock_to_theta", "theta_to_clock", "perimeter",
+    "exit_table", "wall_point", "level_tables", "clock_to_theta", "theta_to_clock", "perimeter",
 ]
 
 SHAPES = ("circular", "egg")
@@ -68,22 +68,25 @@ def profile_polygon(shape: str, H: float, n: int = 1440) -> np.ndarray:
     return np.concatenate(parts)
 
 
-def ray_to_wall(shape: str, H: float, origin, directions) -> np.ndarray:
-    """Distance [mm] from ``origin`` (2,) [mm] to the wall along unit ``directions`` (n, 2).
+def ray_to_wall(shape: str, H, origin, directions) -> np.ndarray:
+    """Distance [mm] from ``origin`` to the wall along unit ``directions`` (n, 2).
 
-    Exact ray-arc intersection (``profile_arcs``); origin must lie inside
-    the profile. Returns shape (n,); inf where no wall is hit (origin outside).
+    Exact ray-arc intersection (``profile_arcs``). origin : (2,) one origin
+    for all rays, or (n, 2) one per ray [mm], inside the profile; H : height
+    [mm], a number or (n,) one per ray (a Monte Carlo trial's wall).
+    Returns shape (n,); inf where no wall is hit (origin outside).
     """
-    o = np.asarray(origin, float)
     u = np.asarray(directions, float).reshape(-1, 2)
+    o = np.broadcast_to(np.asarray(origin, float), u.shape)
+    scale = np.broadcast_to(np.asarray(H, float), (len(u),))
     best = np.full(len(u), np.inf)
-    for cx, cy, r, a0, a1 in profile_arcs(shape, H):
-        oc = o - (cx, cy)
-        b = u @ oc
-        disc = b * b - (oc @ oc - r * r)
+    for cx, cy, r, a0, a1 in profile_arcs(shape, 1.0):
+        oc = o - scale[:, None] * (cx, cy)
+        b = np.sum(u * oc, axis=1)
+        disc = b * b - (np.sum(oc * oc, axis=1) - (r * scale) ** 2)
         root = np.sqrt(np.where(disc >= 0, disc, np.nan))
         for lam in (-b - root, -b + root):
-            px, py = oc[0] + lam * u[:, 0], oc[1] + lam * u[:, 1]
+            px, py = oc[:, 0] + lam * u[:, 0], oc[:, 1] + lam * u[:, 1]
             ang = np.arctan2(py, px)
             ang = a0 + np.mod(ang - a0, 2 * math.pi)          # into [a0, a0 + 2 pi)
             on_arc = (lam > 0) & (ang <= a1 + 1e-9)
@@ -207,3 +210,20 @@ def theta_to_clock(theta: float) -> float:
     """Clock position in (0, 12] of an angle [rad] from +X."""
     clock = (90.0 - float(np.rad2deg(theta))) / 30.0 % 12.0
     return 12.0 if clock == 0 else clock
+
+
+@functools.lru_cache(maxsize=4)
+def level_tables(shape: str, n: int = 4001) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(h, width, area fraction) of a level surface at height h above the invert, profile of unit height.
+
+    h : (n,) from 0 to 1 [H]; width : chord of the level [H]; area fraction :
+    share of the cross-section below the level [1]. Both profiles are
+    symmetric and convex, so the right half of the wall gives the width.
+    """
+    poly = profile_polygon(shape, 1.0, 8192)
+    right = poly[poly[:, 0] >= 0]
+    right = right[np.argsort(right[:, 1])]
+    h = np.linspace(0.0, 1.0, n)
+    width = 2.0 * np.interp(h - 0.5, right[:, 1], right[:, 0])
+    area = np.concatenate([[0.0], np.cumsum(0.5 * (width[1:] + width[:-1]) * np.diff(h))])
+    return h, width, area / area[-1]

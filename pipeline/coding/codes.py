@@ -9,8 +9,10 @@ Each quantification says its unit and, when pipegauge measures it from the
 two points marked in the image, its *method* (a key of
 ``pipeline.measurement.methods.METHODS``):
 
-* ``length``: distance between two wall points [mm] (crack width, joint
-  gap, opening height and width, break length);
+* ``length``: distance between two wall points [mm] (crack width,
+  opening height and width, break length);
+* ``axial``: distance along the pipe axis between two wall points
+  (longitudinal joint displacement) [mm];
 * ``step``: from a wall point to a point displaced off the wall in the same
   cross-section (radial joint displacement) [mm];
 * ``deformation``: reduction of the vertical (char. A) or horizontal (B)
@@ -90,7 +92,7 @@ _TABLE = (
     Code("BAI", "intruding sealing material", {"A": "sealing ring", "Z": "other"}, {c: "position" for c in "ABCD"},
          q1={"Z": _AREA}, continuous=False),
     Code("BAJ", "displaced joint", {"A": "longitudinal", "B": "radial", "C": "angular"},
-         q1={"A": _q("mm", "longitudinal displacement (gap)", "length"),
+         q1={"A": _q("mm", "longitudinal displacement (gap)", "axial"),
              "B": _q("mm", "radial displacement (step)", "step"),
              "C": _q("deg", "angular displacement")}, continuous=False),
     Code("BAK", "lining defect", {c: "defect" for c in "ABCDEFGZ"}),

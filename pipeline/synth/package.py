@@ -46,7 +46,7 @@ __all__ = ["CameraMount", "PackageSpec", "build_package", "plan_travel", "header
 PACKAGE_FORMAT = "pipegauge-inspection-package"
 OBSERVATION_COLUMNS = ["row", "distance_m", "code", "char1", "char2", "q1", "q1_unit", "q2", "q2_unit",
                        "clock_from", "clock_to", "at_joint", "continuous", "video_time", "photo", "remark"]
-MARK_COLUMNS = ["row", "quantity", "frame", "point", "x_px", "y_px"]
+MARK_COLUMNS = ["row", "quantity", "frame", "point", "x_px", "y_px", "u_px"]
 
 
 @dataclass(frozen=True)
@@ -382,7 +382,7 @@ def _log_and_marks(spec, cert, obs, rng, frame_of_stop, counter, pose_at):
                                  f"at {clicks.round(1).tolist()}; move the feature or the stop")
             noisy = clicks + spec.click_sigma_px * rng.standard_normal(clicks.shape)
             for p, (x, y) in zip("ab", noisy):
-                marks.append([n, quantity.name, frame, p, round(float(x), 1), round(float(y), 1)])
+                marks.append([n, quantity.name, frame, p, round(float(x), 1), round(float(y), 1), spec.click_sigma_px])
             plane = _plane_truth(spec, cert, pose, o.z_mm)
             qt.append({"quantity": quantity.name, "true_value": quantity.true_value, "unit": quantity.unit,
                        "definition": quantity.definition, "points_world_mm": quantity.points_w.round(4).tolist(),

@@ -29,7 +29,7 @@ import numpy as np
 
 from ..camera.certificate import Certificate
 
-__all__ = ["CameraPose", "camera_rotation", "pixel_rays", "project_points", "ideal_project_points"]
+__all__ = ["CameraPose", "camera_rotation", "camera_rotations", "pixel_rays", "project_points", "ideal_project_points"]
 
 _BASE = np.diag([1.0, -1.0, 1.0])
 
@@ -53,6 +53,17 @@ def camera_rotation(yaw: float, pitch: float, roll: float) -> np.ndarray:
     """R_wc (3x3): camera axes in world coordinates; angles [rad]."""
     # Ry(+yaw) turns +Z towards +X; Rx(+pitch) turns +Z towards -Y (looking down).
     return _ry(yaw) @ _rx(pitch) @ _rz(-roll) @ _BASE
+
+
+def camera_rotations(yaw, pitch, roll) -> np.ndarray:
+    """R_wc (n, 3, 3) for arrays of angles (n,) [rad]: ``camera_rotation`` for many poses at once."""
+    yaw, pitch, roll = np.broadcast_arrays(*(np.atleast_1d(np.asarray(a, float)) for a in (yaw, pitch, roll)))
+    cy, sy, cp, sp, cr, sr = np.cos(yaw), np.sin(yaw), np.cos(pitch), np.sin(pitch), np.cos(-roll), np.sin(-roll)
+    one, zero = np.ones_like(yaw), np.zeros_like(yaw)
+    Ry = np.stack([np.stack([cy, zero, sy], -1), np.stack([zero, one, zero], -1), np.stack([-sy, zero, cy], -1)], -2)
+    Rx = np.stack([np.stack([one, zero, zero], -1), np.stack([zero, cp, -sp], -1), np.stack([zero, sp, cp], -1)], -2)
+    Rz = np.stack([np.stack([cr, -sr, zero], -1), np.stack([sr, cr, zero], -1), np.stack([zero, zero, one], -1)], -2)
+    return Ry @ Rx @ Rz @ _BASE
 
 
 @dataclass(frozen=True)

@@ -1,0 +1,215 @@
+"""One inspection package measured end to end: validated inputs, chainage, contours, quantities.
+
+The result holds plain records, one per inspection, per logged observation
+and per measured quantity, with the column names of the Parquet dataset
+(``pipeline.store``, docs/dataset.md). A bad row of the log, a bad mark or a
+quantity that cannot be measured is recorded with its error and the rest
+are still measured; a package that cannot be read at all (manifest,
+header, certificate, video) gives one inspection record with status
+``failed`` and the error.
+"""
+
+from __future__ import annotations
+
+import datetime as dt
+import hashlib
+import os
+import time
+import zlib
+from collections import defaultdict
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+from typing import Callable
+
+import numpy as np
+
+from .. import __version__
+from ..camera import load_certificate
+from ..coding import (CODES, Mark, Observation, RowProblem, SectionHeader, certificate_path, check_marks_in_frame,
+                      load_header, load_manifest, read_log, read_marks)
+from ..errors import MeasurementError, PipegaugeError
+from ..video.ingest import ingest_chainage
+from ..video.overlay_ocr import OverlayReader
+from ..video.pipe_contour import contour_at_frame, overlay_mask
+from ..video.undistort import Undistorter
+from .quantity import MODELS, MarkedQuantity, QuantityResult, measure_quantity
+
+__all__ = ["InspectionResult", "measure_package", "package_digest"]
+
+
+@dataclass
+class InspectionResult:
+    """Records of one package for the dataset's three tables."""
+
+    inspection: dict
+    observations: list[dict] = field(default_factory=list)
+    measurements: list[dict] = field(default_factory=list)
+
+    @property
+    def inspection_id(self) -> str:
+        return self.inspection["inspection_id"]
+
+    @property
+    def ok(self) -> bool:
+        return self.inspection["status"] == "ok"
+
+
+def package_digest(folder: str | os.PathLike) -> str:
+    """SHA-256 over the package's files (names and contents, truth/ excluded): its identity for re-processing."""
+    h = hashlib.sha256()
+    folder = Path(folder)
+    for path in sorted(p for p in folder.rglob("*") if p.is_file() and "truth" not in p.relative_to(folder).parts):
+        h.update(str(path.relative_to(folder)).encode())
+        with path.open("rb") as fh:
+            for chunk in iter(lambda: fh.read(1 << 20), b""):
+                h.update(chunk)
+    return h.hexdigest()
+
+
+def _sha256(path: Path) -> str:
+    h = hashlib.sha256()
+    with path.open("rb") as fh:
+        for chunk in iter(lambda: fh.read(1 << 20), b""):
+            h.update(chunk)
+    return h.hexdigest()
+
+
+def _seed(inspection_id: str, row: int, quantity: str) -> int:
+    """A Monte Carlo seed fixed by what is measured, so a re-run repeats every trial."""
+    return zlib.crc32(f"{inspection_id}/{row}/{quantity}".encode())
+
+
+def _ideal_with_u(und: Undistorter, point, u_px: float, u_cert_px: float) -> tuple[tuple[float, float], float]:
+    """A recorded point in the ideal image and its coordinate u there: marking and certificate residual, scaled by the undistortion's local stretch."""
+    p = np.asarray(point, float)
+    e = 0.5
+    around = und.points(np.array([p, p + (e, 0), p - (e, 0), p + (0, e), p - (0, e)]))
+    J = np.column_stack([(around[1] - around[2]) / (2 * e), (around[3] - around[4]) / (2 * e)])
+    stretch = float(np.sqrt(abs(np.linalg.det(J))))
+    return (float(around[0, 0]), float(around[0, 1])), stretch * float(np.hypot(u_px, u_cert_px))
+
+
+def _observation_record(o: Observation) -> dict:
+    spec = CODES.get(o.code)
+    return {
+        "row": o.row, "distance_m": o.distance_m, "code": o.code, "code_meaning": spec.name if spec else None,
+        "char1": o.char1, "char2": o.char2, "q1": o.q1, "q1_unit": o.q1_unit or None, "q2": o.q2,
+        "q2_unit": o.q2_unit or None, "clock_from": o.clock_from, "clock_to": o.clock_to, "at_joint": o.at_joint,
+        "continuous": o.continuous or None, "video_time_s": o.video_time_s, "photo": o.photo, "remark": o.remark,
+        "valid": not o.problems, "problems": "; ".join(str(p) for p in o.problems) or None,
+    }
+
+
+def _failed(record: dict, error: str) -> InspectionResult:
+    record.update(status="failed", error=error)
+    return InspectionResult(record)
+
+
+def measure_package(folder: str | os.PathLike, *, certificates: str | os.PathLike | None = None,
+                    model: str = "perspective", reader: OverlayReader | None = None, every: int = 4,
+                    progress: Callable[[str], None] | None = None, today: dt.date | None = None) -> InspectionResult:
+    """Measure every marked quantity of a package; never raises for a bad package (the record says why).
+
+    certificates : folder of certificate files (default: ``certificates/`` beside the package)
+    model : "perspective" (default) or "orthographic"; every : overlay sampling interval [frames]
+    """
+    say = progress or (lambda message: None)
+    if model not in MODELS:
+        raise ValueError(f"unknown model {model!r}; use one of {', '.join(MODELS)}")
+    folder = Path(folder)
+    t_start = time.perf_counter()
+    record: dict = {"inspection_id": folder.name, "package_folder": str(folder), "pipeline_version": __version__,
+                    "model": model, "processed_at": dt.datetime.now(dt.timezone.utc), "status": "failed",
+                    "error": None, "n_observations": 0, "n_measurements": 0, "n_problems": 0}
+    try:
+        manifest = load_manifest(folder)
+        record["inspection_id"] = manifest.package_id
+        record["package_sha256"] = package_digest(folder)
+        header = load_header(manifest.header)
+        record.update(_header_fields(header))
+        observations = read_log(manifest.observations, header.section_length_m)
+        marks, mark_problems = read_marks(manifest.marks, observations)
+        cert = load_certificate(certificate_path(manifest, certificates))
+        record.update(certificate_id=cert.certificate_id, certificate_valid_until=cert.valid_until)
+        cert.check_valid_on(header.inspection_date)
+        say(f"{manifest.package_id}: reading the chainage overlay")
+        t0 = time.perf_counter()
+        ingest = ingest_chainage(manifest.video, reader, every=every)
+        info = ingest.info
+        record.update(video_file=manifest.video.name, video_sha256=_sha256(manifest.video), video_frames=info.frame_count,
+                      video_fps=info.fps, video_width_px=info.width, video_height_px=info.height,
+                      chainage_read_rate=ingest.read_rate)
+        und = Undistorter(cert, info.width, info.height, what=str(manifest.video))
+        mask = overlay_mask(manifest.video, und)
+        record["time_track_s"] = time.perf_counter() - t0
+    except PipegaugeError as exc:
+        record["time_total_s"] = time.perf_counter() - t_start
+        return _failed(record, str(exc))
+
+    result = InspectionResult(record, [_observation_record(o) for o in observations])
+    problems: list[str] = [str(p) for o in observations for p in o.problems] + [str(p) for p in mark_problems]
+    by_row = {o.row: o for o in observations}
+    contours, t_contour, t_measure = {}, 0.0, 0.0
+    by_frame: dict[int, list[Mark]] = defaultdict(list)
+    for m in marks:
+        by_frame[m.frame].append(m)
+    for frame in sorted(by_frame):
+        for m in by_frame[frame]:
+            obs = by_row[m.row]
+            row = _measurement_base(manifest.package_id, header, obs, m, ingest.track, model)
+            try:
+                if obs.problems:
+                    raise MeasurementError(f"row {obs.row} of the log is invalid: " + "; ".join(p.message for p in obs.problems))
+                bad = check_marks_in_frame(m, info.width, info.height, info.frame_count, manifest.marks.name)
+                if bad:
+                    problems += [str(p) for p in bad]
+                    raise MeasurementError("; ".join(str(p) for p in bad))
+                if frame not in contours:
+                    say(f"{manifest.package_id}: pipe contour at frame {frame}")
+                    t0 = time.perf_counter()
+                    contours[frame] = contour_at_frame(manifest.video, frame, ingest.track, und, header.shape,
+                                                       height_mm=header.height_mm,
+                                                       tolerance_mm=header.height_tolerance_mm, mask=mask)
+                    t_contour += time.perf_counter() - t0
+                t0 = time.perf_counter()
+                (a, u_a), (b, u_b) = (_ideal_with_u(und, p, m.u_px, cert.image_coordinate_u_px) for p in (m.a, m.b))
+                method = obs.quantification(m.quantity).method
+                q = MarkedQuantity(obs.code, obs.char1, m.quantity, method, a, b, u_a, u_b)
+                res = measure_quantity(q, contours[frame], cert, H=header.height_mm, tolerance=header.height_tolerance_mm,
+                                       model=model, seed=_seed(manifest.package_id, obs.row, m.quantity))
+                t_measure += time.perf_counter() - t0
+                row.update(_quantity_fields(res))
+            except (MeasurementError, ValueError) as exc:
+                row.update(status="error", error=str(exc))
+            result.measurements.append(row)
+    n_bad = sum(r["status"] != "ok" for r in result.measurements)
+    record.update(status="ok" if not problems and not n_bad else "partial",
+                  error=None if not problems and not n_bad else f"{len(problems)} input problem(s), {n_bad} quantity(ies) not measured",
+                  n_observations=len(observations), n_measurements=len(result.measurements) - n_bad,
+                  n_problems=len(problems), problems=problems, time_contour_s=t_contour, time_measure_s=t_measure,
+                  time_total_s=time.perf_counter() - t_start)
+    return result
+
+
+def _header_fields(h: SectionHeader) -> dict:
+    return {k: v for k, v in h.as_record().items() if k != "inspection_date"} | {"inspection_date": h.inspection_date}
+
+
+def _measurement_base(inspection_id: str, header: SectionHeader, obs: Observation, m: Mark, track, model: str) -> dict:
+    try:
+        chainage, u_chainage = track.at_frame(m.frame)
+    except IndexError:
+        chainage, u_chainage = float("nan"), float("nan")
+    q = obs.q1 if m.quantity == "Q1" else obs.q2
+    return {"row": obs.row, "quantity": m.quantity, "code": obs.code, "char1": obs.char1, "char2": obs.char2,
+            "model": model, "frame": m.frame, "chainage_m": chainage, "u_chainage_m": u_chainage,
+            "distance_m": obs.distance_m, "operator_value": q,
+            "a_x_px": m.a[0], "a_y_px": m.a[1], "b_x_px": m.b[0], "b_y_px": m.b[1], "u_mark_px": m.u_px,
+            "status": "ok", "error": None}
+
+
+def _quantity_fields(res: QuantityResult) -> dict:
+    fields = {k: v for k, v in asdict(res).items() if k not in ("budget", "reasons", "model")}
+    fields["warnings"] = "; ".join(res.reasons) or None
+    fields["budget"] = [asdict(b) for b in res.budget]
+    return fields

@@ -1,0 +1,113 @@
+"""What each measured quantification is, as a function of the two marked points.
+
+A method (``pipeline.coding.codes``) says where the two marked points lie
+and how the quantity follows from them, in both measurement models:
+
+* perspective: from the points in pipe coordinates [H] (X right, Y up, Z
+  along the pipe; crown at Y = +1/2, invert at Y = -1/2), each found on the
+  wall or in the cross-section of the other point (``Method.surfaces``);
+* orthographic (source paper, eqs. 12-13): from the image length p_X and
+  the pipe's image height p_H in the observation's plane, SC = H / p_H.
+
+Domain: H > 0 [mm]; points inside the pipe; ratio = p_X / p_H >= 0.
+Range: mm for ``length`` and ``step``, % for the others.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..profiles import level_tables
+
+__all__ = ["Method", "METHODS", "value_from_points", "value_from_image_ratio", "reference_dimension"]
+
+
+@dataclass(frozen=True)
+class Method:
+    """How a quantity is measured from points a and b.
+
+    surfaces : where each point lies: "wall" (on the nominal wall) or
+        "plane" (in the cross-section through the other point, off the wall)
+    unit : unit of the result; scales_with_H : whether H enters (mm results)
+    """
+
+    name: str
+    unit: str
+    surfaces: tuple[str, str]
+    scales_with_H: bool
+    definition: str
+
+
+METHODS = {m.name: m for m in (
+    Method("length", "mm", ("wall", "wall"), True, "distance between two wall points"),
+    Method("axial", "mm", ("wall", "wall"), True, "distance along the pipe axis between two wall points"),
+    Method("step", "mm", ("wall", "plane"), True, "from a wall point to the displaced wall in its cross-section"),
+    Method("deformation", "%", ("plane", "wall"), False,
+           "100 (1 - d / D): d between the deformed wall (a) and the opposite wall (b), D the pipe's dimension"),
+    Method("intrusion", "%", ("wall", "plane"), False, "100 d / H: from the wall (a) to the intruding tip (b)"),
+    Method("water_level", "%", ("wall", "wall"), False, "100 h / H: height of the water line's chord above the invert"),
+    Method("deposit_area", "%", ("wall", "wall"), False, "100 A(h) / A: cross-section below the deposit surface's chord"),
+)}
+
+
+def reference_dimension(shape: str, char1: str) -> float:
+    """The pipe dimension a deformation is a share of [H]: the height (char. A) or the width (B)."""
+    if char1 == "B":
+        return float(level_tables(shape)[1].max())
+    return 1.0
+
+
+def value_from_points(method: str, shape: str, Pa: np.ndarray, Pb: np.ndarray, H, reference=1.0) -> np.ndarray:
+    """The quantity from the marked points in pipe coordinates (..., 3) [H] (perspective model).
+
+    H : pipe height [mm] (mm results only); reference : ``reference_dimension`` [H]
+    """
+    d = np.linalg.norm(Pa - Pb, axis=-1)
+    if method in ("length", "step"):
+        return H * d
+    if method == "axial":
+        return H * np.abs(Pa[..., 2] - Pb[..., 2])
+    if method == "deformation":
+        return 100.0 * (1.0 - d / reference)
+    if method == "intrusion":
+        return 100.0 * d
+    level = 0.5 * (Pa[..., 1] + Pb[..., 1]) + 0.5
+    if method == "water_level":
+        return 100.0 * level
+    if method == "deposit_area":
+        h, _, area = level_tables(shape)
+        return 100.0 * np.interp(level, h, area)
+    raise KeyError(f"unknown method {method!r}; one of {', '.join(METHODS)}")
+
+
+def _level_from_chord(shape: str, chord, below) -> np.ndarray:
+    """Height above the invert [H] of a level whose chord is ``chord`` [H]; ``below``: the chord is under the widest level."""
+    h, width, _ = level_tables(shape)
+    k = int(np.argmax(width))
+    chord = np.minimum(chord, width[k])
+    low = np.interp(chord, width[:k + 1], h[:k + 1])
+    high = np.interp(-chord, -width[k:], h[k:])
+    return np.where(below, low, high)
+
+
+def value_from_image_ratio(method: str, shape: str, ratio, H, below=True, reference=1.0) -> np.ndarray:
+    """The quantity from ratio = p_X / p_H [1] in the observation's plane (orthographic model, eqs. 12-13).
+
+    H : pipe height [mm]; below : for chords, whether the chord lies below the
+    profile's widest level in the image; reference : ``reference_dimension`` [H]
+    """
+    if method in ("length", "axial", "step"):
+        return H * ratio                      # X = SC p_X with SC = H / p_H
+    if method == "deformation":
+        return 100.0 * (1.0 - ratio / reference)
+    if method == "intrusion":
+        return 100.0 * ratio
+    level = _level_from_chord(shape, ratio, below)
+    if method == "water_level":
+        return 100.0 * level
+    if method == "deposit_area":
+        h, _, area = level_tables(shape)
+        return 100.0 * np.interp(level, h, area)
+    raise KeyError(f"unknown method {method!r}; one of {', '.join(METHODS)}")

@@ -1,0 +1,68 @@
+"""Exports for asset management: one row per measured quantity, value and U95, as CSV or Parquet.
+
+CSV cells that a spreadsheet would run as a formula (text starting with
+=, +, -, @, a tab or a carriage return) are written with a leading
+apostrophe (OWASP's advice on CSV injection); numbers are written as numbers.
+"""
+
+from __future__ import annotations
+
+import csv
+import datetime as dt
+import os
+from pathlib import Path
+
+import pandas as pd
+import pyarrow as pa
+import pyarrow.parquet as pq
+
+from ..atomic import atomic_path
+from .dataset import read_table
+
+__all__ = ["export_frame", "export_csv", "export_parquet", "spreadsheet_safe", "EXPORT_COLUMNS"]
+
+EXPORT_COLUMNS = [
+    "inspection_id", "inspection_date", "section_id", "start_node", "finish_node", "row", "distance_m", "code",
+    "code_meaning", "char1", "char2", "quantity", "value", "U95", "unit", "low", "high", "interval", "model",
+    "clock_from", "clock_to", "chainage_m", "confident", "warnings", "status", "error", "remark",
+]
+_FORMULA_START = ("=", "+", "-", "@", "\t", "\r")
+
+
+def spreadsheet_safe(value):
+    """A text cell that cannot start a spreadsheet formula; other values unchanged."""
+    if isinstance(value, str) and value.startswith(_FORMULA_START):
+        return "'" + value
+    return value
+
+
+def export_frame(root: str | os.PathLike, start: dt.date | None = None, end: dt.date | None = None) -> pd.DataFrame:
+    """Measurements joined with their observation and section, for inspection dates start..end."""
+    m = read_table(root, "measurements", start=start, end=end).drop(columns=["distance_m"])
+    o = read_table(root, "observations", start=start, end=end)[
+        ["inspection_id", "row", "distance_m", "code_meaning", "clock_from", "clock_to", "remark"]]
+    i = read_table(root, "inspections", start=start, end=end)[["inspection_id", "section_id", "start_node", "finish_node"]]
+    out = m.merge(o, on=["inspection_id", "row"], how="left").merge(i, on="inspection_id", how="left")
+    return out.reindex(columns=EXPORT_COLUMNS).sort_values(["inspection_date", "inspection_id", "row", "quantity"],
+                                                           ignore_index=True)
+
+
+def export_csv(root: str | os.PathLike, path: str | os.PathLike, start: dt.date | None = None,
+               end: dt.date | None = None) -> int:
+    """Write the export as UTF-8 CSV (atomically); returns the number of rows."""
+    frame = export_frame(root, start, end)
+    with atomic_path(path) as tmp, Path(tmp).open("w", newline="", encoding="utf-8") as fh:
+        w = csv.writer(fh)
+        w.writerow(EXPORT_COLUMNS)
+        for rec in frame.itertuples(index=False):
+            w.writerow(["" if v is None or (isinstance(v, float) and pd.isna(v)) else spreadsheet_safe(v) for v in rec])
+    return len(frame)
+
+
+def export_parquet(root: str | os.PathLike, path: str | os.PathLike, start: dt.date | None = None,
+                   end: dt.date | None = None) -> int:
+    """Write the export as one Parquet file (atomically); returns the number of rows."""
+    frame = export_frame(root, start, end)
+    with atomic_path(path) as tmp:
+        pq.write_table(pa.Table.from_pandas(frame, preserve_index=False), tmp)
+    return len(frame)

@@ -1,0 +1,85 @@
+"""The Parquet dataset's three tables: columns, types and units (docs/dataset.md).
+
+Units are in the column names (``height_mm``, ``p_H_px``) or, for a
+quantity whose unit depends on its code (mm or %), in the ``unit`` column
+beside ``value``; every field also carries its unit in the field metadata
+(key ``unit``).
+"""
+
+from __future__ import annotations
+
+import pyarrow as pa
+
+__all__ = ["TABLES", "SCHEMAS", "BUDGET_TYPE", "SCHEMA_VERSION"]
+
+SCHEMA_VERSION = "1"
+
+
+def _f(name: str, type_: pa.DataType, unit: str = "", doc: str = "") -> pa.Field:
+    meta = {"unit": unit} if unit else {}
+    if doc:
+        meta["description"] = doc
+    return pa.field(name, type_, metadata=meta or None)
+
+
+_KEY = [_f("inspection_id", pa.string(), doc="package id of the delivery"),
+        _f("inspection_date", pa.date32(), doc="ABF inspection date; the partition key")]
+
+BUDGET_TYPE = pa.list_(pa.struct([
+    _f("label", pa.string()), _f("description", pa.string()), _f("estimate", pa.float64(), "input unit"),
+    _f("u", pa.float64(), "input unit"), _f("distribution", pa.string()),
+    _f("sensitivity", pa.float64(), "quantity unit / input unit"), _f("contribution", pa.float64(), "quantity unit"),
+    _f("share", pa.float64(), "1", "share of u_c^2"),
+]))
+
+INSPECTIONS = pa.schema(_KEY + [
+    _f("section_id", pa.string(), doc="AAA"), _f("start_node", pa.string(), doc="AAD"),
+    _f("finish_node", pa.string(), doc="AAF"), _f("direction", pa.string(), doc="AAK"),
+    _f("shape", pa.string(), doc="ACA"), _f("height_mm", pa.float64(), "mm", "ACB nominal height H"),
+    _f("width_mm", pa.float64(), "mm", "ACC"), _f("height_tolerance_mm", pa.float64(), "mm"),
+    _f("material", pa.string(), doc="ACD"), _f("pipe_unit_length_m", pa.float64(), "m"),
+    _f("section_length_m", pa.float64(), "m"), _f("contractor", pa.string()), _f("site", pa.string()),
+    _f("longitudinal_reference", pa.string()), _f("package_folder", pa.string()), _f("package_sha256", pa.string()),
+    _f("certificate_id", pa.string()), _f("certificate_valid_until", pa.date32()),
+    _f("video_file", pa.string()), _f("video_sha256", pa.string()), _f("video_frames", pa.int64()),
+    _f("video_fps", pa.float64(), "1/s"), _f("video_width_px", pa.int32(), "px"), _f("video_height_px", pa.int32(), "px"),
+    _f("chainage_read_rate", pa.float64(), "1"),
+    _f("pipeline_version", pa.string()), _f("model", pa.string(), doc="orthographic | perspective"),
+    _f("status", pa.string(), doc="ok | partial | failed"), _f("error", pa.string()),
+    _f("problems", pa.list_(pa.string())), _f("n_observations", pa.int32()), _f("n_measurements", pa.int32()),
+    _f("n_problems", pa.int32()), _f("processed_at", pa.timestamp("us", tz="UTC")),
+    _f("time_total_s", pa.float64(), "s"), _f("time_track_s", pa.float64(), "s"),
+    _f("time_contour_s", pa.float64(), "s"), _f("time_measure_s", pa.float64(), "s"),
+])
+
+OBSERVATIONS = pa.schema(_KEY + [
+    _f("row", pa.int32()), _f("distance_m", pa.float64(), "m"), _f("code", pa.string()),
+    _f("code_meaning", pa.string()), _f("char1", pa.string()), _f("char2", pa.string()),
+    _f("q1", pa.float64(), "q1_unit"), _f("q1_unit", pa.string()), _f("q2", pa.float64(), "q2_unit"),
+    _f("q2_unit", pa.string()), _f("clock_from", pa.int8(), "clock hour"), _f("clock_to", pa.int8(), "clock hour"),
+    _f("at_joint", pa.bool_()), _f("continuous", pa.string()), _f("video_time_s", pa.float64(), "s"),
+    _f("photo", pa.string()), _f("remark", pa.string()), _f("valid", pa.bool_()), _f("problems", pa.string()),
+])
+
+MEASUREMENTS = pa.schema(_KEY + [
+    _f("row", pa.int32()), _f("quantity", pa.string(), doc="Q1 | Q2"), _f("code", pa.string()),
+    _f("char1", pa.string()), _f("char2", pa.string()), _f("method", pa.string()), _f("model", pa.string()),
+    _f("unit", pa.string(), doc="unit of value, u, U95, low, high and the model values"),
+    _f("value", pa.float64(), "unit"), _f("u", pa.float64(), "unit"), _f("U95", pa.float64(), "unit"),
+    _f("low", pa.float64(), "unit"), _f("high", pa.float64(), "unit"), _f("interval", pa.string()),
+    _f("k", pa.float64(), "1"), _f("mc_trials", pa.int64()), _f("mc_seed", pa.int64()),
+    _f("linear_validated", pa.bool_()), _f("d_low", pa.float64(), "unit"), _f("d_high", pa.float64(), "unit"),
+    _f("delta", pa.float64(), "unit"), _f("p_H_px", pa.float64(), "px"), _f("u_p_H_px", pa.float64(), "px"),
+    _f("SC_mm_per_px", pa.float64(), "mm/px"), _f("p_X_px", pa.float64(), "px"),
+    _f("plane_depth_mm", pa.float64(), "mm"), _f("orthographic_value", pa.float64(), "unit"),
+    _f("perspective_value", pa.float64(), "unit"), _f("operator_value", pa.float64(), "unit"),
+    _f("frame", pa.int64()), _f("chainage_m", pa.float64(), "m"), _f("u_chainage_m", pa.float64(), "m"),
+    _f("distance_m", pa.float64(), "m"),
+    _f("a_x_px", pa.float64(), "px"), _f("a_y_px", pa.float64(), "px"), _f("b_x_px", pa.float64(), "px"),
+    _f("b_y_px", pa.float64(), "px"), _f("u_mark_px", pa.float64(), "px"),
+    _f("confident", pa.bool_()), _f("warnings", pa.string()), _f("status", pa.string(), doc="ok | error"),
+    _f("error", pa.string()), _f("budget", BUDGET_TYPE),
+])
+
+SCHEMAS = {"inspections": INSPECTIONS, "observations": OBSERVATIONS, "measurements": MEASUREMENTS}
+TABLES = tuple(SCHEMAS)

@@ -34,12 +34,12 @@ class RowProblem:
     """Why one row of a delivered file cannot be used as it is."""
 
     file: str
-    row: str          # the row number as delivered (observations) or the line number (marks)
+    where: str        # "row 3" (the log's row number as delivered) or "line 5" (a line of marks.csv)
     field: str
     message: str
 
     def __str__(self) -> str:
-        return f"{self.file} row {self.row}, field {self.field!r}: {self.message}"
+        return f"{self.file} {self.where}, field {self.field!r}: {self.message}"
 
 
 @dataclass
@@ -125,7 +125,7 @@ def read_log(path: str | os.PathLike, section_length_m: float) -> list[Observati
     for line, raw in enumerate(_read_table(path, LOG_COLUMNS, "observation log"), start=2):
         f = {k: (raw.get(k) or "").strip() for k in LOG_COLUMNS}
         problems: list[RowProblem] = []
-        label = f["row"] or f"at line {line}"
+        label = f"row {f['row']}" if f["row"] else f"line {line}"
 
         def bad(column: str, message: str) -> None:
             problems.append(RowProblem(name, label, column, message))
@@ -213,18 +213,18 @@ def _check_continuous(observations: list[Observation], name: str) -> None:
         kind, number = m[1], m[2]
         if kind == "S":
             if number in open_:
-                o.problems.append(RowProblem(name, str(o.row), "continuous",
+                o.problems.append(RowProblem(name, f"row {o.row}", "continuous",
                                              f"S{number} starts again before F{number} finished it (row {open_[number].row})"))
             open_[number] = o
         else:
             start = open_.pop(number, None)
             if start is None:
-                o.problems.append(RowProblem(name, str(o.row), "continuous", f"F{number} finishes a defect never started (no S{number} before it)"))
+                o.problems.append(RowProblem(name, f"row {o.row}", "continuous", f"F{number} finishes a defect never started (no S{number} before it)"))
             elif start.code != o.code:
-                o.problems.append(RowProblem(name, str(o.row), "continuous",
+                o.problems.append(RowProblem(name, f"row {o.row}", "continuous",
                                              f"F{number} finishes {start.code} of row {start.row} but this row is {o.code}"))
     for number, start in open_.items():
-        start.problems.append(RowProblem(name, str(start.row), "continuous",
+        start.problems.append(RowProblem(name, f"row {start.row}", "continuous",
                                          f"continuous defect S{number} is started but never finished; add its F{number} row"))
 
 
@@ -257,7 +257,7 @@ def read_marks(path: str | os.PathLike, observations: list[Observation]) -> tupl
         if quantity not in ("Q1", "Q2"):
             bad("quantity", f"{f['quantity']!r}: use Q1 or Q2")
         elif q is None or q.method is None:
-            bad("quantity", f"row {row} is {obs.code} {obs.char1}: its {quantity} is not measured in the image")
+            bad("quantity", f"row {row} is {(obs.code + ' ' + obs.char1).strip()}: its {quantity} is not measured in the image")
         if point not in ("a", "b"):
             bad("point", f"{f['point']!r}: use a or b")
         if frame is None or frame < 0:
@@ -266,7 +266,7 @@ def read_marks(path: str | os.PathLike, observations: list[Observation]) -> tupl
             bad("x_px/y_px", f"({f['x_px']!r}, {f['y_px']!r}) is not an image point in px")
         if u is None or not 0 < u < 20:
             bad("u_px", f"{f['u_px']!r} is not a marking uncertainty in px (0 < u < 20)")
-        if problems and problems[-1].row == where:
+        if problems and problems[-1].where == where:
             continue
         group = groups.setdefault((row, quantity), {})
         if point in group:

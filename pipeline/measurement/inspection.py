@@ -34,7 +34,7 @@ from ..video.pipe_contour import contour_at_frame, overlay_mask
 from ..video.undistort import Undistorter
 from .quantity import MODELS, MarkedQuantity, QuantityResult, measure_quantity
 
-__all__ = ["InspectionResult", "measure_package", "package_digest"]
+__all__ = ["InspectionResult", "measure_package", "package_digest", "ideal_point_and_u"]
 
 
 @dataclass
@@ -79,7 +79,7 @@ def _seed(inspection_id: str, row: int, quantity: str) -> int:
     return zlib.crc32(f"{inspection_id}/{row}/{quantity}".encode())
 
 
-def _ideal_with_u(und: Undistorter, point, u_px: float, u_cert_px: float) -> tuple[tuple[float, float], float]:
+def ideal_point_and_u(und: Undistorter, point, u_px: float, u_cert_px: float) -> tuple[tuple[float, float], float]:
     """A recorded point in the ideal image and its coordinate u there: marking and certificate residual, scaled by the undistortion's local stretch."""
     p = np.asarray(point, float)
     e = 0.5
@@ -172,7 +172,7 @@ def measure_package(folder: str | os.PathLike, *, certificates: str | os.PathLik
                                                        tolerance_mm=header.height_tolerance_mm, mask=mask)
                     t_contour += time.perf_counter() - t0
                 t0 = time.perf_counter()
-                (a, u_a), (b, u_b) = (_ideal_with_u(und, p, m.u_px, cert.image_coordinate_u_px) for p in (m.a, m.b))
+                (a, u_a), (b, u_b) = (ideal_point_and_u(und, p, m.u_px, cert.image_coordinate_u_px) for p in (m.a, m.b))
                 method = obs.quantification(m.quantity).method
                 q = MarkedQuantity(obs.code, obs.char1, m.quantity, method, a, b, u_a, u_b)
                 res = measure_quantity(q, contours[frame], cert, H=header.height_mm, tolerance=header.height_tolerance_mm,

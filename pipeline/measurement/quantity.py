@@ -223,7 +223,7 @@ def measure_quantity(q: MarkedQuantity, contour: PipeContour, cert: Certificate,
     if model == "orthographic":
         delta_ortho = abs(v_ortho - v_persp)
         inputs = InputSet({"p_X": Normal(p_X, math.hypot(q.u_a, q.u_b)), "p_H": Normal(plane.p_H, plane.u_p_H),
-                           "approximation": Rectangular(0.0, delta_ortho) if delta_ortho > 0 else 0.0, **common})
+                           "approximation": Normal(0.0, delta_ortho) if delta_ortho > 0 else 0.0, **common})
         fn = orthographic
     else:
         cov = contour.covariance

@@ -150,11 +150,12 @@ def main() -> None:
             f = frames[frame]
             pose = CameraPose(float(f["X_mm"]), float(f["Y_mm"]), float(f["Z_mm"]),
                               *np.radians([float(f["yaw_deg"]), float(f["pitch_deg"]), float(f["roll_deg"])]))
+            kinds = [k for k in KINDS if k != "deformation" or spec.scene.pipe.shape == "circular"]
             made = 0
             while made < args.per_frame:
-                kind = KINDS[made % len(KINDS)]
+                kind = kinds[made % len(kinds)]
                 z = pose.Z + rng.uniform(450, 1400)
-                if deformed(spec.scene, z) or (kind == "deformation" and spec.scene.pipe.shape != "circular"):
+                if deformed(spec.scene, z):
                     continue
                 method, char1, pts, true_value = generate(kind, spec.scene, z, rng)
                 try:

@@ -73,13 +73,7 @@ def value_from_points(method: str, shape: str, Pa: np.ndarray, Pb: np.ndarray, H
         return 100.0 * (1.0 - d / reference)
     if method == "intrusion":
         return 100.0 * d
-    level = 0.5 * (Pa[..., 1] + Pb[..., 1]) + 0.5
-    if method == "water_level":
-        return 100.0 * level
-    if method == "deposit_area":
-        h, _, area = level_tables(shape)
-        return 100.0 * np.interp(level, h, area)
-    raise KeyError(f"unknown method {method!r}; one of {', '.join(METHODS)}")
+    return _from_level(method, shape, 0.5 * (Pa[..., 1] + Pb[..., 1]) + 0.5)
 
 
 def _level_from_chord(shape: str, chord, below) -> np.ndarray:
@@ -104,7 +98,11 @@ def value_from_image_ratio(method: str, shape: str, ratio, H, below=True, refere
         return 100.0 * (1.0 - ratio / reference)
     if method == "intrusion":
         return 100.0 * ratio
-    level = _level_from_chord(shape, ratio, below)
+    return _from_level(method, shape, _level_from_chord(shape, ratio, below))
+
+
+def _from_level(method: str, shape: str, level) -> np.ndarray:
+    """Water level or deposit area [%] of a level surface at height ``level`` above the invert [H]."""
     if method == "water_level":
         return 100.0 * level
     if method == "deposit_area":

@@ -32,8 +32,8 @@ from pathlib import Path
 import numpy as np
 
 from pipeline.camera import load_certificate
-from pipeline.coding import CODES, load_header, load_manifest, read_log, read_marks
-from pipeline.measurement import MarkedQuantity, measure_quantity
+from pipeline.coding import load_header, load_manifest, read_log, read_marks
+from pipeline.measurement import MarkedQuantity, marked_quantity, measure_quantity
 from pipeline.measurement.inspection import ideal_point_and_u
 from pipeline.profiles import level_tables
 from pipeline.synth.package import _wall
@@ -140,9 +140,8 @@ def main() -> None:
                                                tolerance_mm=header.height_tolerance_mm, mask=mask)
         for m in marks:
             o = by_row[m.row]
-            (a, ua), (b, ub) = (ideal_point_and_u(und, p, m.u_px, cert.image_coordinate_u_px) for p in (m.a, m.b))
-            method = o.quantification(m.quantity).method
-            q = MarkedQuantity(o.code, o.char1, m.quantity, method, a, b, ua, ub)
+            q = marked_quantity(o, m, und, cert)
+            method = q.method
             kind = "along" if (o.code, o.char2, m.quantity) in (("BAB", "B", "Q1"), ("BCA", "A", "Q2")) else method
             cases.append(("logged", folder.name, kind, method, true_of[(m.row, m.quantity)],
                           measure_both(q, contours[m.frame], cert, header, seed=1000 + m.row)))

@@ -266,10 +266,10 @@ def cmd_measure(args: argparse.Namespace) -> int:
     for folder in args.packages:
         result = measure_package(folder, certificates=args.certificates, model=args.model, reader=reader,
                                  progress=_say if args.verbose else None)
-        files = write_inspection(args.data, result.inspection, result.observations, result.measurements)
+        write_inspection(args.data, result.inspection, result.observations, result.measurements)
         rec = result.inspection
         _say(f"{rec['inspection_id']}: {rec['status']}" + (f" ({rec['error']})" if rec["error"] else "")
-             + f"; stored in {files['inspections'].parent.parent.parent}")
+             + f"; stored in {args.data}")
         for problem in rec.get("problems") or []:
             _say(f"  {problem}")
         failed += rec["status"] != "ok"

@@ -97,6 +97,7 @@ def test_measure_a_sample_and_a_broken_package_in_one_run(tmp_path):
     inspections = read_table(data, "inspections").set_index("inspection_id")
     assert inspections.loc["BAD-1", "status"] == "failed"
     assert inspections.loc["S02-circular-water-offset", "status"] == "ok"
+    assert len(inspections.loc["S02-circular-water-offset", "video_sha256"]) == 64
     m = read_table(data, "measurements")
     truth = json.loads((SAMPLES / "S02-circular-water-offset" / "truth" / "truth.json").read_text())
     true = {(o["row"], q["quantity"]): q["true_value"] for o in truth["observations"] for q in o["quantities"]}

@@ -7,7 +7,6 @@ file, the field and the fix; all problems of a file are reported together.
 from __future__ import annotations
 
 import datetime as dt
-import json
 import math
 import os
 from dataclasses import asdict, dataclass
@@ -15,6 +14,7 @@ from pathlib import Path
 
 from ..errors import HeaderError
 from ..profiles import SHAPES, profile_width
+from .jsonfile import read_json
 
 __all__ = ["SectionHeader", "load_header", "header_from_dict", "HEADER_FORMAT"]
 
@@ -53,12 +53,8 @@ class SectionHeader:
 def load_header(path: str | os.PathLike) -> SectionHeader:
     """Read and validate a header.json; raises HeaderError."""
     path = Path(path)
-    try:
-        data = json.loads(path.read_text(encoding="utf-8"))
-    except FileNotFoundError:
-        raise HeaderError(f"{path}: the section header is missing; the package must hold it (docs/formats.md)") from None
-    except (UnicodeDecodeError, json.JSONDecodeError) as exc:
-        raise HeaderError(f"{path}: not valid UTF-8 JSON ({exc}); the header must be a JSON object (docs/formats.md)") from None
+    data = read_json(path, HeaderError, "the section header is missing; the package must hold it (docs/formats.md)",
+                     "; the header must be a JSON object (docs/formats.md)")
     return header_from_dict(data, source=str(path))
 
 

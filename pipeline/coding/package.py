@@ -6,13 +6,13 @@ the field and the fix.
 
 from __future__ import annotations
 
-import json
 import os
 import re
 from dataclasses import dataclass
 from pathlib import Path
 
 from ..errors import PackageError
+from .jsonfile import read_json
 
 __all__ = ["PackageManifest", "load_manifest", "certificate_path", "PACKAGE_FORMAT"]
 
@@ -37,12 +37,7 @@ def load_manifest(folder: str | os.PathLike) -> PackageManifest:
     """Read and validate ``folder/package.json``; every named file must exist inside the folder."""
     folder = Path(folder)
     path = folder / "package.json"
-    try:
-        data = json.loads(path.read_text(encoding="utf-8"))
-    except FileNotFoundError:
-        raise PackageError(f"{path}: missing; an inspection package is a folder with a package.json (docs/formats.md)") from None
-    except (UnicodeDecodeError, json.JSONDecodeError) as exc:
-        raise PackageError(f"{path}: not valid UTF-8 JSON ({exc})") from None
+    data = read_json(path, PackageError, "missing; an inspection package is a folder with a package.json (docs/formats.md)")
     if not isinstance(data, dict):
         raise PackageError(f"{path}: expected a JSON object")
     problems = []

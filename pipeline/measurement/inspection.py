@@ -25,7 +25,7 @@ import numpy as np
 
 from .. import __version__
 from ..camera import load_certificate
-from ..coding import (CODES, Mark, Observation, RowProblem, SectionHeader, certificate_path, check_marks_in_frame,
+from ..coding import (CODES, Mark, Observation, SectionHeader, certificate_path, check_marks_in_frame,
                       load_header, load_manifest, read_log, read_marks)
 from ..errors import MeasurementError, PipegaugeError
 from ..video.ingest import ingest_chainage
@@ -34,7 +34,7 @@ from ..video.pipe_contour import contour_at_frame, overlay_mask
 from ..video.undistort import Undistorter
 from .quantity import MODELS, MarkedQuantity, QuantityResult, measure_quantity
 
-__all__ = ["InspectionResult", "measure_package", "package_digest", "ideal_point_and_u"]
+__all__ = ["InspectionResult", "measure_package", "file_digests", "package_digest", "ideal_point_and_u", "marked_quantity"]
 
 
 @dataclass
@@ -54,24 +54,22 @@ class InspectionResult:
         return self.inspection["status"] == "ok"
 
 
-def package_digest(folder: str | os.PathLike) -> str:
-    """SHA-256 over the package's files (names and contents, truth/ excluded): its identity for re-processing."""
-    h = hashlib.sha256()
+def file_digests(folder: str | os.PathLike) -> dict[str, str]:
+    """SHA-256 of each file of a package (truth/ excluded), by path relative to the folder."""
     folder = Path(folder)
+    digests = {}
     for path in sorted(p for p in folder.rglob("*") if p.is_file() and "truth" not in p.relative_to(folder).parts):
-        h.update(str(path.relative_to(folder)).encode())
+        h = hashlib.sha256()
         with path.open("rb") as fh:
             for chunk in iter(lambda: fh.read(1 << 20), b""):
                 h.update(chunk)
-    return h.hexdigest()
+        digests[path.relative_to(folder).as_posix()] = h.hexdigest()
+    return digests
 
 
-def _sha256(path: Path) -> str:
-    h = hashlib.sha256()
-    with path.open("rb") as fh:
-        for chunk in iter(lambda: fh.read(1 << 20), b""):
-            h.update(chunk)
-    return h.hexdigest()
+def package_digest(digests: dict[str, str]) -> str:
+    """SHA-256 over a package's file names and their digests (``file_digests``): its identity for re-processing."""
+    return hashlib.sha256("".join(f"{name}\0{d}\n" for name, d in sorted(digests.items())).encode()).hexdigest()
 
 
 def _seed(inspection_id: str, row: int, quantity: str) -> int:
@@ -87,6 +85,12 @@ def ideal_point_and_u(und: Undistorter, point, u_px: float, u_cert_px: float) ->
     J = np.column_stack([(around[1] - around[2]) / (2 * e), (around[3] - around[4]) / (2 * e)])
     stretch = float(np.sqrt(abs(np.linalg.det(J))))
     return (float(around[0, 0]), float(around[0, 1])), stretch * float(np.hypot(u_px, u_cert_px))
+
+
+def marked_quantity(obs: Observation, mark: Mark, und: Undistorter, cert) -> MarkedQuantity:
+    """The quantity a mark measures, its points in the ideal image with their u (``ideal_point_and_u``)."""
+    (a, u_a), (b, u_b) = (ideal_point_and_u(und, p, mark.u_px, cert.image_coordinate_u_px) for p in (mark.a, mark.b))
+    return MarkedQuantity(obs.code, obs.char1, mark.quantity, obs.quantification(mark.quantity).method, a, b, u_a, u_b)
 
 
 def _observation_record(o: Observation) -> dict:
@@ -124,7 +128,8 @@ def measure_package(folder: str | os.PathLike, *, certificates: str | os.PathLik
     try:
         manifest = load_manifest(folder)
         record["inspection_id"] = manifest.package_id
-        record["package_sha256"] = package_digest(folder)
+        digests = file_digests(folder)          # the video is read once for both hashes
+        record["package_sha256"] = package_digest(digests)
         header = load_header(manifest.header)
         record.update(_header_fields(header))
         observations = read_log(manifest.observations, header.section_length_m)
@@ -136,7 +141,8 @@ def measure_package(folder: str | os.PathLike, *, certificates: str | os.PathLik
         t0 = time.perf_counter()
         ingest = ingest_chainage(manifest.video, reader, every=every)
         info = ingest.info
-        record.update(video_file=manifest.video.name, video_sha256=_sha256(manifest.video), video_frames=info.frame_count,
+        video_key = manifest.video.resolve().relative_to(folder.resolve()).as_posix()
+        record.update(video_file=manifest.video.name, video_sha256=digests.get(video_key), video_frames=info.frame_count,
                       video_fps=info.fps, video_width_px=info.width, video_height_px=info.height,
                       chainage_read_rate=ingest.read_rate)
         und = Undistorter(cert, info.width, info.height, what=str(manifest.video))
@@ -156,7 +162,7 @@ def measure_package(folder: str | os.PathLike, *, certificates: str | os.PathLik
     for frame in sorted(by_frame):
         for m in by_frame[frame]:
             obs = by_row[m.row]
-            row = _measurement_base(manifest.package_id, header, obs, m, ingest.track, model)
+            row = _measurement_base(obs, m, ingest.track, model)
             try:
                 if obs.problems:
                     raise MeasurementError(f"row {obs.row} of the log is invalid: " + "; ".join(p.message for p in obs.problems))
@@ -172,10 +178,7 @@ def measure_package(folder: str | os.PathLike, *, certificates: str | os.PathLik
                                                        tolerance_mm=header.height_tolerance_mm, mask=mask)
                     t_contour += time.perf_counter() - t0
                 t0 = time.perf_counter()
-                (a, u_a), (b, u_b) = (ideal_point_and_u(und, p, m.u_px, cert.image_coordinate_u_px) for p in (m.a, m.b))
-                method = obs.quantification(m.quantity).method
-                q = MarkedQuantity(obs.code, obs.char1, m.quantity, method, a, b, u_a, u_b)
-                res = measure_quantity(q, contours[frame], cert, H=header.height_mm, tolerance=header.height_tolerance_mm,
+                res = measure_quantity(marked_quantity(obs, m, und, cert), contours[frame], cert, H=header.height_mm, tolerance=header.height_tolerance_mm,
                                        model=model, seed=_seed(manifest.package_id, obs.row, m.quantity))
                 t_measure += time.perf_counter() - t0
                 row.update(_quantity_fields(res))
@@ -192,10 +195,10 @@ def measure_package(folder: str | os.PathLike, *, certificates: str | os.PathLik
 
 
 def _header_fields(h: SectionHeader) -> dict:
-    return {k: v for k, v in h.as_record().items() if k != "inspection_date"} | {"inspection_date": h.inspection_date}
+    return asdict(h)
 
 
-def _measurement_base(inspection_id: str, header: SectionHeader, obs: Observation, m: Mark, track, model: str) -> dict:
+def _measurement_base(obs: Observation, m: Mark, track, model: str) -> dict:
     try:
         chainage, u_chainage = track.at_frame(m.frame)
     except IndexError:

@@ -130,7 +130,7 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
     from pipeline.text import format_table
 
     pattern = parse_pattern(args.pattern)
-    _say(f"pipegauge calibrate: looking for the {pattern.cols}x{pattern.rows} chessboard in {len(args.inputs)} input(s) ...")
+    _say(f"pipegauge calibrate: looking for the {pattern.describe()} in {len(args.inputs)} input(s) ...")
     views, rejected = read_views(args.inputs, pattern, every=args.every)
     for source, reason in rejected:
         _say(f"  rejected {source}: {reason}")
@@ -297,6 +297,8 @@ def cmd_export(args: argparse.Namespace) -> int:
 
 
 def build_parser() -> argparse.ArgumentParser:
+    from pipeline.calibration.pattern import PATTERN_SYNTAX
+
     parser = argparse.ArgumentParser(
         prog="pipegauge",
         description="Measurements with GUM uncertainty (U95) from sewer CCTV inspection videos.",
@@ -326,12 +328,12 @@ def build_parser() -> argparse.ArgumentParser:
                     help="processes rendering frames (default: the number of cores, %(default)s); the files do not depend on it")
     sm.set_defaults(func=cmd_samples)
 
-    cal = verbs.add_parser("calibrate", help="calibrate a camera from images of a chessboard into a certificate",
+    cal = verbs.add_parser("calibrate", help="calibrate a camera from images of a chessboard or ChArUco board into a certificate",
                            description="Zhang's method (OpenCV, pinned solver) with bootstrap and pattern "
                                        "uncertainties; writes the certificate and a PDF report.")
     cal.add_argument("inputs", nargs="+", help="images and/or videos of the pattern")
     cal.add_argument("--pattern", required=True,
-                     help="chessboard:COLSxROWS:SQUARE_MM[:U_MM[:FLATNESS_MM]] (inner corners), e.g. chessboard:9x6:25:0.02")
+                     help=PATTERN_SYNTAX)
     cal.add_argument("--camera-id", required=True, help="serial or id of the camera")
     cal.add_argument("--out", type=Path, required=True, help="certificate file to write (JSON)")
     cal.add_argument("--report", type=Path, help="PDF report (default: beside the certificate)")

@@ -1,6 +1,8 @@
 """Camera calibration from chessboard images: accuracy against a known camera, errors, and the certificate."""
 
+import datetime as dt
 import json
+from pathlib import Path
 
 import cv2
 import numpy as np
@@ -11,7 +13,7 @@ from flows.cli import main
 from pipeline.calibration.demo import write_calibration_set
 from pipeline.calibration.pattern import parse_pattern
 from pipeline.calibration.solve import PARAMETERS, calibrate
-from pipeline.calibration.views import View, read_views
+from pipeline.calibration.views import View, find_corners, read_views
 from pipeline.camera import load_certificate
 from pipeline.camera.lens import distortion_uncertainty
 from pipeline.errors import CalibrationError
@@ -67,6 +69,8 @@ def test_pattern_never_found(tmp_path):
         paths.append(p)
     views, rejected = read_views(paths, PATTERN)
     assert views == [] and [r for _, r in rejected] == ["pattern 9x6 not found"] * 3
+    _, charuco_rejected = read_views(paths[:1], parse_pattern("charuco:8x6:30:22"))
+    assert charuco_rejected[0][1] == "charuco 8x6: 0 corner(s) found, at least 12 are needed"
     with pytest.raises(CalibrationError, match=r"blank0.png: pattern 9x6 not found"):
         calibrate(views, PATTERN, rejected=rejected)
 
@@ -89,7 +93,10 @@ def test_a_view_that_fits_badly_is_rejected_and_named(images):
 
 
 @pytest.mark.parametrize("text, message", [
-    ("charuco:5x7:30:22", "not supported yet"),
+    ("charuco:5x7:30", "not understood"),
+    ("charuco:5x7:30:35", "marker side \\(35 mm\\) must be smaller"),
+    ("charuco:5x7:30:22:DICT_9X9_1", "not an ArUco dictionary"),
+    ("charuco:20x20:30:22:DICT_4X4_50", "holds 200 markers but DICT_4X4_50 has only 50"),
     ("chessboard:8x6:25", "looks the same turned"),
     ("chessboard:9x6", "not understood"),
     ("chessboard:9by6:25", "not numbers"),
@@ -116,3 +123,45 @@ def test_cli_writes_a_certificate_that_drives_the_rest_unchanged(images, tmp_pat
     text = " ".join(page.extract_text() for page in PdfReader(out.with_suffix(".pdf")).pages)
     assert "Calibration report" in text and "bootstrap" in text and "view00.png" in text
     assert json.loads(out.read_text())["image_size_px"] == {"width": 720, "height": 576}
+
+
+def test_charuco_board_seen_in_part_recovers_the_known_camera(tmp_path):
+    pattern = parse_pattern("charuco:8x6:30:22:0.02")
+    images = write_calibration_set(TRUE, pattern, tmp_path, n=8, seed=5)
+    # Cover the left third of the board in one view: a ChArUco board still names the corners it shows.
+    image = cv2.imread(str(images[0]), cv2.IMREAD_GRAYSCALE)
+    corners, _, _ = find_corners(image, pattern)
+    image[:, : int(np.quantile(corners[:, 0], 0.3))] = 110
+    cv2.imwrite(str(images[0]), image)
+    views, rejected = read_views(images, pattern)
+    assert not rejected and len(views) == 8
+    assert 12 <= len(views[0].ids) < pattern.n_corners and all(len(v.ids) == 35 for v in views[1:])
+    cal = calibrate(views, pattern, bootstrap=10, pattern_runs=0, seed=2)
+    z = {n: (cal.values[n] - true_value(n)) / cal.u[n] for n in PARAMETERS}
+    assert all(abs(v) < 3 for v in z.values()), z
+    assert cal.rms_px < 0.3
+
+
+def test_calibrate_then_measure_a_synthetic_package_with_the_new_certificate(images, tmp_path, capsys):
+    """The chain the paper proposes: calibrate the camera, then measure with what was calibrated."""
+    from pipeline.store import read_table
+
+    samples = Path(__file__).resolve().parent.parent / "sample_videos"
+    certificates = tmp_path / "certificates"
+    assert main(["calibrate", *map(str, images), "--pattern", "chessboard:9x6:25:0.02:0.05", "--camera-id", "SYN-CAM",
+                 "--certificate-id", "SYN-720x576", "--out", str(certificates / "SYN-720x576.json"),
+                 "--bootstrap", "10", "--date", "2026-11-01"]) == 0
+    package = samples / "S01-circular-clean"
+    data = tmp_path / "data"
+    assert main(["measure", str(package), "--data", str(data), "--certificates", str(certificates)]) == 0
+    inspection = read_table(data, "inspections").iloc[0]
+    assert inspection.status == "ok" and inspection.certificate_id == "SYN-720x576"
+    assert inspection.certificate_valid_until == dt.date(2027, 11, 1)
+    truth = json.loads((package / "truth" / "truth.json").read_text())
+    true = {(o["row"], q["quantity"]): q["true_value"] for o in truth["observations"] for q in o["quantities"]}
+    m = read_table(data, "measurements")
+    assert len(m) == len(true) and (m.status == "ok").all()
+    inside = [r.low <= true[(r.row, r.quantity)] <= r.high for r in m.itertuples()]
+    assert sum(inside) >= len(inside) - 1, list(zip(m.row, m.quantity, m.value, m.low, m.high))
+    # The calibrated certificate's uncertainty enters every budget.
+    assert all(any(b["label"] == "certificate" and b["u"] > 0 for b in budget) for budget in m.budget)

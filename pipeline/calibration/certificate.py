@@ -34,7 +34,7 @@ def certificate_from_calibration(cal: Calibration, pattern: Pattern, *, camera_i
         "issue_date": issue_date.isoformat(),
         "valid_until": (issue_date + dt.timedelta(days=valid_days)).isoformat(),
         "traceability": traceability or (
-            f"Chessboard {pattern.cols}x{pattern.rows} inner corners, square {pattern.square_mm} mm with standard "
+            f"{pattern.describe()}, square {pattern.square_mm} mm with standard "
             f"uncertainty {pattern.u_square_mm} mm and flatness {pattern.u_flatness_mm} mm, as stated by the user; "
             "traceable only as far as the pattern's own certificate is."),
         "method": (f"Zhang's method: OpenCV {cal.opencv_version} calibrateCameraExtended, flags {int(SOLVER_FLAGS)} "

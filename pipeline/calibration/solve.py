@@ -107,10 +107,10 @@ def calibrate(views: list[View], pattern: Pattern, *, rejected: list[tuple[str, 
         raise CalibrationError(f"{found}, at least {MIN_VIEWS} are needed ({detail}); "
                                "take more images of the pattern, tilted and across the whole field")
     size = views[0].image_size
-    obj = pattern.object_points()
     used = list(views)
     while True:
-        rms, K, dist, rvecs, tvecs, std_in, per_view = _solve([obj] * len(used), [v.corners.astype(np.float32) for v in used], size)
+        rms, K, dist, rvecs, tvecs, std_in, per_view = _solve([v.object_points(pattern) for v in used],
+                                                              [v.corners.astype(np.float32) for v in used], size)
         limit = max(outlier_factor * float(np.median(per_view)), 0.3)
         bad = [i for i, e in enumerate(per_view) if e > limit]
         if not bad:
@@ -132,7 +132,8 @@ def calibrate(views: list[View], pattern: Pattern, *, rejected: list[tuple[str, 
         pick = rng.integers(0, len(used), len(used))
         if len(set(pick.tolist())) < 4:
             continue
-        _, Kb, db, *_ = _solve([obj] * len(pick), [used[i].corners.astype(np.float32) for i in pick], size)
+        _, Kb, db, *_ = _solve([used[i].object_points(pattern) for i in pick],
+                               [used[i].corners.astype(np.float32) for i in pick], size)
         boot.append(_vector(Kb, db))
     boot = np.asarray(boot)
     u_boot = boot.std(axis=0, ddof=1) if len(boot) > 2 else np.zeros(len(PARAMETERS))
@@ -141,9 +142,9 @@ def calibrate(views: list[View], pattern: Pattern, *, rejected: list[tuple[str, 
     if pattern.u_square_mm > 0 or pattern.u_flatness_mm > 0:
         for _ in range(pattern_runs):
             square = pattern.square_mm + pattern.u_square_mm * rng.standard_normal()
-            heights = pattern.u_flatness_mm * rng.standard_normal(pattern.cols * pattern.rows)
-            o = pattern.object_points(square, heights)
-            _, Kp, dp, *_ = _solve([o] * len(used), [v.corners.astype(np.float32) for v in used], size, (K, dist))
+            heights = pattern.u_flatness_mm * rng.standard_normal(pattern.n_corners)
+            _, Kp, dp, *_ = _solve([v.object_points(pattern, square, heights) for v in used],
+                                   [v.corners.astype(np.float32) for v in used], size, (K, dist))
             runs.append(_vector(Kp, dp))
     u_pattern = np.asarray(runs).std(axis=0, ddof=1) if len(runs) > 2 else np.zeros(len(PARAMETERS))
 
@@ -155,7 +156,7 @@ def calibrate(views: list[View], pattern: Pattern, *, rejected: list[tuple[str, 
 
     residuals, view_rms = [], {}
     for v, rv, tv in zip(used, rvecs, tvecs):
-        proj, _ = cv2.projectPoints(obj, rv, tv, K, dist)
+        proj, _ = cv2.projectPoints(v.object_points(pattern), rv, tv, K, dist)
         r = proj.reshape(-1, 2) - v.corners
         residuals.append(r)
         view_rms[v.source] = float(np.sqrt(np.mean(np.sum(r * r, axis=1))))

@@ -1,8 +1,8 @@
-"""Synthetic calibration images: a chessboard in known poses seen by a known camera.
+"""Synthetic calibration images: a chessboard or ChArUco board in known poses seen by a known camera.
 
 Each pixel's ray comes from the true camera (``synth.rig``: exact inverse of
 its distortion), sampled 2 x 2 per pixel so that edges are anti-aliased like a
-real sensor's; the ray meets the board's plane, and the board's squares give
+real sensor's; the ray meets the board's plane, and the board's squares (and markers) give
 the brightness. Noise is added per pixel.
 """
 
@@ -39,18 +39,11 @@ def render_board(rays: np.ndarray, pattern: Pattern, rvec: np.ndarray, tvec: np.
     R, _ = cv2.Rodrigues(np.asarray(rvec, float))
     t = np.asarray(tvec, float)
     n = R[:, 2]
-    s = pattern.square_mm
     acc = np.zeros(rays.shape[1:3])
     for d in rays:
         depth = (n @ t) / np.maximum(d @ n, 1e-9)
         P = d * depth[..., None] - t
-        u, v = P @ R[:, 0], P @ R[:, 1]
-        # Corner (i, j) sits at (i s, j s); squares run one beyond the corners, plus a white margin.
-        i, j = np.floor(u / s + 1), np.floor(v / s + 1)
-        on_board = (i >= 0) & (i <= pattern.cols) & (j >= 0) & (j <= pattern.rows)
-        margin = (u > -2 * s) & (u < (pattern.cols + 1) * s) & (v > -2 * s) & (v < (pattern.rows + 1) * s)
-        value = np.where(on_board, np.where((i + j) % 2 == 0, 30.0, 225.0), np.where(margin, 225.0, 110.0))
-        acc += np.where(depth > 0, value, 110.0)
+        acc += np.where(depth > 0, pattern.reflectance(P @ R[:, 0], P @ R[:, 1]), 110.0)
     img = acc / len(rays) + noise * rng.standard_normal(acc.shape)
     return np.clip(np.rint(img), 0, 255).astype(np.uint8)
 
@@ -61,7 +54,7 @@ def random_board_poses(pattern: Pattern, cert: Certificate, n: int, rng: np.rand
     f = cert.focal_px[0]
     obj = pattern.object_points().astype(np.float64)
     centre = obj.mean(axis=0)
-    width = (pattern.cols + 1) * pattern.square_mm
+    width = (pattern.corner_grid[0] + 1) * pattern.square_mm
     poses = []
     while len(poses) < n:
         angles = rng.uniform(-0.6, 0.6, 3) * np.array([1.0, 1.0, 0.5])

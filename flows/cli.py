@@ -286,6 +286,74 @@ def cmd_measure(args: argparse.Namespace) -> int:
     return EXIT_FAILED if failed else EXIT_OK
 
 
+# -- run / serve -----------------------------------------------------------------
+
+def _quiet_prefect() -> None:
+    """Offline, no telemetry, and Prefect's own INFO lines off the terminal (our progress lines say it)."""
+    for name, value in (("DO_NOT_TRACK", "1"), ("PREFECT_SERVER_ANALYTICS_ENABLED", "false"),
+                        ("PREFECT_LOGGING_LEVEL", "WARNING")):
+        os.environ.setdefault(name, value)
+
+
+def _check_inbox(args: argparse.Namespace) -> int | None:
+    if not args.inbox.is_dir():
+        _say(f"pipegauge {args.verb}: error: {args.inbox}: no such folder; pass the folder holding the packages")
+        return EXIT_USAGE
+    if args.out.resolve() == args.inbox.resolve() or args.inbox.resolve() in args.out.resolve().parents:
+        _say(f"pipegauge {args.verb}: error: --out {args.out} is inside the inbox; the contractor's files are never "
+             "written to, choose a folder outside it")
+        return EXIT_USAGE
+    if args.workers < 1:
+        _say(f"pipegauge {args.verb}: error: --workers must be at least 1")
+        return EXIT_USAGE
+    return None
+
+
+def cmd_run(args: argparse.Namespace) -> int:
+    if (code := _check_inbox(args)) is not None:
+        return code
+    _quiet_prefect()
+    from flows.nightly import SomePackagesFailed, dataset_folder, nightly, task_runner_for
+
+    runner = task_runner_for(args.workers, args.dask)
+    _say(f"pipegauge run: {args.inbox} -> {args.out} ({args.model} model, "
+         + (f"Dask cluster {args.dask})" if args.dask else f"{args.workers} worker(s))"))
+    state = nightly.with_options(task_runner=runner)(
+        str(args.inbox), str(args.out), args.model, str(args.certificates) if args.certificates else None,
+        return_state=True)
+    result = state.result(raise_on_failure=False)
+    if isinstance(result, SomePackagesFailed):
+        rows = result.outcomes
+    elif isinstance(result, BaseException):
+        raise result
+    else:
+        rows = result
+    counts = {s: sum(r["status"] == s for r in rows) for s in ("ok", "partial", "skipped", "failed")}
+    _say("pipegauge run: " + ", ".join(f"{n} {s}" for s, n in counts.items()) + f"; dataset in {dataset_folder(args.out)}")
+    return EXIT_FAILED if counts["failed"] else EXIT_OK
+
+
+def cmd_serve(args: argparse.Namespace) -> int:
+    if (code := _check_inbox(args)) is not None:
+        return code
+    _quiet_prefect()
+    if not os.environ.get("PREFECT_API_URL"):
+        from prefect.settings import PREFECT_API_URL
+
+        if not PREFECT_API_URL.value():
+            _say("pipegauge serve: error: no Prefect server; start one with `prefect server start` and set "
+                 "PREFECT_API_URL (for example http://127.0.0.1:4200/api); see docs/operations.md")
+            return EXIT_USAGE
+    from flows.nightly import nightly, task_runner_for
+
+    parameters = {"inbox": str(args.inbox.resolve()), "out": str(args.out.resolve()), "model": args.model,
+                  "certificates": str(args.certificates.resolve()) if args.certificates else None}
+    _say(f"pipegauge serve: deployment pipegauge-nightly/{args.name}, cron {args.cron!r}; Ctrl-C stops serving")
+    nightly.with_options(task_runner=task_runner_for(args.workers, args.dask)).serve(
+        name=args.name, cron=args.cron, parameters=parameters, print_starting_message=False)
+    return EXIT_OK
+
+
 def cmd_export(args: argparse.Namespace) -> int:
     from pipeline.store import export_csv, export_parquet
 
@@ -360,6 +428,23 @@ def build_parser() -> argparse.ArgumentParser:
     pr.add_argument("--shape", choices=["circular", "egg"], default="circular",
                     help="the section's shape, for the contour (default: %(default)s)")
     pr.set_defaults(func=cmd_probe)
+
+    for verb, text in (("run", "one nightly pass: measure every package of INBOX into OUT (embedded Prefect)"),
+                       ("serve", "serve the nightly pass as a scheduled deployment on a Prefect server")):
+        r = verbs.add_parser(verb, help=text, description=text + ". Layout of OUT and operation: docs/operations.md.")
+        r.add_argument("inbox", type=Path, metavar="INBOX", help="folder of inspection packages (and certificates/)")
+        r.add_argument("--out", type=Path, required=True, help="output folder (dataset/ is written there)")
+        r.add_argument("--model", choices=("perspective", "orthographic"), default="perspective",
+                       help="measurement model (default: %(default)s)")
+        r.add_argument("--certificates", type=Path, help="folder of certificates (default: INBOX/certificates)")
+        r.add_argument("--workers", type=int, default=1,
+                       help="packages measured at once, each in its own process (default: %(default)s)")
+        r.add_argument("--dask", metavar="ADDRESS", help="run the packages on an existing Dask cluster "
+                                                        "(scheduler address, e.g. tcp://10.0.0.5:8786)")
+        if verb == "serve":
+            r.add_argument("--cron", required=True, help='schedule, e.g. "0 2 * * *" (02:00 every night)')
+            r.add_argument("--name", default="nightly", help="deployment name (default: %(default)s)")
+        r.set_defaults(func=cmd_run if verb == "run" else cmd_serve)
 
     me = verbs.add_parser("measure", help="measure the logged observations of inspection packages into the dataset",
                           description="Validate each package (manifest, header, log, marks, certificate, video), read "

@@ -111,11 +111,13 @@ def _failed(record: dict, error: str) -> InspectionResult:
 
 def measure_package(folder: str | os.PathLike, *, certificates: str | os.PathLike | None = None,
                     model: str = "perspective", reader: OverlayReader | None = None, every: int = 4,
-                    progress: Callable[[str], None] | None = None, today: dt.date | None = None) -> InspectionResult:
+                    progress: Callable[[str], None] | None = None, today: dt.date | None = None,
+                    digests: dict[str, str] | None = None) -> InspectionResult:
     """Measure every marked quantity of a package; never raises for a bad package (the record says why).
 
     certificates : folder of certificate files (default: ``certificates/`` beside the package)
     model : "perspective" (default) or "orthographic"; every : overlay sampling interval [frames]
+    digests : the package's ``file_digests`` when the caller has them already
     """
     say = progress or (lambda message: None)
     if model not in MODELS:
@@ -128,7 +130,7 @@ def measure_package(folder: str | os.PathLike, *, certificates: str | os.PathLik
     try:
         manifest = load_manifest(folder)
         record["inspection_id"] = manifest.package_id
-        digests = file_digests(folder)          # the video is read once for both hashes
+        digests = digests or file_digests(folder)          # the video is read once for both hashes
         record["package_sha256"] = package_digest(digests)
         header = load_header(manifest.header)
         record.update(_header_fields(header))

@@ -27,7 +27,7 @@ from ..atomic import atomic_path
 from ..errors import StoreError
 from .schema import SCHEMA_VERSION, SCHEMAS, TABLES
 
-__all__ = ["write_inspection", "read_table", "inspection_files", "stored_digest"]
+__all__ = ["write_inspection", "read_table", "inspection_files", "stored_input_keys"]
 
 _SAFE_ID = re.compile(r"[^A-Za-z0-9._-]")
 
@@ -96,10 +96,13 @@ def read_table(root: str | os.PathLike, table: str, *, start: dt.date | None = N
         raise StoreError(f"{folder}: cannot be read as a Parquet dataset ({exc})") from exc
 
 
-def stored_digest(root: str | os.PathLike, inspection_id: str) -> tuple[str | None, str | None, str | None]:
-    """(package_sha256, pipeline_version, model) stored for an inspection, or Nones when it is not stored."""
+def stored_input_key(root: str | os.PathLike, inspection_id: str) -> str | None:
+    """The input_sha256 stored for an inspection (the key a run compares to skip a package), or None."""
     files = inspection_files(root, "inspections", inspection_id)
     if not files:
-        return None, None, None
-    t = pq.read_table(files[-1], columns=["package_sha256", "pipeline_version", "model"]).to_pylist()
-    return (t[0]["package_sha256"], t[0]["pipeline_version"], t[0]["model"]) if t else (None, None, None)
+        return None
+    try:
+        rows = pq.read_table(files[-1], columns=["input_sha256"]).to_pylist()
+    except (pa.ArrowInvalid, OSError, KeyError):
+        return None                     # unreadable or from an older schema: process the package again
+    return rows[0]["input_sha256"] if rows else None

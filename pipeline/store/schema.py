@@ -40,6 +40,8 @@ INSPECTIONS = pa.schema(_KEY + [
     _f("material", pa.string(), doc="ACD"), _f("pipe_unit_length_m", pa.float64(), "m"),
     _f("section_length_m", pa.float64(), "m"), _f("contractor", pa.string()), _f("site", pa.string()),
     _f("longitudinal_reference", pa.string()), _f("package_folder", pa.string()), _f("package_sha256", pa.string()),
+    _f("input_sha256", pa.string(), doc="package, certificate, pipeline version and model: a run skips a package "
+                                          "whose key is already stored"),
     _f("certificate_id", pa.string()), _f("certificate_valid_until", pa.date32()),
     _f("video_file", pa.string()), _f("video_sha256", pa.string()), _f("video_frames", pa.int64()),
     _f("video_fps", pa.float64(), "1/s"), _f("video_width_px", pa.int32(), "px"), _f("video_height_px", pa.int32(), "px"),

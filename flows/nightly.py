@@ -1,0 +1,125 @@
+"""The nightly pass as a Prefect flow: every package of an inbox measured into a dataset under OUT.
+
+Layout of OUT (docs/operations.md)::
+
+    OUT/dataset/   the Parquet dataset (docs/dataset.md)
+    OUT/.pipegauge.lock
+
+Each package is its own task run; tasks pass folder paths and plain
+records, never frames. Failure isolation: a bad package is a completed task
+whose record says ``failed`` with the error; only a transient error (an
+OSError while writing, for example a full or unmounted disk) fails the task,
+which is then retried. The flow waits on every future and ends Failed when
+any package failed, after leaving its summary table as an artifact.
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+import threading
+from pathlib import Path
+
+from prefect import flow, task
+from prefect.artifacts import create_table_artifact
+from prefect.cache_policies import NO_CACHE
+from prefect.futures import as_completed
+from prefect.task_runners import ProcessPoolTaskRunner, TaskRunner, ThreadPoolTaskRunner
+
+from pipeline.inbox import PackageOutcome, discover_packages, process_package
+from pipeline.store.lock import dataset_lock, remove_stale_temporaries
+
+__all__ = ["nightly", "measure_package_task", "task_runner_for", "SomePackagesFailed", "dataset_folder"]
+
+TRANSIENT = (OSError,)
+_local = threading.local()
+
+
+class SomePackagesFailed(Exception):
+    """The run completed, but some packages failed; ``outcomes`` holds every package's row."""
+
+    def __init__(self, outcomes: list[dict]):
+        self.outcomes = outcomes
+        failed = [o for o in outcomes if o["status"] == "failed"]
+        super().__init__(f"{len(failed)} of {len(outcomes)} package(s) failed: "
+                         + "; ".join(f"{o['package']}: {o['error']}" for o in failed))
+
+
+def dataset_folder(out: str | os.PathLike) -> Path:
+    return Path(out) / "dataset"
+
+
+def _reader():
+    """One overlay reader per thread or process (building one loads the OCR models, about a second)."""
+    from pipeline.video.overlay_ocr import OverlayReader
+
+    if getattr(_local, "reader", None) is None:
+        _local.reader = OverlayReader()
+    return _local.reader
+
+
+def _transient(task, task_run, state) -> bool:
+    """Retry only errors that may pass (I/O); a bad package never raises, so it is never retried."""
+    try:
+        state.result()
+    except TRANSIENT:
+        return True
+    except BaseException:
+        return False
+    return False
+
+
+@task(name="measure-package", task_run_name="measure {folder}", retries=2, retry_delay_seconds=10,
+      retry_condition_fn=_transient, cache_policy=NO_CACHE, persist_result=False)
+def measure_package_task(folder: str, out: str, model: str, certificates: str | None) -> dict:
+    """Measure one package into OUT's dataset; returns its summary row."""
+    outcome = process_package(folder, dataset_folder(out), model=model, certificates=certificates, reader=_reader())
+    return outcome.as_row()
+
+
+def task_runner_for(workers: int = 1, dask_address: str | None = None) -> TaskRunner:
+    """Threads for one worker, processes for several (the work is CPU-bound), or an existing Dask cluster."""
+    if dask_address:
+        from prefect_dask import DaskTaskRunner
+
+        return DaskTaskRunner(address=dask_address)
+    if workers <= 1:
+        return ThreadPoolTaskRunner(max_workers=1)
+    return ProcessPoolTaskRunner(max_workers=workers)
+
+
+def _failed_row(folder: str, exc: BaseException) -> dict:
+    return PackageOutcome(folder, Path(folder).name, "failed",
+                          f"{type(exc).__name__}: {exc} (after retries; check the disk and rerun)").as_row()
+
+
+def _say(message: str) -> None:
+    print(message, file=sys.stderr, flush=True)
+
+
+@flow(name="pipegauge-nightly", flow_run_name="nightly {inbox}")
+def nightly(inbox: str, out: str, model: str = "perspective", certificates: str | None = None) -> list[dict]:
+    """Measure every package of ``inbox`` into ``out``; returns one summary row per package (also an artifact)."""
+    say = _say
+    packages = discover_packages(inbox)
+    certificates = certificates or str(Path(inbox) / "certificates")
+    rows: list[dict] = []
+    with dataset_lock(out):
+        stale = remove_stale_temporaries(out)
+        if stale:
+            say(f"removed {len(stale)} temporary file(s) left by an interrupted run")
+        say(f"{len(packages)} package(s) in {inbox}")
+        futures = {measure_package_task.submit(str(p), str(out), model, certificates): str(p) for p in packages}
+        for k, future in enumerate(as_completed(list(futures)), 1):
+            result = future.result(raise_on_failure=False)
+            row = _failed_row(futures[future], result) if isinstance(result, BaseException) else result
+            rows.append(row)
+            detail = f"{row['quantities']} quantities, {row['seconds']} s" if row["status"] != "skipped" else "unchanged"
+            say(f"[{k}/{len(packages)}] {row['package']}: {row['status']} ({detail})"
+                + (f": {row['error']}" if row["error"] else ""))
+    rows.sort(key=lambda r: r["package"])
+    create_table_artifact(rows, key="pipegauge-nightly-summary",
+                          description=f"Packages of {inbox} measured into {out} ({model} model)")
+    if any(r["status"] == "failed" for r in rows):
+        raise SomePackagesFailed(rows)
+    return rows

@@ -1,0 +1,56 @@
+"""One writer per dataset: a lock file, and the clean-up of temporaries a killed writer left behind."""
+
+from __future__ import annotations
+
+import contextlib
+import fcntl
+import os
+from pathlib import Path
+from typing import Iterator
+
+from ..errors import StoreError
+
+__all__ = ["dataset_lock", "remove_stale_temporaries"]
+
+LOCK_NAME = ".pipegauge.lock"
+
+
+@contextlib.contextmanager
+def dataset_lock(root: str | os.PathLike) -> Iterator[Path]:
+    """Hold an exclusive lock on ``root`` for a run; a second run on the same folder fails at once.
+
+    The operating system releases the lock when the process ends, however it
+    ends, so a killed run never leaves the dataset locked.
+    """
+    root = Path(root)
+    root.mkdir(parents=True, exist_ok=True)
+    path = root / LOCK_NAME
+    with path.open("a+") as fh:
+        try:
+            fcntl.flock(fh, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            fh.seek(0)
+            holder = fh.read().strip() or "another process"
+            raise StoreError(f"{root}: another pipegauge run is writing here ({holder}); wait for it to finish "
+                             "or choose another --out") from None
+        fh.seek(0)
+        fh.truncate()
+        fh.write(f"pid {os.getpid()}\n")
+        fh.flush()
+        try:
+            yield root
+        finally:
+            fh.seek(0)
+            fh.truncate()
+            fcntl.flock(fh, fcntl.LOCK_UN)
+
+
+def remove_stale_temporaries(root: str | os.PathLike) -> list[Path]:
+    """Delete the temporary files (``.NAME.tmp-*``, see ``pipeline.atomic``) a killed writer left under ``root``.
+
+    Call it only while holding :func:`dataset_lock`, when no write can be in progress.
+    """
+    stale = [p for p in Path(root).rglob(".*.tmp-*") if p.is_file()]
+    for p in stale:
+        p.unlink(missing_ok=True)
+    return stale

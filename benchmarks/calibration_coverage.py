@@ -50,9 +50,12 @@ def main() -> None:
             if corners is None:
                 continue
             view = View(f"set{s}-view{k}", (720, 576), corners, ids)
-            true_px, _ = cv2.projectPoints(view.object_points(pattern).astype(float), rv, tv, cert.camera_matrix(),
+            true_px, _ = cv2.projectPoints(pattern.object_points().astype(float), rv, tv, cert.camera_matrix(),
                                            cert.opencv_distortion())
-            errors.append(corners - true_px.reshape(-1, 2))
+            # A chessboard's corner order may start at either end; compare each corner with the nearest true one.
+            true_px = true_px.reshape(-1, 2)
+            nearest = np.linalg.norm(corners[:, None] - true_px[None], axis=2).argmin(axis=1)
+            errors.append(corners - true_px[nearest])
             views.append(view)
         cal = calibrate(views, pattern, bootstrap=args.bootstrap, pattern_runs=10, seed=s)
         for n in PARAMETERS:

@@ -266,7 +266,7 @@ def cmd_measure(args: argparse.Namespace) -> int:
     for folder in args.packages:
         result = measure_package(folder, certificates=args.certificates, model=args.model, reader=reader,
                                  progress=_say if args.verbose else None)
-        write_inspection(args.data, result.inspection, result.observations, result.measurements)
+        write_inspection(args.data, result.inspection, result.observations, result.measurements, result.thumbnails)
         rec = result.inspection
         _say(f"{rec['inspection_id']}: {rec['status']}" + (f" ({rec['error']})" if rec["error"] else "")
              + f"; stored in {args.data}")
@@ -289,9 +289,11 @@ def cmd_measure(args: argparse.Namespace) -> int:
 # -- run / serve -----------------------------------------------------------------
 
 def _quiet_prefect() -> None:
-    """Offline, no telemetry, and Prefect's own INFO lines off the terminal (our progress lines say it)."""
+    """Offline, no telemetry, Prefect's own INFO lines off the terminal (our progress lines say it), and
+    time for the embedded server to start on a busy machine (its first start migrates a new database)."""
     for name, value in (("DO_NOT_TRACK", "1"), ("PREFECT_SERVER_ANALYTICS_ENABLED", "false"),
-                        ("PREFECT_LOGGING_LEVEL", "WARNING")):
+                        ("PREFECT_LOGGING_LEVEL", "WARNING"),
+                        ("PREFECT_SERVER_EPHEMERAL_STARTUP_TIMEOUT_SECONDS", "180")):
         os.environ.setdefault(name, value)
 
 
@@ -328,8 +330,10 @@ def cmd_run(args: argparse.Namespace) -> int:
         raise result
     else:
         rows = result
-    counts = {s: sum(r["status"] == s for r in rows) for s in ("ok", "partial", "skipped", "failed")}
-    _say("pipegauge run: " + ", ".join(f"{n} {s}" for s, n in counts.items()) + f"; dataset in {dataset_folder(args.out)}")
+    counts = {s: sum(r["status"] == s for r in rows) for s in ("ok", "partial", "failed")}
+    new = sum(r["processed"] for r in rows)
+    _say(f"pipegauge run: {len(rows)} package(s): " + ", ".join(f"{n} {s}" for s, n in counts.items())
+         + f"; {new} processed, {len(rows) - new} unchanged since the last run; dataset in {dataset_folder(args.out)}")
     return EXIT_FAILED if counts["failed"] else EXIT_OK
 
 
@@ -354,12 +358,25 @@ def cmd_serve(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
+def _dataset_of(data: Path) -> Path:
+    """A run's OUT folder holds the dataset in OUT/dataset; a dataset folder is taken as it is."""
+    return data / "dataset" if (data / "dataset" / "inspections").is_dir() else data
+
+
+def cmd_report(args: argparse.Namespace) -> int:
+    from pipeline.report import render_inspection_report
+
+    path = render_inspection_report(_dataset_of(args.data), args.inspection_id, args.out)
+    _say(f"pipegauge report: {path}")
+    return EXIT_OK
+
+
 def cmd_export(args: argparse.Namespace) -> int:
     from pipeline.store import export_csv, export_parquet
 
     fmt = args.format or ("parquet" if args.out.suffix.lower() == ".parquet" else "csv")
     write = export_parquet if fmt == "parquet" else export_csv
-    n = write(args.data, args.out, args.start, args.end)
+    n = write(_dataset_of(args.data), args.out, args.start, args.end)
     _say(f"pipegauge export: {n} quantities written to {args.out} ({fmt})")
     return EXIT_OK
 
@@ -445,6 +462,15 @@ def build_parser() -> argparse.ArgumentParser:
             r.add_argument("--cron", required=True, help='schedule, e.g. "0 2 * * *" (02:00 every night)')
             r.add_argument("--name", default="nightly", help="deployment name (default: %(default)s)")
         r.set_defaults(func=cmd_run if verb == "run" else cmd_serve)
+
+    rp = verbs.add_parser("report", help="render an inspection's PDF condition report from the dataset",
+                          description="Re-render the condition report of one inspection from the stored dataset "
+                                      "(docs/reports.md).")
+    rp.add_argument("inspection_id", metavar="INSPECTION_ID")
+    rp.add_argument("--data", type=Path, default=Path("reports"),
+                    help="a run's output folder or a dataset folder (default: %(default)s)")
+    rp.add_argument("--out", type=Path, required=True, help="the PDF to write")
+    rp.set_defaults(func=cmd_report)
 
     me = verbs.add_parser("measure", help="measure the logged observations of inspection packages into the dataset",
                           description="Validate each package (manifest, header, log, marks, certificate, video), read "

@@ -3,6 +3,7 @@
 Layout of OUT (docs/operations.md)::
 
     OUT/dataset/   the Parquet dataset (docs/dataset.md)
+    OUT/reports/   one PDF condition report per inspection, and summary-YYYY-MM-DD.pdf per night
     OUT/.pipegauge.lock
 
 Each package is its own task run; tasks pass folder paths and plain
@@ -15,6 +16,7 @@ any package failed, after leaving its summary table as an artifact.
 
 from __future__ import annotations
 
+import datetime as dt
 import os
 import sys
 import threading
@@ -27,9 +29,10 @@ from prefect.futures import as_completed
 from prefect.task_runners import ProcessPoolTaskRunner, TaskRunner, ThreadPoolTaskRunner
 
 from pipeline.inbox import PackageOutcome, discover_packages, process_package
+from pipeline.report import render_night_summary
 from pipeline.store.lock import dataset_lock, remove_stale_temporaries
 
-__all__ = ["nightly", "measure_package_task", "task_runner_for", "SomePackagesFailed", "dataset_folder"]
+__all__ = ["nightly", "measure_package_task", "task_runner_for", "SomePackagesFailed", "dataset_folder", "reports_folder"]
 
 TRANSIENT = (OSError,)
 _local = threading.local()
@@ -47,6 +50,10 @@ class SomePackagesFailed(Exception):
 
 def dataset_folder(out: str | os.PathLike) -> Path:
     return Path(out) / "dataset"
+
+
+def reports_folder(out: str | os.PathLike) -> Path:
+    return Path(out) / "reports"
 
 
 def _reader():
@@ -73,7 +80,8 @@ def _transient(task, task_run, state) -> bool:
       retry_condition_fn=_transient, cache_policy=NO_CACHE, persist_result=False)
 def measure_package_task(folder: str, out: str, model: str, certificates: str | None) -> dict:
     """Measure one package into OUT's dataset; returns its summary row."""
-    outcome = process_package(folder, dataset_folder(out), model=model, certificates=certificates, reader=_reader())
+    outcome = process_package(folder, dataset_folder(out), model=model, certificates=certificates, reader=_reader(),
+                              reports=reports_folder(out))
     return outcome.as_row()
 
 
@@ -114,10 +122,13 @@ def nightly(inbox: str, out: str, model: str = "perspective", certificates: str 
             result = future.result(raise_on_failure=False)
             row = _failed_row(futures[future], result) if isinstance(result, BaseException) else result
             rows.append(row)
-            detail = f"{row['quantities']} quantities, {row['seconds']} s" if row["status"] != "skipped" else "unchanged"
+            detail = (f"{row['quantities']} quantities, {row['seconds']} s" if row["processed"]
+                      else "unchanged since the last run")
             say(f"[{k}/{len(packages)}] {row['package']}: {row['status']} ({detail})"
-                + (f": {row['error']}" if row["error"] else ""))
+                + (f": {row['error']}" if row["error"] else "") + f" on {row['worker']}")
     rows.sort(key=lambda r: r["package"])
+    summary = render_night_summary(rows, dataset_folder(out), reports_folder(out) / f"summary-{dt.date.today().isoformat()}.pdf")
+    say(f"nightly summary: {summary}")
     create_table_artifact(rows, key="pipegauge-nightly-summary",
                           description=f"Packages of {inbox} measured into {out} ({model} model)")
     if any(r["status"] == "failed" for r in rows):

@@ -15,8 +15,9 @@ from __future__ import annotations
 
 import hashlib
 import os
+import socket
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable
 
@@ -25,6 +26,7 @@ from .coding import certificate_path, load_manifest
 from .errors import PipegaugeError
 from .measurement import measure_package
 from .measurement.inspection import file_digests, package_digest
+from .report import render_inspection_report, report_file_name
 from .store import stored_input_key, write_inspection
 from .video.overlay_ocr import OverlayReader
 
@@ -39,14 +41,17 @@ class PackageOutcome:
 
     folder: str
     inspection_id: str
-    status: str             # ok | partial | failed | skipped
+    status: str             # ok | partial | failed
     error: str | None = None
     n_measurements: int = 0
     seconds: float = 0.0
+    processed: bool = True  # False: unchanged since the run that stored it (status and error are that run's)
+    worker: str = field(default_factory=lambda: f"{socket.gethostname()}:{os.getpid()}")
 
     def as_row(self) -> dict:
         return {"package": Path(self.folder).name, "inspection_id": self.inspection_id, "status": self.status,
-                "quantities": self.n_measurements, "seconds": round(self.seconds, 1), "error": self.error or ""}
+                "quantities": self.n_measurements, "seconds": round(self.seconds, 1), "error": self.error or "",
+                "processed": self.processed, "worker": self.worker}
 
 
 def discover_packages(inbox: str | os.PathLike) -> list[Path]:
@@ -82,10 +87,14 @@ def input_key(folder: Path, digests: dict[str, str], certificates: str | os.Path
 
 def process_package(folder: str | os.PathLike, out: str | os.PathLike, *, model: str = "perspective",
                     certificates: str | os.PathLike | None = None, reader: OverlayReader | None = None,
-                    skip_known: bool = True, progress: Callable[[str], None] | None = None) -> PackageOutcome:
+                    skip_known: bool = True, reports: str | os.PathLike | None = None,
+                    progress: Callable[[str], None] | None = None) -> PackageOutcome:
     """Measure one package and store its records in the dataset ``out``; never raises for a bad package.
 
-    skip_known : skip the package when ``out`` holds it with the same input key.
+    reports : folder for the package's PDF condition report, rendered from the
+    dataset (also for a skipped package whose report is missing).
+    skip_known : skip the package when ``out`` holds it with the same input key; the
+    outcome then repeats the stored status and error, with ``processed`` False.
     Errors writing the dataset (OSError) do raise: they may be transient.
     """
     t0 = time.perf_counter()
@@ -96,12 +105,18 @@ def process_package(folder: str | os.PathLike, out: str | os.PathLike, *, model:
         package_id = load_manifest(folder).package_id
     except PipegaugeError:
         package_id = folder.name
-    if skip_known and stored_input_key(out, package_id) == key:
-        return PackageOutcome(str(folder), package_id, "skipped", seconds=time.perf_counter() - t0)
+    stored = stored_input_key(out, package_id) if skip_known else None
+    if stored and stored["input_sha256"] == key:
+        if reports and not (Path(reports) / report_file_name(package_id)).is_file():
+            render_inspection_report(out, package_id, Path(reports) / report_file_name(package_id))
+        return PackageOutcome(str(folder), package_id, stored["status"], stored["error"], stored["n_measurements"] or 0,
+                              time.perf_counter() - t0, processed=False)
     result = measure_package(folder, certificates=certificates, model=model, reader=reader, progress=progress,
                              digests=digests)
     result.inspection["input_sha256"] = key
-    write_inspection(out, result.inspection, result.observations, result.measurements)
+    write_inspection(out, result.inspection, result.observations, result.measurements, result.thumbnails)
     rec = result.inspection
+    if reports:
+        render_inspection_report(out, rec["inspection_id"], Path(reports) / report_file_name(rec["inspection_id"]))
     return PackageOutcome(str(folder), rec["inspection_id"], rec["status"], rec["error"], len(result.measurements),
                           time.perf_counter() - t0)

@@ -29,7 +29,7 @@ from dataclasses import dataclass, field
 from types import MappingProxyType
 from typing import Mapping
 
-__all__ = ["Quantification", "Code", "CODES", "UNITS", "code_spec", "quantification"]
+__all__ = ["Quantification", "Code", "CODES", "UNITS", "code_spec", "quantification", "plain_description"]
 
 UNITS = ("mm", "%", "deg", "count")
 ANY = "*"
@@ -137,6 +137,16 @@ CODES: Mapping[str, Code] = MappingProxyType({c.code: c for c in _TABLE})
 def code_spec(code: str) -> Code | None:
     """The table entry of a main code (upper case), or None when the code is unknown."""
     return CODES.get(code)
+
+
+def plain_description(code: str, char1: str | None = None, char2: str | None = None) -> str:
+    """An observation in words for people who do not read codes, e.g. BAB B B -> 'crack: crack, circumferential'."""
+    spec = CODES.get(code)
+    if spec is None:
+        return f"unknown code {code}"
+    details = [spec.char1.get(char1 or ""), spec.char2.get(char2 or "")]
+    details = [d for d in details if d]
+    return spec.name + (": " + ", ".join(details) if details else "")
 
 
 def quantification(code: str, which: str, char1: str) -> Quantification | None:

@@ -1,7 +1,7 @@
 """One inspection package measured end to end: validated inputs, chainage, contours, quantities.
 
 The result holds plain records, one per inspection, per logged observation
-and per measured quantity, with the column names of the Parquet dataset
+and per measured quantity (with a thumbnail of its frame), with the column names of the Parquet dataset
 (``pipeline.store``, docs/dataset.md). A bad row of the log, a bad mark or a
 quantity that cannot be measured is recorded with its error and the rest
 are still measured; a package that cannot be read at all (manifest,
@@ -30,7 +30,9 @@ from ..coding import (CODES, Mark, Observation, SectionHeader, certificate_path,
 from ..errors import MeasurementError, PipegaugeError
 from ..video.ingest import ingest_chainage
 from ..video.overlay_ocr import OverlayReader
+from ..report.thumbnail import THUMBNAIL_WIDTH_PX, measurement_thumbnail
 from ..video.pipe_contour import contour_at_frame, overlay_mask
+from ..video.reader import read_frame
 from ..video.undistort import Undistorter
 from .quantity import MODELS, MarkedQuantity, QuantityResult, measure_quantity
 
@@ -44,6 +46,7 @@ class InspectionResult:
     inspection: dict
     observations: list[dict] = field(default_factory=list)
     measurements: list[dict] = field(default_factory=list)
+    thumbnails: list[dict] = field(default_factory=list)
 
     @property
     def inspection_id(self) -> str:
@@ -157,7 +160,7 @@ def measure_package(folder: str | os.PathLike, *, certificates: str | os.PathLik
     result = InspectionResult(record, [_observation_record(o) for o in observations])
     problems: list[str] = [str(p) for o in observations for p in o.problems] + [str(p) for p in mark_problems]
     by_row = {o.row: o for o in observations}
-    contours, t_contour, t_measure = {}, 0.0, 0.0
+    contours, ideal_frames, t_contour, t_measure = {}, {}, 0.0, 0.0
     by_frame: dict[int, list[Mark]] = defaultdict(list)
     for m in marks:
         by_frame[m.frame].append(m)
@@ -180,10 +183,14 @@ def measure_package(folder: str | os.PathLike, *, certificates: str | os.PathLik
                                                        tolerance_mm=header.height_tolerance_mm, mask=mask)
                     t_contour += time.perf_counter() - t0
                 t0 = time.perf_counter()
-                res = measure_quantity(marked_quantity(obs, m, und, cert), contours[frame], cert, H=header.height_mm, tolerance=header.height_tolerance_mm,
+                marked = marked_quantity(obs, m, und, cert)
+                res = measure_quantity(marked, contours[frame], cert, H=header.height_mm, tolerance=header.height_tolerance_mm,
                                        model=model, seed=_seed(manifest.package_id, obs.row, m.quantity))
                 t_measure += time.perf_counter() - t0
                 row.update(_quantity_fields(res))
+                if frame not in ideal_frames:
+                    ideal_frames[frame] = und.frame(read_frame(manifest.video, frame))
+                result.thumbnails.append(_thumbnail(ideal_frames[frame], contours[frame], marked, m))
             except (MeasurementError, ValueError) as exc:
                 row.update(status="error", error=str(exc))
             result.measurements.append(row)
@@ -194,6 +201,14 @@ def measure_package(folder: str | os.PathLike, *, certificates: str | os.PathLik
                   n_problems=len(problems), problems=problems, time_contour_s=t_contour, time_measure_s=t_measure,
                   time_total_s=time.perf_counter() - t_start)
     return result
+
+
+def _thumbnail(ideal_bgr: np.ndarray, contour, marked: MarkedQuantity, mark: Mark) -> dict:
+    plane = contour.at_points([marked.a, marked.b])
+    jpeg = measurement_thumbnail(ideal_bgr, plane.polygon, marked.a, marked.b, confident=plane.confident)
+    h, w = ideal_bgr.shape[:2]
+    return {"row": mark.row, "quantity": mark.quantity, "frame": mark.frame, "width_px": THUMBNAIL_WIDTH_PX,
+            "height_px": round(h * THUMBNAIL_WIDTH_PX / w), "image_jpeg": jpeg}
 
 
 def _header_fields(h: SectionHeader) -> dict:

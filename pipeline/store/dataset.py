@@ -4,8 +4,8 @@ Layout (docs/dataset.md)::
 
     <root>/<table>/inspection_date=YYYY-MM-DD/<inspection_id>.parquet
 
-for the tables ``inspections``, ``observations`` and ``measurements``.
-Re-processing a package replaces its three files, so rows are never
+for the tables ``inspections``, ``observations``, ``measurements`` and
+``thumbnails``. Re-processing a package replaces its files, so rows are never
 duplicated; each file is written to a temporary name and renamed, and the
 inspection's row is written last, so a crash leaves the old result or the
 new one. Any Parquet engine reads the folder as a hive-partitioned dataset.
@@ -52,15 +52,19 @@ def _arrow_table(table: str, records: list[dict]) -> pa.Table:
 
 
 def write_inspection(root: str | os.PathLike, inspection: dict, observations: list[dict],
-                     measurements: list[dict]) -> dict[str, Path]:
-    """Store one inspection's records, replacing whatever was stored for its id; returns the files written."""
+                     measurements: list[dict], thumbnails: list[dict] | None = None) -> dict[str, Path]:
+    """Store one inspection's records, replacing whatever was stored for its id; returns the files written.
+
+    The inspections row is written last: it is the commit mark a run checks before skipping a package.
+    """
     root = Path(root)
     iid = inspection["inspection_id"]
     date = inspection.get("inspection_date") or inspection["processed_at"].date()
     if isinstance(date, str):
         date = dt.date.fromisoformat(date)
     written = {}
-    for table, records in (("measurements", measurements), ("observations", observations), ("inspections", [inspection])):
+    for table, records in (("thumbnails", thumbnails or []), ("measurements", measurements),
+                           ("observations", observations), ("inspections", [inspection])):
         keyed = [{**r, "inspection_id": iid} for r in records]
         target = root / table / f"inspection_date={date.isoformat()}" / _file_name(iid)
         old = [p for p in inspection_files(root, table, iid) if p != target]
@@ -96,13 +100,13 @@ def read_table(root: str | os.PathLike, table: str, *, start: dt.date | None = N
         raise StoreError(f"{folder}: cannot be read as a Parquet dataset ({exc})") from exc
 
 
-def stored_input_key(root: str | os.PathLike, inspection_id: str) -> str | None:
-    """The input_sha256 stored for an inspection (the key a run compares to skip a package), or None."""
+def stored_input_key(root: str | os.PathLike, inspection_id: str) -> dict | None:
+    """What is stored of an inspection for a run to skip it: input_sha256, status, error, n_measurements; or None."""
     files = inspection_files(root, "inspections", inspection_id)
     if not files:
         return None
     try:
-        rows = pq.read_table(files[-1], columns=["input_sha256"]).to_pylist()
+        rows = pq.read_table(files[-1], columns=["input_sha256", "status", "error", "n_measurements"]).to_pylist()
     except (pa.ArrowInvalid, OSError, KeyError):
         return None                     # unreadable or from an older schema: process the package again
-    return rows[0]["input_sha256"] if rows else None
+    return rows[0] if rows else None

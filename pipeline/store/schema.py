@@ -83,5 +83,12 @@ MEASUREMENTS = pa.schema(_KEY + [
     _f("error", pa.string()), _f("budget", BUDGET_TYPE),
 ])
 
-SCHEMAS = {"inspections": INSPECTIONS, "observations": OBSERVATIONS, "measurements": MEASUREMENTS}
+THUMBNAILS = pa.schema(_KEY + [
+    _f("row", pa.int32()), _f("quantity", pa.string(), doc="Q1 | Q2"), _f("frame", pa.int64()),
+    _f("width_px", pa.int32(), "px"), _f("height_px", pa.int32(), "px"),
+    _f("image_jpeg", pa.binary(), doc="the ideal frame scaled, with the cross-section contour and the marks drawn"),
+])
+
+SCHEMAS = {"inspections": INSPECTIONS, "observations": OBSERVATIONS, "measurements": MEASUREMENTS,
+           "thumbnails": THUMBNAILS}
 TABLES = tuple(SCHEMAS)

@@ -1,0 +1,238 @@
+"""The condition report of one inspection, rendered from the stored dataset alone (reportlab).
+
+Sections: header block, pipe strip, observation table (EN 13508-2 codes in
+words, every quantity as value ± U95 with unit and coverage), one block per
+measured quantity (thumbnail with contour and marks, key numbers, budget
+table and bars), warnings, and the method statement. Layout: docs/reports.md.
+"""
+
+from __future__ import annotations
+
+import datetime as dt
+import io
+import math
+import os
+import re
+from pathlib import Path
+
+import pandas as pd
+from reportlab.lib import colors
+from reportlab.lib.pagesizes import A4
+from reportlab.lib.units import mm
+from reportlab.platypus import (Image, KeepTogether, Paragraph, SimpleDocTemplate, Spacer, Table, TableStyle)
+
+from .. import __version__
+from ..atomic import atomic_path
+from ..coding.codes import plain_description
+from ..errors import StoreError
+from ..store import read_table
+from .graphics import budget_bars, pipe_strip
+from .method import method_statement
+from .style import ACCENT, FONT, TABLE_STYLE, format_quantity, safe_text, styles
+
+__all__ = ["render_inspection_report", "inspection_warnings", "report_file_name", "NEAR_EXPIRY_DAYS"]
+
+NEAR_EXPIRY_DAYS = 30
+
+
+def report_file_name(inspection_id: str) -> str:
+    """The report's file name for an inspection id (characters outside [A-Za-z0-9._-] become '_')."""
+    return re.sub(r"[^A-Za-z0-9._-]", "_", inspection_id) + ".pdf"
+
+
+def _missing(v) -> bool:
+    return v is None or (isinstance(v, float) and math.isnan(v)) or v is pd.NaT
+
+
+def _txt(v, limit: int = 400) -> str:
+    return "" if _missing(v) else safe_text(v, limit)
+
+
+def _p(text: str, style: str = "cell") -> Paragraph:
+    return Paragraph(text, styles()[style])
+
+
+def _coverage(m: dict) -> str:
+    if _missing(m.get("k")):
+        return f"Monte Carlo, {int(m['mc_trials']):,} trials, shortest 95 % interval [{m['low']:.4g}, {m['high']:.4g}]"
+    return f"k = {m['k']:.2f} (linear; Monte Carlo check {'passed' if m.get('linear_validated') else 'failed'})"
+
+
+def inspection_warnings(inspection: dict, measurements: list[dict], today: dt.date) -> list[str]:
+    """Plain-language warnings: status, input problems, low-confidence contours, certificate validity."""
+    out = []
+    if inspection.get("status") != "ok":
+        out.append(f"Status {inspection.get('status')}: {inspection.get('error') or 'see below'}.")
+    for problem in inspection.get("problems") if inspection.get("problems") is not None else []:
+        out.append(f"Input problem: {problem}")
+    for m in measurements:
+        if m.get("status") == "ok" and not m.get("confident"):
+            out.append(f"Row {m['row']} {m['quantity']} ({m['code']}): low-confidence contour or plane: "
+                       f"{m.get('warnings') or 'see the contour'}; treat the value with care.")
+        elif m.get("status") != "ok":
+            out.append(f"Row {m['row']} {m['quantity']} ({m['code']}): not measured: {m.get('error')}")
+    valid = inspection.get("certificate_valid_until")
+    when = inspection.get("inspection_date")
+    if not _missing(valid):
+        if not _missing(when) and valid < when:
+            out.append(f"Certificate {inspection.get('certificate_id')} had expired on {valid} before the inspection "
+                       f"({when}).")
+        elif not _missing(when) and (valid - when).days <= NEAR_EXPIRY_DAYS:
+            out.append(f"Certificate {inspection.get('certificate_id')} expires on {valid}, within {NEAR_EXPIRY_DAYS} "
+                       f"days of the inspection ({when}); recalibrate the camera soon.")
+        elif valid < today:
+            out.append(f"Certificate {inspection.get('certificate_id')} has expired since ({valid}); it was valid for "
+                       "this inspection, but the camera needs recalibration before further use.")
+    return out
+
+
+def _header_block(i: dict) -> Table:
+    size = f"{i.get('height_mm'):g} mm high" if not _missing(i.get("height_mm")) else "size not given"
+    if not _missing(i.get("width_mm")):
+        size += f", {i['width_mm']:g} mm wide"
+    if not _missing(i.get("height_tolerance_mm")):
+        size += f", tolerance ± {i['height_tolerance_mm']:g} mm"
+    rows = [
+        ("Section", f"{_txt(i.get('section_id'))}: {_txt(i.get('start_node'))} → {_txt(i.get('finish_node'))}, "
+                    f"{_txt(i.get('direction'))}"),
+        ("Inspection", f"{_txt(i.get('inspection_date'))}, {_txt(i.get('contractor'))}; site {_txt(i.get('site'))}"),
+        ("Pipe", f"{_txt(i.get('shape'))}, {size}, {_txt(i.get('material'))}; section length "
+                 f"{_txt(i.get('section_length_m'))} m"),
+        ("Camera", f"certificate {_txt(i.get('certificate_id'))}, valid until {_txt(i.get('certificate_valid_until'))}"),
+        ("Video", f"{_txt(i.get('video_file'))}, {_txt(i.get('video_width_px'))}×{_txt(i.get('video_height_px'))} px, "
+                  f"{_txt(i.get('video_frames'))} frames; chainage read on "
+                  + (f"{100 * i['chainage_read_rate']:.0f} %" if not _missing(i.get("chainage_read_rate")) else "-")
+                  + " of sampled frames"),
+        ("Measurement", f"{_txt(i.get('model'))} model; pipegauge {_txt(i.get('pipeline_version'))}, processed "
+                        f"{_txt(str(i.get('processed_at'))[:19])} UTC; status {_txt(i.get('status'))}"),
+        ("Package", f"{_txt(i.get('inspection_id'))}, SHA-256 {_txt((i.get('package_sha256') or '')[:16])}…"),
+    ]
+    t = Table([[_p(f"<b>{k}</b>"), _p(v)] for k, v in rows], colWidths=[24 * mm, 156 * mm])
+    t.setStyle(TableStyle(TABLE_STYLE[:2] + [("GRID", (0, 0), (-1, -1), 0.25, colors.grey),
+                                              ("BACKGROUND", (0, 0), (0, -1), ACCENT)]))
+    return t
+
+
+def _delivered(o: dict) -> str:
+    parts = []
+    for q, unit in (("q1", "q1_unit"), ("q2", "q2_unit")):
+        if not _missing(o.get(q)):
+            parts.append(f"{o[q]:g} {_txt(o.get(unit))}")
+    return ", ".join(parts)
+
+
+def _observation_table(observations: list[dict], by_row: dict[int, list[dict]]) -> Table:
+    head = ["Row", "m", "Code", "Description", "Clock", "Logged", "Measured (value ± U95)", "Remark"]
+    rows = [[_p(h) for h in head]]
+    for o in observations:
+        measured = []
+        for m in by_row.get(o["row"], []):
+            if m["status"] == "ok":
+                flag = "" if m.get("confident") else " ⚠"
+                measured.append(f"{m['quantity']}: {format_quantity(m['value'], m['U95'], m['unit'])}{flag}")
+            else:
+                measured.append(f"{m['quantity']}: not measured")
+        clock = "" if _missing(o.get("clock_from")) else f"{int(o['clock_from'])}" + (
+            "" if _missing(o.get("clock_to")) else f"–{int(o['clock_to'])}")
+        codes = " ".join(_txt(v) for v in (o.get("code"), o.get("char1"), o.get("char2")) if not _missing(v) and v)
+        cont = "" if _missing(o.get("continuous")) or not o.get("continuous") else f" ({_txt(o['continuous'])})"
+        rows.append([_p(str(o["row"])), _p(f"{o['distance_m']:.2f}" if not _missing(o.get("distance_m")) else ""),
+                     _p(codes + cont), _p(safe_text(plain_description(o.get("code") or "", o.get("char1"), o.get("char2")))),
+                     _p(clock), _p(_delivered(o)), _p("<br/>".join(measured)), _p(_txt(o.get("remark"), 300))])
+    t = Table(rows, colWidths=[9 * mm, 11 * mm, 17 * mm, 36 * mm, 11 * mm, 20 * mm, 38 * mm, 38 * mm], repeatRows=1)
+    t.setStyle(TableStyle(TABLE_STYLE))
+    return t
+
+
+def _quantity_block(m: dict, thumbnail: bytes | None) -> KeepTogether:
+    codes = " ".join(_txt(v) for v in (m["code"], m.get("char1"), m.get("char2")) if not _missing(v) and v)
+    title = _p(f"<b>Row {m['row']} {m['quantity']}: {codes}, "
+               f"{safe_text(plain_description(m['code'], m.get('char1'), m.get('char2')))}</b>", "body")
+    if m["status"] != "ok":
+        return KeepTogether([title, _p(f"Not measured: {_txt(m.get('error'))}", "warning"), Spacer(1, 3 * mm)])
+    facts = [
+        ("Value ± U95", format_quantity(m["value"], m["U95"], m["unit"])),
+        ("Standard u", f"{m['u']:.3g} {m['unit']}"),
+        ("Coverage", _coverage(m)),
+        ("Method", f"{_txt(m['method'])}, {_txt(m['model'])} model; seed {m['mc_seed']}"),
+        ("Frame", f"{m['frame']} at chainage {m['chainage_m']:.2f} ± {1.96 * m['u_chainage_m']:.2f} m (U95)"),
+        ("p_H, SC", f"{m['p_H_px']:.1f} ± {m['u_p_H_px']:.1f} px (u); SC {m['SC_mm_per_px']:.3f} mm/px"),
+        ("Models", f"perspective {m['perspective_value']:.4g}, orthographic {m['orthographic_value']:.4g} {m['unit']}"),
+        ("Logged", "" if _missing(m.get("operator_value")) else f"{m['operator_value']:g} {m['unit']} (contractor)"),
+    ]
+    if not m.get("confident"):
+        facts.append(("Warning", _txt(m.get("warnings")) or "low confidence"))
+    fact_table = Table([[_p(f"<b>{k}</b>"), _p(v)] for k, v in facts], colWidths=[21 * mm, 99 * mm])
+    fact_table.setStyle(TableStyle([("VALIGN", (0, 0), (-1, -1), "TOP"), ("LEFTPADDING", (0, 0), (-1, -1), 1.5),
+                                    ("TOPPADDING", (0, 0), (-1, -1), 0.5), ("BOTTOMPADDING", (0, 0), (-1, -1), 0.5)]))
+    image = Image(io.BytesIO(thumbnail), width=56 * mm, height=56 * mm * 0.8, kind="proportional") if thumbnail else _p("(no thumbnail)")
+    top = Table([[image, fact_table]], colWidths=[60 * mm, 120 * mm])
+    top.setStyle(TableStyle([("VALIGN", (0, 0), (-1, -1), "TOP"), ("LEFTPADDING", (0, 0), (-1, -1), 0)]))
+    budget = list(m["budget"]) if m.get("budget") is not None else []
+    head = ["Input", "Description", "Estimate", "u", "Distribution", "c_i", f"|c_i| u [{m['unit']}]"]
+    rows = [[_p(h) for h in head]] + [[
+        _p(_txt(b["label"])), _p(_txt(b["description"])), _p(f"{b['estimate']:.5g}"), _p(f"{b['u']:.3g}"),
+        _p(_txt(str(b["distribution"]).split("(x=")[0], 40)), _p(f"{b['sensitivity']:.3g}"),
+        _p(f"{abs(b['contribution']):.3g}")] for b in budget]
+    table = Table(rows, colWidths=[15 * mm, 52 * mm, 15 * mm, 13 * mm, 17 * mm, 10 * mm, 12 * mm], repeatRows=1)
+    table.setStyle(TableStyle(TABLE_STYLE + [("TOPPADDING", (0, 0), (-1, -1), 0.8),
+                                              ("BOTTOMPADDING", (0, 0), (-1, -1), 1.2)]))
+    bottom = Table([[table, budget_bars(budget, m["u"], m["unit"], width=46 * mm)]], colWidths=[135 * mm, 45 * mm])
+    bottom.setStyle(TableStyle([("VALIGN", (0, 0), (-1, -1), "TOP"), ("LEFTPADDING", (0, 0), (-1, -1), 0)]))
+    return KeepTogether([title, Spacer(1, 1.5 * mm), top, Spacer(1, 1.5 * mm), bottom, Spacer(1, 5 * mm)])
+
+
+def _records(frame: pd.DataFrame) -> list[dict]:
+    return frame.to_dict("records")
+
+
+def render_inspection_report(data: str | os.PathLike, inspection_id: str, path: str | os.PathLike, *,
+                             today: dt.date | None = None) -> Path:
+    """Render the condition report of ``inspection_id`` from the dataset at ``data`` into the PDF ``path`` (atomic)."""
+    today = today or dt.date.today()
+    tables = {t: read_table(data, t, inspection_ids=[inspection_id])
+              for t in ("inspections", "observations", "measurements", "thumbnails")}
+    if tables["inspections"].empty:
+        raise StoreError(f"{data}: no inspection {inspection_id!r} in the dataset; list them with "
+                         "pipegauge export or check the id")
+    inspection = tables["inspections"].iloc[0].to_dict()
+    observations = sorted(_records(tables["observations"]), key=lambda o: (o["row"]))
+    measurements = sorted(_records(tables["measurements"]), key=lambda m: (m["row"], m["quantity"]))
+    thumbs = {(t["row"], t["quantity"]): t["image_jpeg"] for t in _records(tables["thumbnails"])}
+    by_row: dict[int, list[dict]] = {}
+    for m in measurements:
+        by_row.setdefault(m["row"], []).append(m)
+
+    st = styles()
+    story = [Paragraph(f"Condition report: section {_txt(inspection.get('section_id'))} "
+                       f"({_txt(inspection.get('start_node'))} → {_txt(inspection.get('finish_node'))})", st["title"]),
+             _header_block(inspection)]
+    warnings = inspection_warnings(inspection, measurements, today)
+    story += [Paragraph("Warnings", st["h2"])]
+    story += [Paragraph("• " + safe_text(w, 600), st["warning"]) for w in warnings] or [Paragraph("None.", st["body"])]
+    story += [Paragraph("Observations along the section", st["h2"]),
+              pipe_strip(observations, inspection.get("section_length_m") or 0.0, set(by_row)),
+              Paragraph("Unrolled wall: clock position 12 (crown) at the top, 6 (invert) in the middle; measured "
+                        "observations in red.", st["small"]),
+              Spacer(1, 2 * mm),
+              _observation_table(observations, by_row),
+              Paragraph("Every measured value is given as value ± U95 (expanded uncertainty, 95 % coverage) with its "
+                        "unit; ⚠ marks a low-confidence measurement (see Warnings).", st["small"])]
+    if measurements:
+        story.append(Paragraph("Measured quantities and their uncertainty budgets", st["h2"]))
+        story += [_quantity_block(m, thumbs.get((m["row"], m["quantity"]))) for m in measurements]
+    story += [Paragraph("Method", st["h2"])] + [Paragraph(p, st["small"]) for p in method_statement(inspection.get("model"))]
+
+    def footer(canvas, doc):
+        canvas.saveState()
+        canvas.setFont(FONT, 7)
+        canvas.drawString(15 * mm, 9 * mm, f"pipegauge {__version__} · inspection {inspection_id[:60]} · "
+                                           f"rendered {today.isoformat()} from the dataset")
+        canvas.drawRightString(A4[0] - 15 * mm, 9 * mm, f"page {doc.page}")
+        canvas.restoreState()
+
+    with atomic_path(path) as tmp:
+        SimpleDocTemplate(str(tmp), pagesize=A4, leftMargin=15 * mm, rightMargin=15 * mm, topMargin=14 * mm,
+                          bottomMargin=15 * mm, title=f"Condition report {inspection_id}",
+                          author="pipegauge").build(story, onFirstPage=footer, onLaterPages=footer)
+    return Path(path)

@@ -1,0 +1,251 @@
+"""The nightly pass (pipegauge run) as a real Prefect flow: failure isolation, skipping, crash safety, Dask."""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pyarrow.parquet as pq
+import pytest
+
+from pipeline.store import read_table
+
+ROOT = Path(__file__).resolve().parent.parent
+SAMPLES = ROOT / "sample_videos"
+GOOD = ("S01-circular-clean", "S02-circular-water-offset")
+
+
+@pytest.fixture(scope="session")
+def prefect_home(tmp_path_factory) -> Path:
+    """One Prefect home for the session: its database is migrated once, not by every run."""
+    return tmp_path_factory.mktemp("prefect-home")
+
+
+@pytest.fixture
+def env(prefect_home) -> dict:
+    e = dict(os.environ, PREFECT_HOME=str(prefect_home), DO_NOT_TRACK="1", PREFECT_SERVER_ANALYTICS_ENABLED="false")
+    e.pop("PREFECT_API_URL", None)
+    return e
+
+
+def _pipegauge(*args: str, env: dict, **kw) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, "-m", "flows.cli", *args], cwd=ROOT, env=env, capture_output=True,
+                          text=True, timeout=900, **kw)
+
+
+def _inbox(tmp_path: Path, good=GOOD) -> Path:
+    inbox = tmp_path / "inbox"
+    shutil.copytree(SAMPLES / "certificates", inbox / "certificates")
+    for name in good:
+        shutil.copytree(SAMPLES / name, inbox / name, ignore=shutil.ignore_patterns("truth"))
+    return inbox
+
+
+def _bad_copy(inbox: Path, name: str, package_id: str) -> Path:
+    folder = inbox / name
+    shutil.copytree(SAMPLES / "S02-circular-water-offset", folder, ignore=shutil.ignore_patterns("truth"))
+    manifest = json.loads((folder / "package.json").read_text())
+    manifest["package_id"] = package_id
+    (folder / "package.json").write_text(json.dumps(manifest))
+    return folder
+
+
+def _snapshot(folder: Path) -> dict[str, tuple[int, int]]:
+    return {str(p.relative_to(folder)): (p.stat().st_size, p.stat().st_mtime_ns) for p in folder.rglob("*") if p.is_file()}
+
+
+def _assert_dataset_sound(dataset: Path) -> None:
+    assert not [p for p in dataset.rglob(".*.tmp-*")], "a temporary file was left behind"
+    for p in dataset.rglob("*.parquet"):
+        pq.read_table(p)                                  # every stored file is whole
+    for table in ("inspections", "observations", "measurements"):
+        frame = read_table(dataset, table)
+        key = ["inspection_id"] + (["row"] if table == "observations" else ["row", "quantity"] if table == "measurements" else [])
+        assert not frame.duplicated(key).any(), f"duplicate rows in {table}"
+
+
+def test_good_and_bad_packages_in_one_night_then_nothing_new(tmp_path, env):
+    inbox = _inbox(tmp_path)
+    corrupt = _bad_copy(inbox, "corrupt-video", "BAD-VIDEO")
+    video = (corrupt / "video.mp4").read_bytes()
+    (corrupt / "video.mp4").write_bytes(video[: len(video) // 3])
+    malformed = _bad_copy(inbox, "malformed-log", "BAD-LOG")
+    (malformed / "observations.csv").write_text("this is not;an observation log\n1;2\n")
+    orphan = _bad_copy(inbox, "no-certificate", "BAD-CERT")
+    manifest = json.loads((orphan / "package.json").read_text())
+    manifest["certificate_id"] = "CAM-NOWHERE"
+    (orphan / "package.json").write_text(json.dumps(manifest))
+    before = _snapshot(inbox)
+    out = tmp_path / "out"
+
+    first = _pipegauge("run", str(inbox), "--out", str(out), env=env)
+    assert first.returncode == 1, first.stderr
+    inspections = read_table(out / "dataset", "inspections").set_index("inspection_id")
+    assert set(inspections.index) == {*GOOD, "BAD-VIDEO", "BAD-LOG", "BAD-CERT"}
+    assert (inspections.loc[list(GOOD), "status"] == "ok").all()
+    assert "video.mp4: OpenCV cannot open this video" in inspections.loc["BAD-VIDEO", "error"]
+    assert "missing column(s)" in inspections.loc["BAD-LOG", "error"]
+    assert "certificate 'CAM-NOWHERE' not found" in inspections.loc["BAD-CERT", "error"]
+    assert "3 failed" in first.stderr and "no-certificate: failed" in first.stderr
+    _assert_dataset_sound(out / "dataset")
+    assert _snapshot(inbox) == before, "the contractor's files were changed"
+    reports = sorted(p.name for p in (out / "reports").glob("*.pdf"))
+    assert [r for r in reports if not r.startswith("summary-")] == sorted(f"{i}.pdf" for i in inspections.index)
+    summary = [r for r in reports if r.startswith("summary-")]
+    assert len(summary) == 1
+    from pypdf import PdfReader
+
+    text = " ".join(p.extract_text() for p in PdfReader(out / "reports" / summary[0]).pages)
+    assert "2 ok, 0 partial, 3 failed" in text and "CAM-NOWHERE" in text
+
+    second = _pipegauge("run", str(inbox), "--out", str(out), env=env)
+    assert second.returncode == 1, second.stderr                 # the bad ones are still bad
+    assert "2 ok, 0 partial, 3 failed; 0 processed, 5 unchanged" in second.stderr
+    assert "corrupt-video: failed (unchanged since the last run): " in second.stderr
+    stored = read_table(out / "dataset", "inspections").set_index("inspection_id").processed_at
+    assert (stored == inspections.processed_at.reindex(stored.index)).all(), "a package was processed again"
+
+    # Delivering the missing certificate is new input: that package alone is processed again.
+    shutil.copy(inbox / "certificates" / "SYN-720x576.json", inbox / "certificates" / "CAM-NOWHERE.json")
+    third = _pipegauge("run", str(inbox), "--out", str(out), env=env)
+    assert third.returncode == 1 and "no-certificate: ok" in third.stderr and "1 processed, 4 unchanged" in third.stderr
+
+
+def test_usage_errors_exit_2(tmp_path, env):
+    assert _pipegauge("run", str(tmp_path / "nowhere"), "--out", str(tmp_path / "out"), env=env).returncode == 2
+    inbox = _inbox(tmp_path, good=())
+    inside = _pipegauge("run", str(inbox), "--out", str(inbox / "out"), env=env)
+    assert inside.returncode == 2 and "inside the inbox" in inside.stderr
+    assert _pipegauge("run", str(inbox), env=env).returncode == 2          # --out missing
+
+
+def test_a_run_killed_mid_way_then_rerun(tmp_path, env):
+    inbox = _inbox(tmp_path, good=("S02-circular-water-offset", "S01-circular-clean"))
+    out = tmp_path / "out"
+    proc = subprocess.Popen([sys.executable, "-m", "flows.cli", "run", str(inbox), "--out", str(out)], cwd=ROOT,
+                            env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
+                            start_new_session=True)
+    stored = out / "dataset" / "inspections"
+    deadline = time.monotonic() + 600
+    while not list(stored.rglob("*.parquet")) and time.monotonic() < deadline and proc.poll() is None:
+        time.sleep(0.2)
+    assert proc.poll() is None, "the run ended before it could be killed: " + proc.stderr.read()
+    os.killpg(proc.pid, signal.SIGKILL)                     # the whole run, as a power cut would
+    proc.wait()
+    assert len(read_table(out / "dataset", "inspections")) == 1
+
+    rerun = _pipegauge("run", str(inbox), "--out", str(out), env=env)
+    assert rerun.returncode == 0, rerun.stderr
+    assert "2 ok, 0 partial, 0 failed; 1 processed, 1 unchanged" in rerun.stderr
+    _assert_dataset_sound(out / "dataset")
+    inspections = read_table(out / "dataset", "inspections")
+    assert sorted(inspections.inspection_id) == ["S01-circular-clean", "S02-circular-water-offset"]
+    assert (inspections.status == "ok").all()
+
+
+def test_two_runs_on_one_output_folder_are_refused(tmp_path):
+    from pipeline.errors import StoreError
+    from pipeline.store.lock import dataset_lock
+
+    with dataset_lock(tmp_path):
+        with pytest.raises(StoreError, match="another pipegauge run is writing here"):
+            with dataset_lock(tmp_path):
+                pass
+    with dataset_lock(tmp_path):            # released when the first run ends
+        pass
+
+
+def test_run_on_a_local_dask_cluster_with_two_workers(tmp_path, env):
+    import distributed
+
+    inbox = _inbox(tmp_path)
+    out = tmp_path / "out"
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
+        with distributed.Client(cluster) as client:
+            run = _pipegauge("run", str(inbox), "--out", str(out), "--dask", cluster.scheduler_address, env=env)
+            assert run.returncode == 0, run.stderr
+            assert len(client.scheduler_info()["workers"]) == 2
+    # Each package ran in a worker process of the cluster, one on each worker.
+    workers = {line.split(" on ")[-1] for line in run.stderr.splitlines() if line.startswith("[")}
+    assert len(workers) == 2, run.stderr
+    inspections = read_table(out / "dataset", "inspections")
+    assert sorted(inspections.inspection_id) == sorted(GOOD) and (inspections.status == "ok").all()
+    assert len(read_table(out / "dataset", "measurements")) == 12
+
+
+def _free_port() -> int:
+    import socket
+
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def _wait_for(check, what: str, timeout: float = 180):
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        if check():
+            return
+        time.sleep(1)
+    raise AssertionError(f"timed out waiting for {what}")
+
+
+def _stop(proc: subprocess.Popen) -> None:
+    if proc.poll() is None:
+        os.killpg(proc.pid, signal.SIGTERM)
+        try:
+            proc.wait(timeout=30)
+        except subprocess.TimeoutExpired:
+            os.killpg(proc.pid, signal.SIGKILL)
+            proc.wait()
+
+
+def test_served_deployment_on_a_real_prefect_server(tmp_path, env):
+    """prefect server start on loopback, pipegauge serve, a triggered run, its outputs."""
+    import urllib.request
+
+    prefect = str(Path(sys.executable).parent / "prefect")
+    port = _free_port()
+    env = dict(env, PREFECT_HOME=str(tmp_path / "server-home"))
+    env["PREFECT_API_URL"] = f"http://127.0.0.1:{port}/api"
+    logs = tmp_path / "logs"
+    logs.mkdir()
+    server = subprocess.Popen([prefect, "server", "start", "--host", "127.0.0.1", "--port", str(port)], env=env,
+                              stdout=(logs / "server.txt").open("w"), stderr=subprocess.STDOUT, start_new_session=True)
+    serve = None
+    try:
+        def healthy() -> bool:
+            try:
+                return urllib.request.urlopen(f"{env['PREFECT_API_URL']}/health", timeout=2).status == 200
+            except OSError:
+                return False
+
+        _wait_for(healthy, "the Prefect server")
+        inbox = _inbox(tmp_path, good=("S02-circular-water-offset",))
+        out = tmp_path / "out"
+        serve = subprocess.Popen([sys.executable, "-m", "flows.cli", "serve", str(inbox), "--out", str(out),
+                                  "--cron", "0 2 * * *"], cwd=ROOT, env=env,
+                                 stdout=(logs / "serve.txt").open("w"), stderr=subprocess.STDOUT, start_new_session=True)
+        name = "pipegauge-nightly/nightly"
+
+        def inspect() -> subprocess.CompletedProcess:
+            return subprocess.run([prefect, "deployment", "inspect", name], env=env, capture_output=True, text=True)
+
+        _wait_for(lambda: inspect().returncode == 0, "the served deployment")
+        assert "0 2 * * *" in inspect().stdout                    # the nightly schedule is registered
+        run = subprocess.run([prefect, "deployment", "run", name, "--watch", "--watch-timeout", "600"], env=env,
+                             capture_output=True, text=True, timeout=700)
+        assert run.returncode == 0, run.stdout + run.stderr + (logs / "serve.txt").read_text()
+        assert "Completed" in run.stdout + run.stderr
+        inspections = read_table(out / "dataset", "inspections")
+        assert inspections.inspection_id.tolist() == ["S02-circular-water-offset"] and inspections.status[0] == "ok"
+    finally:
+        if serve is not None:
+            _stop(serve)
+        _stop(server)

@@ -174,7 +174,7 @@ def _quantity_block(m: dict, thumbnail: bytes | None) -> KeepTogether:
         _p(_txt(b["label"])), _p(_txt(b["description"])), _p(f"{b['estimate']:.5g}"), _p(f"{b['u']:.3g}"),
         _p(_txt(str(b["distribution"]).split("(x=")[0], 40)), _p(f"{b['sensitivity']:.3g}"),
         _p(f"{abs(b['contribution']):.3g}")] for b in budget]
-    table = Table(rows, colWidths=[15 * mm, 52 * mm, 15 * mm, 13 * mm, 17 * mm, 10 * mm, 12 * mm], repeatRows=1)
+    table = Table(rows, colWidths=[15 * mm, 47 * mm, 15 * mm, 14 * mm, 16 * mm, 13 * mm, 13 * mm], repeatRows=1)
     table.setStyle(TableStyle(TABLE_STYLE + [("TOPPADDING", (0, 0), (-1, -1), 0.8),
                                               ("BOTTOMPADDING", (0, 0), (-1, -1), 1.2)]))
     bottom = Table([[table, budget_bars(budget, m["u"], m["unit"], width=46 * mm)]], colWidths=[135 * mm, 45 * mm])

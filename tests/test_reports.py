@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import datetime as dt
+import json
 import re
 import shutil
 from pathlib import Path
@@ -38,9 +39,18 @@ def _page_images(path: Path, scale: float = 1.0) -> list[np.ndarray]:
 
 @pytest.fixture(scope="module")
 def measured(tmp_path_factory):
-    """S02 measured for real into a dataset, with its report rendered by the run's own step."""
+    """S02 measured for real into a dataset, with its report rendered by the run's own step.
+
+    Its header is changed to say concrete, while the video's overlay says vitrified clay.
+    """
     root = tmp_path_factory.mktemp("measured")
-    outcome = process_package(SAMPLES / "S02-circular-water-offset", root / "dataset", reports=root / "reports")
+    package = root / "inbox" / "S02-circular-water-offset"
+    shutil.copytree(SAMPLES / "certificates", root / "inbox" / "certificates")
+    shutil.copytree(SAMPLES / "S02-circular-water-offset", package, ignore=shutil.ignore_patterns("truth"))
+    header = json.loads((package / "header.json").read_text())
+    header["material"] = "concrete"
+    (package / "header.json").write_text(json.dumps(header))
+    outcome = process_package(package, root / "dataset", reports=root / "reports")
     assert outcome.status == "ok"
     return root
 
@@ -56,6 +66,7 @@ def test_every_stored_quantity_appears_with_its_U95_and_unit(measured):
         step = 10.0 ** (np.floor(np.log10(r.U95)) - 1)
         assert any(unit == r.unit and abs(v - r.value) <= step and abs(U - r.U95) <= step for v, U, unit in found), \
             (r.row, r.value, r.U95, r.unit)
+    assert "the overlay says vitrified clay but the header's material is concrete" in " ".join(text.split())
     for needle in ("Condition report: section S02", "Warnings", "water level", "Monte Carlo", "Method",
                    "SYN-720x576", "valid until 2028-11-01", "perspective model", "|c_i| u"):
         assert needle in text, needle

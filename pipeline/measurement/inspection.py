@@ -29,6 +29,7 @@ from ..coding import (CODES, Mark, Observation, SectionHeader, certificate_path,
                       load_header, load_manifest, read_log, read_marks)
 from ..errors import MeasurementError, PipegaugeError
 from ..video.ingest import ingest_chainage
+from ..video.overlay_check import overlay_header_mismatches
 from ..video.overlay_ocr import OverlayReader
 from ..report.thumbnail import THUMBNAIL_WIDTH_PX, measurement_thumbnail
 from ..video.pipe_contour import contour_at_frame, overlay_mask
@@ -150,6 +151,7 @@ def measure_package(folder: str | os.PathLike, *, certificates: str | os.PathLik
         record.update(video_file=manifest.video.name, video_sha256=digests.get(video_key), video_frames=info.frame_count,
                       video_fps=info.fps, video_width_px=info.width, video_height_px=info.height,
                       chainage_read_rate=ingest.read_rate)
+        record["warnings"] = overlay_header_mismatches(ingest.overlay_text, asdict(header))
         und = Undistorter(cert, info.width, info.height, what=str(manifest.video))
         mask = overlay_mask(manifest.video, und)
         record["time_track_s"] = time.perf_counter() - t0

@@ -65,6 +65,8 @@ def inspection_warnings(inspection: dict, measurements: list[dict], today: dt.da
         out.append(f"Status {inspection.get('status')}: {inspection.get('error') or 'see below'}.")
     for problem in inspection.get("problems") if inspection.get("problems") is not None else []:
         out.append(f"Input problem: {problem}")
+    for warning in inspection.get("warnings") if inspection.get("warnings") is not None else []:
+        out.append(f"Check: {warning}.")
     for m in measurements:
         if m.get("status") == "ok" and not m.get("confident"):
             out.append(f"Row {m['row']} {m['quantity']} ({m['code']}): low-confidence contour or plane: "

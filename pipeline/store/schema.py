@@ -48,7 +48,10 @@ INSPECTIONS = pa.schema(_KEY + [
     _f("chainage_read_rate", pa.float64(), "1"),
     _f("pipeline_version", pa.string()), _f("model", pa.string(), doc="orthographic | perspective"),
     _f("status", pa.string(), doc="ok | partial | failed"), _f("error", pa.string()),
-    _f("problems", pa.list_(pa.string())), _f("n_observations", pa.int32()), _f("n_measurements", pa.int32()),
+    _f("problems", pa.list_(pa.string())),
+    _f("warnings", pa.list_(pa.string()), doc="things to check that do not stop the measurement, e.g. the overlay "
+                                              "disagreeing with the header"),
+    _f("n_observations", pa.int32()), _f("n_measurements", pa.int32()),
     _f("n_problems", pa.int32()), _f("processed_at", pa.timestamp("us", tz="UTC")),
     _f("time_total_s", pa.float64(), "s"), _f("time_track_s", pa.float64(), "s"),
     _f("time_contour_s", pa.float64(), "s"), _f("time_measure_s", pa.float64(), "s"),

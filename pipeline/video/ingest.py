@@ -6,10 +6,11 @@
 from __future__ import annotations
 
 import os
-from dataclasses import dataclass
+from dataclasses import dataclass, field
+from itertools import islice
 
 from .chainage_track import ChainageTrack, CounterModel, fit_track
-from .overlay_ocr import OverlayRead, OverlayReader
+from .overlay_ocr import OverlayRead, OverlayReader, parse_chainage
 from .reader import VideoInfo, check_integrity, iter_frames
 
 __all__ = ["ChainageIngest", "ingest_chainage"]
@@ -21,6 +22,7 @@ class ChainageIngest:
     box: tuple[int, int, int, int]
     reads: list[OverlayRead]
     track: ChainageTrack
+    overlay_text: list[str] = field(default_factory=list)   # the overlay's other lines (section, size, material)
 
     @property
     def read_rate(self) -> float:
@@ -38,9 +40,11 @@ def ingest_chainage(path: str | os.PathLike, reader: OverlayReader | None = None
     """
     info = check_integrity(path)
     reader = reader or OverlayReader()
+    step = max(1, info.frame_count // 6)
+    first = [f for _, f in islice(iter_frames(path, every=step), 3)]
     if box is None:
-        step = max(1, info.frame_count // 6)
-        box = reader.locate_chainage([f for _, f in iter_frames(path, every=step)][:3], str(path))
+        box = reader.locate_chainage(first, str(path))
+    overlay_text = [t for t, _, _ in reader.lines(first[0]) if parse_chainage(t) is None] if first else []
     reads = [reader.read(frame, box, i) for i, frame in iter_frames(path, every=every)]
     track = fit_track(reads, info.frame_count, info.fps, counter=counter, source=str(path))
-    return ChainageIngest(info, box, reads, track)
+    return ChainageIngest(info, box, reads, track, overlay_text)

@@ -249,3 +249,14 @@ def test_served_deployment_on_a_real_prefect_server(tmp_path, env):
         if serve is not None:
             _stop(serve)
         _stop(server)
+
+
+def test_only_transient_errors_are_retried():
+    from prefect.states import Failed
+
+    from flows.nightly import _transient
+    from pipeline.errors import CorruptVideoError
+
+    assert _transient(None, None, Failed(data=OSError(28, "No space left on device")))
+    assert not _transient(None, None, Failed(data=CorruptVideoError("video.mp4: truncated")))
+    assert not _transient(None, None, Failed(data=ValueError("a bug is not retried either")))

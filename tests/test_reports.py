@@ -68,7 +68,7 @@ def test_every_stored_quantity_appears_with_its_U95_and_unit(measured):
             (r.row, r.value, r.U95, r.unit)
     assert "the overlay says vitrified clay but the header's material is concrete" in " ".join(text.split())
     for needle in ("Condition report: section S02", "Warnings", "water level", "Monte Carlo", "Method",
-                   "SYN-720x576", "valid until 2028-11-01", "perspective model", "|c_i| u"):
+                   "SYN-720x576", "valid until 2028-11-01", "SYN-0001", "perspective model", "|c_i| u"):
         assert needle in text, needle
     # a thumbnail per measured quantity: the images are in the PDF
     reader = PdfReader(path)

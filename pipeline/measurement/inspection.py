@@ -141,7 +141,8 @@ def measure_package(folder: str | os.PathLike, *, certificates: str | os.PathLik
         observations = read_log(manifest.observations, header.section_length_m)
         marks, mark_problems = read_marks(manifest.marks, observations)
         cert = load_certificate(certificate_path(manifest, certificates))
-        record.update(certificate_id=cert.certificate_id, certificate_valid_until=cert.valid_until)
+        record.update(certificate_id=cert.certificate_id, certificate_valid_until=cert.valid_until,
+                      camera=" ".join(str(cert.camera.get(k, "")) for k in ("make", "model", "serial")).strip() or None)
         cert.check_valid_on(header.inspection_date)
         say(f"{manifest.package_id}: reading the chainage overlay")
         t0 = time.perf_counter()

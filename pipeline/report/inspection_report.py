@@ -100,7 +100,8 @@ def _header_block(i: dict) -> Table:
         ("Inspection", f"{_txt(i.get('inspection_date'))}, {_txt(i.get('contractor'))}; site {_txt(i.get('site'))}"),
         ("Pipe", f"{_txt(i.get('shape'))}, {size}, {_txt(i.get('material'))}; section length "
                  f"{_txt(i.get('section_length_m'))} m"),
-        ("Camera", f"certificate {_txt(i.get('certificate_id'))}, valid until {_txt(i.get('certificate_valid_until'))}"),
+        ("Camera", f"{_txt(i.get('camera')) or 'camera not named'}; calibration certificate {_txt(i.get('certificate_id'))}, "
+                   f"valid until {_txt(i.get('certificate_valid_until'))}"),
         ("Video", f"{_txt(i.get('video_file'))}, {_txt(i.get('video_width_px'))}×{_txt(i.get('video_height_px'))} px, "
                   f"{_txt(i.get('video_frames'))} frames; chainage read on "
                   + (f"{100 * i['chainage_read_rate']:.0f} %" if not _missing(i.get("chainage_read_rate")) else "-")

@@ -42,6 +42,7 @@ INSPECTIONS = pa.schema(_KEY + [
     _f("longitudinal_reference", pa.string()), _f("package_folder", pa.string()), _f("package_sha256", pa.string()),
     _f("input_sha256", pa.string(), doc="package, certificate, pipeline version and model: a run skips a package "
                                           "whose key is already stored"),
+    _f("camera", pa.string(), doc="camera make, model and serial from the certificate"),
     _f("certificate_id", pa.string()), _f("certificate_valid_until", pa.date32()),
     _f("video_file", pa.string()), _f("video_sha256", pa.string()), _f("video_frames", pa.int64()),
     _f("video_fps", pa.float64(), "1/s"), _f("video_width_px", pa.int32(), "px"), _f("video_height_px", pa.int32(), "px"),

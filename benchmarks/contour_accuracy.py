@@ -2,7 +2,7 @@
 
 For each sample: the chainage track from the overlay (``ingest_chainage``),
 then at every observation frame the pipe contour from the frames around it
-(``contour_at_frame``) and, for each measured quantity, p_H of the
+(``contours_at_frames``: per frame, then checked against one another) and, for each measured quantity, p_H of the
 cross-section through the marked points with u(p_H). The truth is the
 pixel height of the nominal cross-section at the true points' own plane,
 seen from the true camera pose (truth/truth.json, truth/frames.csv).
@@ -28,7 +28,7 @@ from pipeline.camera import load_certificate
 from pipeline.contour import PipeView
 from pipeline.video.ingest import ingest_chainage
 from pipeline.video.overlay_ocr import OverlayReader
-from pipeline.video.pipe_contour import contour_at_frame, overlay_mask
+from pipeline.video.pipe_contour import contours_at_frames, overlay_mask
 from pipeline.video.undistort import Undistorter
 
 from ingest import decode_only   # benchmarks/ingest.py, the same grab loop
@@ -69,16 +69,14 @@ def main() -> None:
         mask = overlay_mask(video, und)
         t_track = time.perf_counter() - t0
         tv, H = truth_view(truth, und.K), truth["pipe"]["height_mm"]
-        t_contours, contours = 0.0, {}
+        t1 = time.perf_counter()
+        contours = contours_at_frames(video, {o["frame"] for o in truth["observations"] if o.get("quantities")}, track,
+                                      und, header["shape"], height_mm=header["height_mm"],
+                                      tolerance_mm=header["height_tolerance_mm"], mask=mask)
+        t_contours = time.perf_counter() - t1
         for obs in truth["observations"]:
             if not obs.get("quantities"):
                 continue
-            if obs["frame"] not in contours:     # observations coded on one frame share its contour
-                t1 = time.perf_counter()
-                contours[obs["frame"]] = contour_at_frame(
-                    video, obs["frame"], track, und, header["shape"], height_mm=header["height_mm"],
-                    tolerance_mm=header["height_tolerance_mm"], mask=mask)
-                t_contours += time.perf_counter() - t1
             pc = contours[obs["frame"]]
             for q in obs["quantities"]:
                 idx = plane_points(obs["code"], obs["char1"], q["quantity"])

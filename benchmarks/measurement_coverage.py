@@ -42,7 +42,7 @@ from pipeline.synth.samples import sample_specs
 from pipeline.synth.scene import Deformation
 from pipeline.video.ingest import ingest_chainage
 from pipeline.video.overlay_ocr import OverlayReader
-from pipeline.video.pipe_contour import contour_at_frame, overlay_mask
+from pipeline.video.pipe_contour import contours_at_frames, overlay_mask
 from pipeline.video.undistort import Undistorter
 
 SAMPLES = Path(__file__).resolve().parent.parent / "sample_videos"
@@ -134,10 +134,8 @@ def main() -> None:
         marks, _ = read_marks(manifest.marks, obs)
         by_row = {o.row: o for o in obs}
         true_of = {(o["row"], q["quantity"]): q["true_value"] for o in truth["observations"] for q in o["quantities"]}
-        contours = {}
-        for frame in sorted({m.frame for m in marks}):
-            contours[frame] = contour_at_frame(manifest.video, frame, track, und, header.shape, height_mm=header.height_mm,
-                                               tolerance_mm=header.height_tolerance_mm, mask=mask)
+        contours = contours_at_frames(manifest.video, {m.frame for m in marks}, track, und, header.shape,
+                                      height_mm=header.height_mm, tolerance_mm=header.height_tolerance_mm, mask=mask)
         for m in marks:
             o = by_row[m.row]
             q = marked_quantity(o, m, und, cert)

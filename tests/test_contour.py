@@ -88,3 +88,41 @@ def test_a_frame_without_rings_is_not_a_contour():
     assert not pc.confident and pc.problems
     plane = pc.at_point((500.0, 288.0))
     assert not plane.confident and plane.reasons
+
+
+def _fit(pose, sd, rms, held_roll=True):
+    from pipeline.contour.detect import PipeContour
+
+    var = np.square(np.asarray(sd, float))
+    if held_roll:
+        var[4] = 0.0
+    view = PipeView("circular", 600.0, 600.0, 360.0, 288.0).with_pose(pose)
+    return PipeContour(view, np.diag(var), rings=[], rms_px=rms, n_candidates=10, seed=(360.0, 288.0))
+
+
+def test_windows_of_one_video_are_checked_against_one_another():
+    from pipeline.contour.consensus import reconcile_windows
+
+    sd = [0.002, 0.004, 0.001, 0.002, 0.0]
+    good = [0.0, -0.17, 0.0, 0.017, 0.0]
+    contours = {50: _fit([-0.02, 0.10, 0.01, 0.14, 0.0], sd, rms=0.87),       # offset traded for pitch
+                224: _fit([0.001, -0.168, 0.0005, 0.018, 0.0], sd, rms=0.55),
+                398: _fit(good, sd, rms=0.54),
+                900: _fit([0.3, 0.1, 0.0, 0.0, 0.0], sd, rms=0.9)}           # far away: no common frames
+    windows = {50: list(range(0, 40)), 224: list(range(10, 50)), 398: list(range(15, 55)), 900: list(range(800, 840))}
+    out = reconcile_windows(contours, windows)
+    # the wrong fit is replaced by the best overlapping one and is no longer confident
+    assert np.allclose(out[50].view.pose, good) and not out[50].confident
+    assert "disagrees grossly with the better fit around frame 398" in out[50].problems[0]
+    # the two that agree (the replaced one no longer counts) keep their poses and confidence
+    assert out[224].confident and out[398].confident
+    assert np.allclose(out[224].view.pose, contours[224].view.pose)
+    assert out[900] is contours[900]
+    # with a third agreeing window, their scatter enters every covariance; the held roll stays held
+    contours[300] = _fit([-0.001, -0.172, -0.0004, 0.016, 0.0], sd, rms=0.56)
+    windows[300] = list(range(12, 52))
+    out = reconcile_windows(contours, windows)
+    poses = np.array([contours[f].view.pose for f in (224, 398, 300)])
+    expected = contours[398].covariance + np.cov(poses.T, ddof=1) * (np.arange(5) < 4)[:, None] * (np.arange(5) < 4)
+    assert np.allclose(out[398].covariance, expected)
+    assert out[398].covariance[4, 4] == 0.0

@@ -32,7 +32,7 @@ from ..video.ingest import ingest_chainage
 from ..video.overlay_check import overlay_header_mismatches
 from ..video.overlay_ocr import OverlayReader
 from ..report.thumbnail import THUMBNAIL_WIDTH_PX, measurement_thumbnail
-from ..video.pipe_contour import contour_at_frame, overlay_mask
+from ..video.pipe_contour import contours_at_frames, overlay_mask
 from ..video.reader import read_frame
 from ..video.undistort import Undistorter
 from .quantity import MODELS, MarkedQuantity, QuantityResult, measure_quantity
@@ -167,6 +167,12 @@ def measure_package(folder: str | os.PathLike, *, certificates: str | os.PathLik
     by_frame: dict[int, list[Mark]] = defaultdict(list)
     for m in marks:
         by_frame[m.frame].append(m)
+    t0 = time.perf_counter()
+    say(f"{manifest.package_id}: pipe contours at {len(by_frame)} frame(s)")
+    contours = contours_at_frames(manifest.video, [f for f in by_frame if 0 <= f < info.frame_count], ingest.track,
+                                  und, header.shape, height_mm=header.height_mm,
+                                  tolerance_mm=header.height_tolerance_mm, mask=mask)
+    t_contour = time.perf_counter() - t0
     for frame in sorted(by_frame):
         for m in by_frame[frame]:
             obs = by_row[m.row]
@@ -178,13 +184,6 @@ def measure_package(folder: str | os.PathLike, *, certificates: str | os.PathLik
                 if bad:
                     problems += [str(p) for p in bad]
                     raise MeasurementError("; ".join(str(p) for p in bad))
-                if frame not in contours:
-                    say(f"{manifest.package_id}: pipe contour at frame {frame}")
-                    t0 = time.perf_counter()
-                    contours[frame] = contour_at_frame(manifest.video, frame, ingest.track, und, header.shape,
-                                                       height_mm=header.height_mm,
-                                                       tolerance_mm=header.height_tolerance_mm, mask=mask)
-                    t_contour += time.perf_counter() - t0
                 t0 = time.perf_counter()
                 marked = marked_quantity(obs, m, und, cert)
                 res = measure_quantity(marked, contours[frame], cert, H=header.height_mm, tolerance=header.height_tolerance_mm,

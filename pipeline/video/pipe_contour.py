@@ -15,13 +15,14 @@ import cv2
 import numpy as np
 
 from ..contour import PipeContour, detect_contour
+from ..contour.consensus import reconcile_windows
 from ..contour.detect import wall_u_from_tolerance
 from ..contour.ridges import static_overlay_mask
 from .chainage_track import ChainageTrack
 from .reader import iter_frames, probe_video
 from .undistort import Undistorter
 
-__all__ = ["overlay_mask", "window_frames", "read_ideal_grays", "contour_at_frame"]
+__all__ = ["overlay_mask", "window_frames", "read_ideal_grays", "contour_at_frame", "contours_at_frames"]
 
 SPAN_M = 2.0       # travel either side of the frame whose rings are used [m]
 STEP_M = 0.1       # chainage step between those frames [m]
@@ -59,6 +60,19 @@ def read_ideal_grays(path: str | os.PathLike, frames: Iterable[int], undistorter
             if len(out) == len(wanted):
                 break
     return out
+
+
+def contours_at_frames(path: str | os.PathLike, frames: Iterable[int], track: ChainageTrack, undistorter: Undistorter,
+                       shape: str, *, height_mm: float, tolerance_mm: float,
+                       mask: np.ndarray | None = None) -> dict[int, PipeContour]:
+    """The pipe contours of several frames of one video, checked against one another
+    (``pipeline.contour.consensus.reconcile_windows``: the mount does not move, so the fits must agree)."""
+    contours, windows = {}, {}
+    for frame in sorted(set(frames)):
+        windows[frame] = window_frames(track, frame)
+        contours[frame] = contour_at_frame(path, frame, track, undistorter, shape, height_mm=height_mm,
+                                           tolerance_mm=tolerance_mm, mask=mask)
+    return reconcile_windows(contours, windows)
 
 
 def contour_at_frame(path: str | os.PathLike, frame: int, track: ChainageTrack, undistorter: Undistorter,

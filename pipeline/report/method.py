@@ -4,12 +4,12 @@ from __future__ import annotations
 
 __all__ = ["method_statement", "VALIDATION"]
 
-# From `python benchmarks/measurement_coverage.py`, recorded in docs/measurement.md (2026-11-27);
-# update both together when the benchmark is rerun.
-VALIDATION = ("Validation against synthetic ground truth (benchmarks/measurement_coverage.py, 161 quantities of "
-              "eight kinds measured through the whole chain): the true value lay inside the reported 95 % interval "
-              "for 91.3 % of quantities with the perspective model and 94.4 % with the orthographic model; "
-              "the median |error| / U95 was 0.30 and 0.34.")
+# From `python benchmarks/measurement_coverage.py` (--per-frame 17), recorded in docs/measurement.md
+# (2026-11-27); update both together when the benchmark is rerun.
+VALIDATION = ("Validation against synthetic ground truth (benchmarks/measurement_coverage.py, 221 quantities of "
+              "nine kinds measured through the whole chain): the true value lay inside the reported 95 % interval "
+              "for 96.4 % of quantities with the perspective model and 96.4 % with the orthographic model; "
+              "the median |error| / U95 was 0.28 and 0.30.")
 
 
 def method_statement(model: str | None) -> list[str]:

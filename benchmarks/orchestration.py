@@ -26,7 +26,7 @@ os.environ.setdefault("DO_NOT_TRACK", "1")
 os.environ.setdefault("PREFECT_SERVER_ANALYTICS_ENABLED", "false")
 os.environ.setdefault("PREFECT_LOGGING_LEVEL", "WARNING")
 
-from flows.nightly import SomePackagesFailed, dataset_folder, nightly, task_runner_for  # noqa: E402
+from flows.nightly import dataset_folder, nightly, task_runner_for  # noqa: E402
 from pipeline.inbox import discover_packages, process_package  # noqa: E402
 from pipeline.video.overlay_ocr import OverlayReader  # noqa: E402
 
@@ -48,10 +48,9 @@ def _inbox(root: Path) -> Path:
 
 def _flow(inbox: Path, out: Path, workers: int) -> float:
     t0 = time.perf_counter()
-    try:
-        nightly.with_options(task_runner=task_runner_for(workers))(str(inbox), str(out))
-    except SomePackagesFailed as exc:
-        raise SystemExit(f"benchmark packages failed: {exc}") from None
+    state = nightly.with_options(task_runner=task_runner_for(workers))(str(inbox), str(out), return_state=True)
+    if not state.is_completed():
+        raise SystemExit(f"benchmark packages failed: {state.message}")
     return time.perf_counter() - t0
 
 

@@ -315,7 +315,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     if (code := _check_inbox(args)) is not None:
         return code
     _quiet_prefect()
-    from flows.nightly import SomePackagesFailed, dataset_folder, nightly, task_runner_for
+    from flows.nightly import dataset_folder, nightly, task_runner_for
 
     runner = task_runner_for(args.workers, args.dask)
     _say(f"pipegauge run: {args.inbox} -> {args.out} ({args.model} model, "
@@ -323,13 +323,9 @@ def cmd_run(args: argparse.Namespace) -> int:
     state = nightly.with_options(task_runner=runner)(
         str(args.inbox), str(args.out), args.model, str(args.certificates) if args.certificates else None,
         return_state=True)
-    result = state.result(raise_on_failure=False)
-    if isinstance(result, SomePackagesFailed):
-        rows = result.outcomes
-    elif isinstance(result, BaseException):
-        raise result
-    else:
-        rows = result
+    rows = state.result(raise_on_failure=False)        # every package's row, also when the run failed
+    if isinstance(rows, BaseException):
+        raise rows
     counts = {s: sum(r["status"] == s for r in rows) for s in ("ok", "partial", "failed")}
     new = sum(r["processed"] for r in rows)
     _say(f"pipegauge run: {len(rows)} package(s): " + ", ".join(f"{n} {s}" for s, n in counts.items())

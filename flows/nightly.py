@@ -11,7 +11,8 @@ records, never frames. Failure isolation: a bad package is a completed task
 whose record says ``failed`` with the error; only a transient error (an
 OSError while writing, for example a full or unmounted disk) fails the task,
 which is then retried. The flow waits on every future and ends Failed when
-any package failed, after leaving its summary table as an artifact.
+any package failed (its state still carries every package's row), after
+leaving its summary table as an artifact.
 """
 
 from __future__ import annotations
@@ -26,26 +27,17 @@ from prefect import flow, task
 from prefect.artifacts import create_table_artifact
 from prefect.cache_policies import NO_CACHE
 from prefect.futures import as_completed
+from prefect.states import Failed
 from prefect.task_runners import ProcessPoolTaskRunner, TaskRunner, ThreadPoolTaskRunner
 
 from pipeline.inbox import PackageOutcome, discover_packages, process_package
 from pipeline.report import render_night_summary
 from pipeline.store.lock import dataset_lock, remove_stale_temporaries
 
-__all__ = ["nightly", "measure_package_task", "task_runner_for", "SomePackagesFailed", "dataset_folder", "reports_folder"]
+__all__ = ["nightly", "measure_package_task", "task_runner_for", "dataset_folder", "reports_folder"]
 
 TRANSIENT = (OSError,)
 _local = threading.local()
-
-
-class SomePackagesFailed(Exception):
-    """The run completed, but some packages failed; ``outcomes`` holds every package's row."""
-
-    def __init__(self, outcomes: list[dict]):
-        self.outcomes = outcomes
-        failed = [o for o in outcomes if o["status"] == "failed"]
-        super().__init__(f"{len(failed)} of {len(outcomes)} package(s) failed: "
-                         + "; ".join(f"{o['package']}: {o['error']}" for o in failed))
 
 
 def dataset_folder(out: str | os.PathLike) -> Path:
@@ -97,8 +89,9 @@ def task_runner_for(workers: int = 1, dask_address: str | None = None) -> TaskRu
 
 
 def _failed_row(folder: str, exc: BaseException) -> dict:
-    return PackageOutcome(folder, Path(folder).name, "failed",
-                          f"{type(exc).__name__}: {exc} (after retries; check the disk and rerun)").as_row()
+    hint = ("after retries; check the disk and rerun" if isinstance(exc, TRANSIENT)
+            else "an unexpected error in pipegauge: please report it with this message")
+    return PackageOutcome(folder, Path(folder).name, "failed", f"{type(exc).__name__}: {exc} ({hint})").as_row()
 
 
 def _say(message: str) -> None:
@@ -131,6 +124,9 @@ def nightly(inbox: str, out: str, model: str = "perspective", certificates: str 
     say(f"nightly summary: {summary}")
     create_table_artifact(rows, key="pipegauge-nightly-summary",
                           description=f"Packages of {inbox} measured into {out} ({model} model)")
-    if any(r["status"] == "failed" for r in rows):
-        raise SomePackagesFailed(rows)
+    failed = [r for r in rows if r["status"] == "failed"]
+    if failed:
+        # A Failed state carrying the rows: the run is marked failed without an exception's traceback.
+        return Failed(message=f"{len(failed)} of {len(rows)} package(s) failed: "
+                              + "; ".join(f"{r['package']}: {r['error']}" for r in failed), data=rows)
     return rows

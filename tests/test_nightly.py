@@ -81,18 +81,22 @@ def test_good_and_bad_packages_in_one_night_then_nothing_new(tmp_path, env):
     manifest = json.loads((orphan / "package.json").read_text())
     manifest["certificate_id"] = "CAM-NOWHERE"
     (orphan / "package.json").write_text(json.dumps(manifest))
+    (inbox / "stray-folder").mkdir()
+    (inbox / "stray-folder" / "notes.txt").write_text("not a package")
     before = _snapshot(inbox)
     out = tmp_path / "out"
 
     first = _pipegauge("run", str(inbox), "--out", str(out), env=env)
     assert first.returncode == 1, first.stderr
     inspections = read_table(out / "dataset", "inspections").set_index("inspection_id")
-    assert set(inspections.index) == {*GOOD, "BAD-VIDEO", "BAD-LOG", "BAD-CERT"}
+    assert set(inspections.index) == {*GOOD, "BAD-VIDEO", "BAD-LOG", "BAD-CERT", "stray-folder"}
     assert (inspections.loc[list(GOOD), "status"] == "ok").all()
     assert "video.mp4: OpenCV cannot open this video" in inspections.loc["BAD-VIDEO", "error"]
     assert "missing column(s)" in inspections.loc["BAD-LOG", "error"]
     assert "certificate 'CAM-NOWHERE' not found" in inspections.loc["BAD-CERT", "error"]
-    assert "3 failed" in first.stderr and "no-certificate: failed" in first.stderr
+    assert "stray-folder/package.json: missing" in inspections.loc["stray-folder", "error"]
+    assert "4 failed" in first.stderr and "no-certificate: failed" in first.stderr
+    assert "Traceback" not in first.stderr
     _assert_dataset_sound(out / "dataset")
     assert _snapshot(inbox) == before, "the contractor's files were changed"
     reports = sorted(p.name for p in (out / "reports").glob("*.pdf"))
@@ -102,11 +106,11 @@ def test_good_and_bad_packages_in_one_night_then_nothing_new(tmp_path, env):
     from pypdf import PdfReader
 
     text = " ".join(p.extract_text() for p in PdfReader(out / "reports" / summary[0]).pages)
-    assert "2 ok, 0 partial, 3 failed" in text and "CAM-NOWHERE" in text
+    assert "2 ok, 0 partial, 4 failed" in text and "CAM-NOWHERE" in text
 
     second = _pipegauge("run", str(inbox), "--out", str(out), env=env)
     assert second.returncode == 1, second.stderr                 # the bad ones are still bad
-    assert "2 ok, 0 partial, 3 failed; 0 processed, 5 unchanged" in second.stderr
+    assert "2 ok, 0 partial, 4 failed; 0 processed, 6 unchanged" in second.stderr
     assert "corrupt-video: failed (unchanged since the last run): " in second.stderr
     stored = read_table(out / "dataset", "inspections").set_index("inspection_id").processed_at
     assert (stored == inspections.processed_at.reindex(stored.index)).all(), "a package was processed again"
@@ -114,7 +118,7 @@ def test_good_and_bad_packages_in_one_night_then_nothing_new(tmp_path, env):
     # Delivering the missing certificate is new input: that package alone is processed again.
     shutil.copy(inbox / "certificates" / "SYN-720x576.json", inbox / "certificates" / "CAM-NOWHERE.json")
     third = _pipegauge("run", str(inbox), "--out", str(out), env=env)
-    assert third.returncode == 1 and "no-certificate: ok" in third.stderr and "1 processed, 4 unchanged" in third.stderr
+    assert third.returncode == 1 and "no-certificate: ok" in third.stderr and "1 processed, 5 unchanged" in third.stderr
 
 
 def test_usage_errors_exit_2(tmp_path, env):

@@ -141,3 +141,6 @@ def test_night_summary_lists_failures_and_worst_observations(tmp_path):
     m = read_table(tmp_path / "dataset", "measurements")
     worst = m[m.unit == "%"].sort_values("high").iloc[-1]
     assert f"{worst.high:.3g} %" in text
+    # a failed inspection, stored with almost nothing, still gets a report that says why
+    bad = _text(render_inspection_report(tmp_path / "dataset", "BAD-1", tmp_path / "bad.pdf"))
+    assert "Status failed: video.mp4: OpenCV cannot open this video" in " ".join(bad.split())

@@ -15,6 +15,7 @@ import os
 import re
 from pathlib import Path
 
+import numpy as np
 import pandas as pd
 from reportlab.lib import colors
 from reportlab.lib.pagesizes import A4
@@ -41,7 +42,7 @@ def report_file_name(inspection_id: str) -> str:
 
 
 def _missing(v) -> bool:
-    return v is None or (isinstance(v, float) and math.isnan(v)) or v is pd.NaT
+    return v is None or (isinstance(v, float) and math.isnan(v)) or v is pd.NaT or v is pd.NA
 
 
 def _txt(v, limit: int = 400) -> str:
@@ -108,7 +109,8 @@ def _header_block(i: dict) -> Table:
                   + " of sampled frames"),
         ("Measurement", f"{_txt(i.get('model'))} model; pipegauge {_txt(i.get('pipeline_version'))}, processed "
                         f"{_txt(str(i.get('processed_at'))[:19])} UTC; status {_txt(i.get('status'))}"),
-        ("Package", f"{_txt(i.get('inspection_id'))}, SHA-256 {_txt((i.get('package_sha256') or '')[:16])}…"),
+        ("Package", f"{_txt(i.get('inspection_id'))}, SHA-256 "
+                    + (f"{_txt(i['package_sha256'][:16])}…" if isinstance(i.get("package_sha256"), str) else "not computed")),
     ]
     t = Table([[_p(f"<b>{k}</b>"), _p(v)] for k, v in rows], colWidths=[24 * mm, 156 * mm])
     t.setStyle(TableStyle(TABLE_STYLE[:2] + [("GRID", (0, 0), (-1, -1), 0.25, colors.grey),
@@ -186,7 +188,9 @@ def _quantity_block(m: dict, thumbnail: bytes | None) -> KeepTogether:
 
 
 def _records(frame: pd.DataFrame) -> list[dict]:
-    return frame.to_dict("records")
+    """Rows as dicts, with pandas' missing markers (NaN, NaT) as None."""
+    return [{k: (None if not isinstance(v, (list, np.ndarray)) and _missing(v) else v) for k, v in r.items()}
+            for r in frame.to_dict("records")]
 
 
 def render_inspection_report(data: str | os.PathLike, inspection_id: str, path: str | os.PathLike, *,
@@ -198,7 +202,7 @@ def render_inspection_report(data: str | os.PathLike, inspection_id: str, path: 
     if tables["inspections"].empty:
         raise StoreError(f"{data}: no inspection {inspection_id!r} in the dataset; list them with "
                          "pipegauge export or check the id")
-    inspection = tables["inspections"].iloc[0].to_dict()
+    inspection = _records(tables["inspections"])[0]
     observations = sorted(_records(tables["observations"]), key=lambda o: (o["row"]))
     measurements = sorted(_records(tables["measurements"]), key=lambda m: (m["row"], m["quantity"]))
     thumbs = {(t["row"], t["quantity"]): t["image_jpeg"] for t in _records(tables["thumbnails"])}

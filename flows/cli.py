@@ -18,14 +18,11 @@ from typing import Callable, Sequence
 
 import numpy as np
 
+from flows.console import say as _say
 from pipeline import __version__
 from pipeline.errors import PipegaugeError
 
 EXIT_OK, EXIT_FAILED, EXIT_USAGE = 0, 1, 2
-
-
-def _say(message: str) -> None:
-    print(message, file=sys.stderr, flush=True)
 
 
 def _image_size(text: str) -> tuple[int, int]:

@@ -19,7 +19,6 @@ from __future__ import annotations
 
 import datetime as dt
 import os
-import sys
 import threading
 from pathlib import Path
 
@@ -30,6 +29,7 @@ from prefect.futures import as_completed
 from prefect.states import Failed
 from prefect.task_runners import ProcessPoolTaskRunner, TaskRunner, ThreadPoolTaskRunner
 
+from flows.console import say
 from pipeline.inbox import PackageOutcome, discover_packages, process_package
 from pipeline.report import render_night_summary
 from pipeline.store.lock import dataset_lock, remove_stale_temporaries
@@ -94,14 +94,9 @@ def _failed_row(folder: str, exc: BaseException) -> dict:
     return PackageOutcome(folder, Path(folder).name, "failed", f"{type(exc).__name__}: {exc} ({hint})").as_row()
 
 
-def _say(message: str) -> None:
-    print(message, file=sys.stderr, flush=True)
-
-
 @flow(name="pipegauge-nightly", flow_run_name="nightly {inbox}")
 def nightly(inbox: str, out: str, model: str = "perspective", certificates: str | None = None) -> list[dict]:
     """Measure every package of ``inbox`` into ``out``; returns one summary row per package (also an artifact)."""
-    say = _say
     packages = discover_packages(inbox)
     certificates = certificates or str(Path(inbox) / "certificates")
     rows: list[dict] = []

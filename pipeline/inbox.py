@@ -22,10 +22,10 @@ from pathlib import Path
 from typing import Callable
 
 from . import __version__
-from .coding import certificate_path, load_manifest
+from .coding import PackageManifest, certificate_path, load_manifest
 from .errors import PipegaugeError
 from .measurement import measure_package
-from .measurement.inspection import file_digests, package_digest
+from .measurement.inspection import file_digests, file_sha256, package_digest
 from .report import render_inspection_report, report_file_name
 from .store import stored_input_key, write_inspection
 from .video.overlay_ocr import OverlayReader
@@ -67,18 +67,16 @@ def discover_packages(inbox: str | os.PathLike) -> list[Path]:
                   if p.is_dir() and not p.name.startswith((".", "_")) and p.name != CERTIFICATES_FOLDER)
 
 
-def _file_sha256(path: Path) -> str:
-    h = hashlib.sha256()
-    with path.open("rb") as fh:
-        for chunk in iter(lambda: fh.read(1 << 20), b""):
-            h.update(chunk)
-    return h.hexdigest()
+def input_key(manifest: PackageManifest | None, digests: dict[str, str], certificates: str | os.PathLike | None,
+              model: str) -> str:
+    """SHA-256 identifying everything a package's result depends on (see the module's docstring).
 
-
-def input_key(folder: Path, digests: dict[str, str], certificates: str | os.PathLike | None, model: str) -> str:
-    """SHA-256 identifying everything a package's result depends on (see the module's docstring)."""
+    manifest : the package's manifest, or None when it cannot be read
+    """
     try:
-        certificate = _file_sha256(certificate_path(load_manifest(folder), certificates))
+        if manifest is None:
+            raise PipegaugeError("no readable package.json")
+        certificate = file_sha256(certificate_path(manifest, certificates))
     except PipegaugeError as exc:
         certificate = f"unavailable: {exc}"
     parts = [package_digest(digests), certificate, __version__, model]
@@ -100,11 +98,12 @@ def process_package(folder: str | os.PathLike, out: str | os.PathLike, *, model:
     t0 = time.perf_counter()
     folder = Path(folder)
     digests = file_digests(folder)
-    key = input_key(folder, digests, certificates, model)
     try:
-        package_id = load_manifest(folder).package_id
+        manifest = load_manifest(folder)
     except PipegaugeError:
-        package_id = folder.name
+        manifest = None             # measure_package records why
+    key = input_key(manifest, digests, certificates, model)
+    package_id = manifest.package_id if manifest else folder.name
     stored = stored_input_key(out, package_id) if skip_known else None
     if stored and stored["input_sha256"] == key:
         if reports and not (Path(reports) / report_file_name(package_id)).is_file():

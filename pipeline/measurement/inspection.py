@@ -37,7 +37,7 @@ from ..video.reader import read_frame
 from ..video.undistort import Undistorter
 from .quantity import MODELS, MarkedQuantity, QuantityResult, measure_quantity
 
-__all__ = ["InspectionResult", "measure_package", "file_digests", "package_digest", "ideal_point_and_u", "marked_quantity"]
+__all__ = ["InspectionResult", "measure_package", "file_sha256", "file_digests", "package_digest", "ideal_point_and_u", "marked_quantity"]
 
 
 @dataclass
@@ -58,17 +58,20 @@ class InspectionResult:
         return self.inspection["status"] == "ok"
 
 
+def file_sha256(path: str | os.PathLike) -> str:
+    """SHA-256 of a file's contents, read in 1 MiB chunks."""
+    h = hashlib.sha256()
+    with Path(path).open("rb") as fh:
+        for chunk in iter(lambda: fh.read(1 << 20), b""):
+            h.update(chunk)
+    return h.hexdigest()
+
+
 def file_digests(folder: str | os.PathLike) -> dict[str, str]:
     """SHA-256 of each file of a package (truth/ excluded), by path relative to the folder."""
     folder = Path(folder)
-    digests = {}
-    for path in sorted(p for p in folder.rglob("*") if p.is_file() and "truth" not in p.relative_to(folder).parts):
-        h = hashlib.sha256()
-        with path.open("rb") as fh:
-            for chunk in iter(lambda: fh.read(1 << 20), b""):
-                h.update(chunk)
-        digests[path.relative_to(folder).as_posix()] = h.hexdigest()
-    return digests
+    return {path.relative_to(folder).as_posix(): file_sha256(path)
+            for path in sorted(p for p in folder.rglob("*") if p.is_file() and "truth" not in p.relative_to(folder).parts)}
 
 
 def package_digest(digests: dict[str, str]) -> str:

@@ -12,7 +12,6 @@ import datetime as dt
 import io
 import math
 import os
-import re
 from pathlib import Path
 
 import numpy as np
@@ -26,7 +25,7 @@ from .. import __version__
 from ..atomic import atomic_path
 from ..coding.codes import plain_description
 from ..errors import StoreError
-from ..store import read_table
+from ..store import file_stem, read_table
 from .graphics import budget_bars, pipe_strip
 from .method import method_statement
 from .style import ACCENT, FONT, TABLE_STYLE, format_quantity, safe_text, styles
@@ -37,8 +36,8 @@ NEAR_EXPIRY_DAYS = 30
 
 
 def report_file_name(inspection_id: str) -> str:
-    """The report's file name for an inspection id (characters outside [A-Za-z0-9._-] become '_')."""
-    return re.sub(r"[^A-Za-z0-9._-]", "_", inspection_id) + ".pdf"
+    """The report's file name for an inspection id (the dataset's file stem, ``.pdf``)."""
+    return file_stem(inspection_id) + ".pdf"
 
 
 def _missing(v) -> bool:

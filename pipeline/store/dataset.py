@@ -32,8 +32,13 @@ __all__ = ["write_inspection", "read_table", "inspection_files", "stored_input_k
 _SAFE_ID = re.compile(r"[^A-Za-z0-9._-]")
 
 
+def file_stem(inspection_id: str) -> str:
+    """An inspection id as a file name stem: characters outside [A-Za-z0-9._-] become '_'."""
+    return _SAFE_ID.sub("_", inspection_id)
+
+
 def _file_name(inspection_id: str) -> str:
-    return _SAFE_ID.sub("_", inspection_id) + ".parquet"
+    return file_stem(inspection_id) + ".parquet"
 
 
 def inspection_files(root: str | os.PathLike, table: str, inspection_id: str) -> list[Path]:

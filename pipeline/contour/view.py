@@ -82,8 +82,9 @@ class PipeView:
     def project(self, points_pipe) -> np.ndarray:
         """Ideal image points (n, 2) [px] of pipe points (n, 3) [H]."""
         p = np.asarray(points_pipe, float).reshape(-1, 3) - (self.ox, self.oy, 0.0)
-        pc = p @ self.R_wc
-        return np.stack([self.cx + self.fx * pc[:, 0] / pc[:, 2], self.cy + self.fy * pc[:, 1] / pc[:, 2]], axis=1)
+        with np.errstate(invalid="ignore"):     # a point off the wall is NaN and projects to NaN
+            pc = p @ self.R_wc
+            return np.stack([self.cx + self.fx * pc[:, 0] / pc[:, 2], self.cy + self.fy * pc[:, 1] / pc[:, 2]], axis=1)
 
     def reproject(self, points_px, t) -> np.ndarray:
         """Ideal points (n, 2) [px] of the wall points seen at ``points_px`` moved along the pipe to depth t [H]."""

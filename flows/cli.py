@@ -308,12 +308,27 @@ def _check_inbox(args: argparse.Namespace) -> int | None:
     return None
 
 
+def _dask_unreachable(address: str, timeout_s: float = 15.0) -> str | None:
+    """Why a Dask scheduler cannot be reached (None when it can): checked before the flow starts."""
+    from distributed import Client
+
+    try:
+        with Client(address, timeout=f"{timeout_s}s"):
+            return None
+    except (OSError, TimeoutError, ValueError) as exc:
+        return str(exc) or type(exc).__name__
+
+
 def cmd_run(args: argparse.Namespace) -> int:
     if (code := _check_inbox(args)) is not None:
         return code
     _quiet_prefect()
     from flows.nightly import dataset_folder, nightly, task_runner_for
 
+    if args.dask and (problem := _dask_unreachable(args.dask)):
+        _say(f"pipegauge run: error: cannot reach the Dask scheduler at {args.dask} ({problem}); check that "
+             "`dask scheduler` runs there and that this machine may connect to it")
+        return EXIT_FAILED
     runner = task_runner_for(args.workers, args.dask)
     _say(f"pipegauge run: {args.inbox} -> {args.out} ({args.model} model, "
          + (f"Dask cluster {args.dask})" if args.dask else f"{args.workers} worker(s))"))

@@ -127,6 +127,10 @@ def test_usage_errors_exit_2(tmp_path, env):
     inside = _pipegauge("run", str(inbox), "--out", str(inbox / "out"), env=env)
     assert inside.returncode == 2 and "inside the inbox" in inside.stderr
     assert _pipegauge("run", str(inbox), env=env).returncode == 2          # --out missing
+    port = _free_port()                                                     # nothing listens there
+    nowhere = _pipegauge("run", str(inbox), "--out", str(tmp_path / "out"), "--dask", f"tcp://127.0.0.1:{port}", env=env)
+    assert nowhere.returncode == 1 and f"cannot reach the Dask scheduler at tcp://127.0.0.1:{port}" in nowhere.stderr
+    assert "Traceback" not in nowhere.stderr
 
 
 def test_a_run_killed_mid_way_then_rerun(tmp_path, env):

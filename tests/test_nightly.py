@@ -141,7 +141,9 @@ def test_a_run_killed_mid_way_then_rerun(tmp_path, env):
                             start_new_session=True)
     stored = out / "dataset" / "inspections"
     deadline = time.monotonic() + 600
-    while not list(stored.rglob("*.parquet")) and time.monotonic() < deadline and proc.poll() is None:
+    # a stored file, not the hidden temporary it is written under before the rename
+    while (not [p for p in stored.rglob("*.parquet") if not p.name.startswith(".")]
+           and time.monotonic() < deadline and proc.poll() is None):
         time.sleep(0.2)
     assert proc.poll() is None, "the run ended before it could be killed: " + proc.stderr.read()
     os.killpg(proc.pid, signal.SIGKILL)                     # the whole run, as a power cut would

@@ -17,18 +17,16 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 from reportlab.lib import colors
-from reportlab.lib.pagesizes import A4
 from reportlab.lib.units import mm
-from reportlab.platypus import (Image, KeepTogether, Paragraph, SimpleDocTemplate, Spacer, Table, TableStyle)
+from reportlab.platypus import (Image, KeepTogether, Paragraph, Spacer, Table, TableStyle)
 
 from .. import __version__
-from ..atomic import atomic_path
 from ..coding.codes import plain_description
 from ..errors import StoreError
 from ..store import file_stem, read_table
 from .graphics import budget_bars, pipe_strip
 from .method import method_statement
-from .style import ACCENT, FONT, TABLE_STYLE, format_quantity, safe_text, styles
+from .style import ACCENT, TABLE_STYLE, build_pdf, format_quantity, safe_text, styles
 
 __all__ = ["render_inspection_report", "inspection_warnings", "report_file_name", "NEAR_EXPIRY_DAYS"]
 
@@ -229,16 +227,6 @@ def render_inspection_report(data: str | os.PathLike, inspection_id: str, path: 
         story += [_quantity_block(m, thumbs.get((m["row"], m["quantity"]))) for m in measurements]
     story += [Paragraph("Method", st["h2"])] + [Paragraph(p, st["small"]) for p in method_statement(inspection.get("model"))]
 
-    def footer(canvas, doc):
-        canvas.saveState()
-        canvas.setFont(FONT, 7)
-        canvas.drawString(15 * mm, 9 * mm, f"pipegauge {__version__} · inspection {inspection_id[:60]} · "
-                                           f"rendered {today.isoformat()} from the dataset")
-        canvas.drawRightString(A4[0] - 15 * mm, 9 * mm, f"page {doc.page}")
-        canvas.restoreState()
-
-    with atomic_path(path) as tmp:
-        SimpleDocTemplate(str(tmp), pagesize=A4, leftMargin=15 * mm, rightMargin=15 * mm, topMargin=14 * mm,
-                          bottomMargin=15 * mm, title=f"Condition report {inspection_id}",
-                          author="pipegauge").build(story, onFirstPage=footer, onLaterPages=footer)
-    return Path(path)
+    return build_pdf(story, path, title=f"Condition report {inspection_id}",
+                     footer=f"pipegauge {__version__} · inspection {inspection_id[:60]} · "
+                            f"rendered {today.isoformat()} from the dataset")

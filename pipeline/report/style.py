@@ -23,7 +23,7 @@ from reportlab.lib.styles import ParagraphStyle
 from reportlab.pdfbase import pdfmetrics
 from reportlab.pdfbase.ttfonts import TTFont
 
-__all__ = ["styles", "safe_text", "format_quantity", "significant_step", "FONT", "FONT_BOLD", "ACCENT", "TABLE_STYLE"]
+__all__ = ["styles", "safe_text", "format_quantity", "significant_step", "FONT", "FONT_BOLD", "ACCENT", "TABLE_STYLE", "build_pdf"]
 
 FONT, FONT_BOLD = "DejaVuSansCondensed", "DejaVuSansCondensed-Bold"
 ACCENT = colors.HexColor("#e8eef5")
@@ -101,3 +101,27 @@ def format_quantity(value: float, U95: float, unit: str) -> str:
     step = significant_step(U95)
     decimals = max(0, -int(math.floor(math.log10(step) + 1e-9)))
     return f"{value:.{decimals}f} ± {U95:.{decimals}f} {unit}"
+
+
+def build_pdf(story: list, path, *, title: str, footer: str):
+    """Write ``story`` as an A4 PDF at ``path`` (atomically), with ``footer`` and the page number on every page."""
+    from pathlib import Path as _Path
+
+    from reportlab.lib.pagesizes import A4
+    from reportlab.lib.units import mm
+    from reportlab.platypus import SimpleDocTemplate
+
+    from ..atomic import atomic_path
+
+    def draw_footer(canvas, doc):
+        canvas.saveState()
+        canvas.setFont(FONT, 7)
+        canvas.drawString(15 * mm, 9 * mm, footer)
+        canvas.drawRightString(A4[0] - 15 * mm, 9 * mm, f"page {doc.page}")
+        canvas.restoreState()
+
+    with atomic_path(path) as tmp:
+        SimpleDocTemplate(str(tmp), pagesize=A4, leftMargin=15 * mm, rightMargin=15 * mm, topMargin=14 * mm,
+                          bottomMargin=15 * mm, title=title, author="pipegauge").build(
+            story, onFirstPage=draw_footer, onLaterPages=draw_footer)
+    return _Path(path)

@@ -9,15 +9,13 @@ from pathlib import Path
 from typing import Sequence
 
 import pandas as pd
-from reportlab.lib.pagesizes import A4
 from reportlab.lib.units import mm
-from reportlab.platypus import Paragraph, SimpleDocTemplate, Spacer, Table, TableStyle
+from reportlab.platypus import Paragraph, Spacer, Table, TableStyle
 
 from .. import __version__
-from ..atomic import atomic_path
 from ..coding.codes import plain_description
 from ..store import read_table
-from .style import FONT, TABLE_STYLE, format_quantity, safe_text, styles
+from .style import TABLE_STYLE, build_pdf, format_quantity, safe_text, styles
 
 __all__ = ["render_night_summary", "worst_observations"]
 
@@ -87,15 +85,5 @@ def render_night_summary(rows: Sequence[dict], data: str | os.PathLike, path: st
     else:
         story.append(Paragraph("No quantity was measured.", st["body"]))
 
-    def footer(canvas, doc):
-        canvas.saveState()
-        canvas.setFont(FONT, 7)
-        canvas.drawString(15 * mm, 9 * mm, f"pipegauge {__version__} · nightly summary {night.isoformat()}")
-        canvas.drawRightString(A4[0] - 15 * mm, 9 * mm, f"page {doc.page}")
-        canvas.restoreState()
-
-    with atomic_path(path) as tmp:
-        SimpleDocTemplate(str(tmp), pagesize=A4, leftMargin=15 * mm, rightMargin=15 * mm, topMargin=14 * mm,
-                          bottomMargin=15 * mm, title=f"Nightly summary {night.isoformat()}",
-                          author="pipegauge").build(story, onFirstPage=footer, onLaterPages=footer)
-    return Path(path)
+    return build_pdf(story, path, title=f"Nightly summary {night.isoformat()}",
+                     footer=f"pipegauge {__version__} · nightly summary {night.isoformat()}")

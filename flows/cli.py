@@ -274,12 +274,13 @@ def cmd_measure(args: argparse.Namespace) -> int:
             print(json.dumps({"inspection": rec, "measurements": result.measurements}, default=str))
             continue
         for m in result.measurements:
+            what = m["quantity"] + (" from the image" if m.get("source") == "contour" else "")
             if m["status"] == "ok":
-                print(f"{rec['inspection_id']} row {m['row']:3d} {m['code']} {m['char1'] or '-'} {m['quantity']}: "
+                print(f"{rec['inspection_id']} row {m['row']:3d} {m['code']} {m['char1'] or '-'} {what}: "
                       f"{m['value']:9.2f} +- {m['U95']:.2f} {m['unit']:2s} (U95, {m['interval']})"
                       + ("" if m["confident"] else "  LOW CONFIDENCE: " + (m["warnings"] or "")))
             else:
-                print(f"{rec['inspection_id']} row {m['row']:3d} {m['code']} {m['quantity']}: not measured: {m['error']}")
+                print(f"{rec['inspection_id']} row {m['row']:3d} {m['code']} {what}: not measured: {m['error']}")
     return EXIT_FAILED if failed else EXIT_OK
 
 

@@ -60,7 +60,7 @@ def test_every_stored_quantity_appears_with_its_U95_and_unit(measured):
     text = _text(path)
     found = [(float(v), float(U), unit) for v, U, unit in QUANTITY.findall(text)]
     m = read_table(measured / "dataset", "measurements")
-    assert len(m) == 5
+    assert len(m) == 6 and list(m.source).count("contour") == 1      # the water level also from the image alone
     for r in m.itertuples():
         # printed with U95 to two significant digits and the value to the same decimal place
         step = 10.0 ** (np.floor(np.log10(r.U95)) - 1)
@@ -68,6 +68,7 @@ def test_every_stored_quantity_appears_with_its_U95_and_unit(measured):
             (r.row, r.value, r.U95, r.unit)
     assert "the overlay says vitrified clay but the header's material is concrete" in " ".join(text.split())
     for needle in ("Condition report: section S02", "Warnings", "water level", "Monte Carlo", "Method",
+                   "from the image alone, no marks", "water line edge fit",
                    "SYN-720x576", "valid until 2028-11-01", "SYN-0001", "perspective model", "|c_i| u"):
         assert needle in text, needle
     # a thumbnail per measured quantity: the images are in the PDF

@@ -35,6 +35,7 @@ from ..report.thumbnail import THUMBNAIL_WIDTH_PX, measurement_thumbnail
 from ..video.pipe_contour import contours_at_frames, overlay_mask
 from ..video.reader import read_frame
 from ..video.undistort import Undistorter
+from .automatic import AUTOMATIC_CODES, measure_automatic
 from .quantity import MODELS, MarkedQuantity, QuantityResult, measure_quantity
 
 __all__ = ["InspectionResult", "measure_package", "file_sha256", "file_digests", "package_digest", "ideal_point_and_u", "marked_quantity"]
@@ -170,12 +171,19 @@ def measure_package(folder: str | os.PathLike, *, certificates: str | os.PathLik
     by_frame: dict[int, list[Mark]] = defaultdict(list)
     for m in marks:
         by_frame[m.frame].append(m)
+    automatic = {o.row: _automatic_frame(o, by_row_marks(marks, o.row), ingest.track, info)
+                 for o in observations if o.code in AUTOMATIC_CODES and not o.problems}
+    frames = sorted({f for f in [*by_frame, *(f for f in automatic.values() if f is not None)] if 0 <= f < info.frame_count})
     t0 = time.perf_counter()
-    say(f"{manifest.package_id}: pipe contours at {len(by_frame)} frame(s)")
-    contours = contours_at_frames(manifest.video, [f for f in by_frame if 0 <= f < info.frame_count], ingest.track,
-                                  und, header.shape, height_mm=header.height_mm,
+    say(f"{manifest.package_id}: pipe contours at {len(frames)} frame(s)")
+    contours = contours_at_frames(manifest.video, frames, ingest.track, und, header.shape, height_mm=header.height_mm,
                                   tolerance_mm=header.height_tolerance_mm, mask=mask)
     t_contour = time.perf_counter() - t0
+
+    def ideal(frame: int) -> np.ndarray:
+        if frame not in ideal_frames:
+            ideal_frames[frame] = und.frame(read_frame(manifest.video, frame))
+        return ideal_frames[frame]
     for frame in sorted(by_frame):
         for m in by_frame[frame]:
             obs = by_row[m.row]
@@ -193,12 +201,26 @@ def measure_package(folder: str | os.PathLike, *, certificates: str | os.PathLik
                                        model=model, seed=_seed(manifest.package_id, obs.row, m.quantity))
                 t_measure += time.perf_counter() - t0
                 row.update(_quantity_fields(res))
-                if frame not in ideal_frames:
-                    ideal_frames[frame] = und.frame(read_frame(manifest.video, frame))
-                result.thumbnails.append(_thumbnail(ideal_frames[frame], contours[frame], marked, m))
-            except (MeasurementError, ValueError) as exc:
+                result.thumbnails.append(_thumbnail(ideal(frame), contours[frame], marked, m.row, m.frame, "marks"))
+            except (PipegaugeError, ValueError) as exc:
                 row.update(status="error", error=str(exc))
             result.measurements.append(row)
+    for r, frame in sorted(automatic.items()):
+        obs = by_row[r]
+        row = _automatic_base(obs, frame, ingest.track, model)
+        try:
+            if frame is None or not 0 <= frame < info.frame_count:
+                raise MeasurementError(f"row {r}: no frame for its video time or chainage")
+            t0 = time.perf_counter()
+            q, res = measure_automatic(obs, contours[frame], ideal(frame), cert, H=header.height_mm,
+                                       tolerance=header.height_tolerance_mm, model=model, mask=mask,
+                                       seed=_seed(manifest.package_id, r, "Q1 contour"))
+            t_measure += time.perf_counter() - t0
+            row.update(_quantity_fields(res), u_mark_px=q.u_a)
+            result.thumbnails.append(_thumbnail(ideal(frame), contours[frame], q, r, frame, "contour"))
+        except (PipegaugeError, ValueError) as exc:
+            row.update(status="error", error=str(exc))
+        result.measurements.append(row)
     n_bad = sum(r["status"] != "ok" for r in result.measurements)
     record.update(status="ok" if not problems and not n_bad else "partial",
                   error=None if not problems and not n_bad else f"{len(problems)} input problem(s), {n_bad} quantity(ies) not measured",
@@ -208,12 +230,38 @@ def measure_package(folder: str | os.PathLike, *, certificates: str | os.PathLik
     return result
 
 
-def _thumbnail(ideal_bgr: np.ndarray, contour, marked: MarkedQuantity, mark: Mark) -> dict:
+def _thumbnail(ideal_bgr: np.ndarray, contour, marked: MarkedQuantity, row: int, frame: int, source: str) -> dict:
     plane = contour.at_points([marked.a, marked.b])
     jpeg = measurement_thumbnail(ideal_bgr, plane.polygon, marked.a, marked.b, confident=plane.confident)
     h, w = ideal_bgr.shape[:2]
-    return {"row": mark.row, "quantity": mark.quantity, "frame": mark.frame, "width_px": THUMBNAIL_WIDTH_PX,
+    return {"row": row, "quantity": marked.quantity, "source": source, "frame": frame, "width_px": THUMBNAIL_WIDTH_PX,
             "height_px": round(h * THUMBNAIL_WIDTH_PX / w), "image_jpeg": jpeg}
+
+
+def by_row_marks(marks: list[Mark], row: int) -> list[Mark]:
+    return [m for m in marks if m.row == row]
+
+
+def _automatic_frame(obs: Observation, marks: list[Mark], track, info) -> int | None:
+    """The frame an automatic quantity is measured on: its marks' frame, else its video time, else its chainage."""
+    if marks:
+        return marks[0].frame
+    if obs.video_time_s is not None:
+        return int(round(obs.video_time_s * info.fps))
+    try:
+        return track.frame_at(obs.distance_m)[0]
+    except ValueError:
+        return None
+
+
+def _automatic_base(obs: Observation, frame: int | None, track, model: str) -> dict:
+    try:
+        chainage, u_chainage = track.at_frame(frame)
+    except (IndexError, TypeError):
+        chainage, u_chainage = float("nan"), float("nan")
+    return {"row": obs.row, "quantity": "Q1", "source": "contour", "code": obs.code, "char1": obs.char1,
+            "char2": obs.char2, "model": model, "frame": frame, "chainage_m": chainage, "u_chainage_m": u_chainage,
+            "distance_m": obs.distance_m, "operator_value": obs.q1, "status": "ok", "error": None}
 
 
 def _header_fields(h: SectionHeader) -> dict:
@@ -226,7 +274,7 @@ def _measurement_base(obs: Observation, m: Mark, track, model: str) -> dict:
     except IndexError:
         chainage, u_chainage = float("nan"), float("nan")
     q = obs.q1 if m.quantity == "Q1" else obs.q2
-    return {"row": obs.row, "quantity": m.quantity, "code": obs.code, "char1": obs.char1, "char2": obs.char2,
+    return {"row": obs.row, "quantity": m.quantity, "source": "marks", "code": obs.code, "char1": obs.char1, "char2": obs.char2,
             "model": model, "frame": m.frame, "chainage_m": chainage, "u_chainage_m": u_chainage,
             "distance_m": obs.distance_m, "operator_value": q,
             "a_x_px": m.a[0], "a_y_px": m.a[1], "b_x_px": m.b[0], "b_y_px": m.b[1], "u_mark_px": m.u_px,

@@ -71,6 +71,7 @@ class MarkedQuantity:
     b: tuple[float, float]    # ideal [px]
     u_a: float                # standard uncertainty of each coordinate of a, ideal image [px]
     u_b: float
+    origin: str = "marking"   # where a and b come from: the operator's marking or an image fit
 
 
 @dataclass(frozen=True)
@@ -163,8 +164,13 @@ def _below_widest(contour: PipeContour, q: MarkedQuantity, depth: float) -> bool
     return 0.5 * (q.a[1] + q.b[1]) > widest[1]
 
 
-def _budget(lin) -> list[BudgetEntry]:
-    return [BudgetEntry(line.label, INPUT_DESCRIPTIONS.get(line.label, line.label), line.estimate, line.u,
+def _description(label: str, origin: str) -> str:
+    text = INPUT_DESCRIPTIONS.get(label, label)
+    return text.replace("(marking,", f"({origin},") if origin != "marking" else text
+
+
+def _budget(lin, origin: str = "marking") -> list[BudgetEntry]:
+    return [BudgetEntry(line.label, _description(line.label, origin), line.estimate, line.u,
                         line.distribution, line.sensitivity, line.contribution, line.share) for line in lin.budget]
 
 
@@ -256,4 +262,4 @@ def measure_quantity(q: MarkedQuantity, contour: PipeContour, cert: Certificate,
         linear_validated=check.validated, d_low=check.d_low, d_high=check.d_high, delta=check.delta,
         p_H_px=plane.p_H, u_p_H_px=plane.u_p_H, SC_mm_per_px=H / plane.p_H, p_X_px=p_X,
         plane_depth_mm=plane.depth * H, orthographic_value=v_ortho, perspective_value=v_persp,
-        confident=plane.confident and contour.confident, reasons=tuple(dict.fromkeys(reasons)), budget=_budget(lin))
+        confident=plane.confident and contour.confident, reasons=tuple(dict.fromkeys(reasons)), budget=_budget(lin, q.origin))

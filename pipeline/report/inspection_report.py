@@ -131,9 +131,9 @@ def _observation_table(observations: list[dict], by_row: dict[int, list[dict]]) 
         for m in by_row.get(o["row"], []):
             if m["status"] == "ok":
                 flag = "" if m.get("confident") else " ⚠"
-                measured.append(f"{m['quantity']}: {format_quantity(m['value'], m['U95'], m['unit'])}{flag}")
+                measured.append(f"{_label(m)}: {format_quantity(m['value'], m['U95'], m['unit'])}{flag}")
             else:
-                measured.append(f"{m['quantity']}: not measured")
+                measured.append(f"{_label(m)}: not measured")
         clock = "" if _missing(o.get("clock_from")) else f"{int(o['clock_from'])}" + (
             "" if _missing(o.get("clock_to")) else f"–{int(o['clock_to'])}")
         codes = " ".join(_txt(v) for v in (o.get("code"), o.get("char1"), o.get("char2")) if not _missing(v) and v)
@@ -148,7 +148,8 @@ def _observation_table(observations: list[dict], by_row: dict[int, list[dict]]) 
 
 def _quantity_block(m: dict, thumbnail: bytes | None) -> KeepTogether:
     codes = " ".join(_txt(v) for v in (m["code"], m.get("char1"), m.get("char2")) if not _missing(v) and v)
-    title = _p(f"<b>Row {m['row']} {m['quantity']}: {codes}, "
+    source = " (from the image alone, no marks)" if _source(m) == "contour" else ""
+    title = _p(f"<b>Row {m['row']} {m['quantity']}{source}: {codes}, "
                f"{safe_text(plain_description(m['code'], m.get('char1'), m.get('char2')))}</b>", "body")
     if m["status"] != "ok":
         return KeepTogether([title, _p(f"Not measured: {_txt(m.get('error'))}", "warning"), Spacer(1, 3 * mm)])
@@ -184,6 +185,15 @@ def _quantity_block(m: dict, thumbnail: bytes | None) -> KeepTogether:
     return KeepTogether([title, Spacer(1, 1.5 * mm), top, Spacer(1, 1.5 * mm), bottom, Spacer(1, 5 * mm)])
 
 
+def _label(m: dict) -> str:
+    return f"{m['quantity']} (image)" if _source(m) == "contour" else m["quantity"]
+
+
+def _source(record: dict) -> str:
+    """marks or contour (datasets written before the column existed hold marked quantities only)."""
+    return record.get("source") or "marks"
+
+
 def _records(frame: pd.DataFrame) -> list[dict]:
     """Rows as dicts, with pandas' missing markers (NaN, NaT) as None."""
     return [{k: (None if not isinstance(v, (list, np.ndarray)) and _missing(v) else v) for k, v in r.items()}
@@ -201,8 +211,8 @@ def render_inspection_report(data: str | os.PathLike, inspection_id: str, path: 
                          "pipegauge export or check the id")
     inspection = _records(tables["inspections"])[0]
     observations = sorted(_records(tables["observations"]), key=lambda o: (o["row"]))
-    measurements = sorted(_records(tables["measurements"]), key=lambda m: (m["row"], m["quantity"]))
-    thumbs = {(t["row"], t["quantity"]): t["image_jpeg"] for t in _records(tables["thumbnails"])}
+    measurements = sorted(_records(tables["measurements"]), key=lambda m: (m["row"], m["quantity"], _source(m) != "marks"))
+    thumbs = {(t["row"], t["quantity"], _source(t)): t["image_jpeg"] for t in _records(tables["thumbnails"])}
     by_row: dict[int, list[dict]] = {}
     for m in measurements:
         by_row.setdefault(m["row"], []).append(m)
@@ -224,7 +234,7 @@ def render_inspection_report(data: str | os.PathLike, inspection_id: str, path: 
                         "unit; ⚠ marks a low-confidence measurement (see Warnings).", st["small"])]
     if measurements:
         story.append(Paragraph("Measured quantities and their uncertainty budgets", st["h2"]))
-        story += [_quantity_block(m, thumbs.get((m["row"], m["quantity"]))) for m in measurements]
+        story += [_quantity_block(m, thumbs.get((m["row"], m["quantity"], _source(m)))) for m in measurements]
     story += [Paragraph("Method", st["h2"])] + [Paragraph(p, st["small"]) for p in method_statement(inspection.get("model"))]
 
     return build_pdf(story, path, title=f"Condition report {inspection_id}",

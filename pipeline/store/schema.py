@@ -12,7 +12,7 @@ import pyarrow as pa
 
 __all__ = ["TABLES", "SCHEMAS", "BUDGET_TYPE", "SCHEMA_VERSION"]
 
-SCHEMA_VERSION = "1"
+SCHEMA_VERSION = "2"
 
 
 def _f(name: str, type_: pa.DataType, unit: str = "", doc: str = "") -> pa.Field:
@@ -68,8 +68,9 @@ OBSERVATIONS = pa.schema(_KEY + [
 ])
 
 MEASUREMENTS = pa.schema(_KEY + [
-    _f("row", pa.int32()), _f("quantity", pa.string(), doc="Q1 | Q2"), _f("code", pa.string()),
-    _f("char1", pa.string()), _f("char2", pa.string()), _f("method", pa.string()), _f("model", pa.string()),
+    _f("row", pa.int32()), _f("quantity", pa.string(), doc="Q1 | Q2"),
+    _f("source", pa.string(), doc="marks (the operator's marked points) | contour (measured from the image alone)"),
+    _f("code", pa.string()), _f("char1", pa.string()), _f("char2", pa.string()), _f("method", pa.string()), _f("model", pa.string()),
     _f("unit", pa.string(), doc="unit of value, u, U95, low, high and the model values"),
     _f("value", pa.float64(), "unit"), _f("u", pa.float64(), "unit"), _f("U95", pa.float64(), "unit"),
     _f("low", pa.float64(), "unit"), _f("high", pa.float64(), "unit"), _f("interval", pa.string()),
@@ -88,7 +89,8 @@ MEASUREMENTS = pa.schema(_KEY + [
 ])
 
 THUMBNAILS = pa.schema(_KEY + [
-    _f("row", pa.int32()), _f("quantity", pa.string(), doc="Q1 | Q2"), _f("frame", pa.int64()),
+    _f("row", pa.int32()), _f("quantity", pa.string(), doc="Q1 | Q2"), _f("source", pa.string(), doc="marks | contour"),
+    _f("frame", pa.int64()),
     _f("width_px", pa.int32(), "px"), _f("height_px", pa.int32(), "px"),
     _f("image_jpeg", pa.binary(), doc="the ideal frame scaled, with the cross-section contour and the marks drawn"),
 ])

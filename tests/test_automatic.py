@@ -1,0 +1,96 @@
+"""BDD water level and BAA deformation measured from the image alone, against the synthetic truth."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pytest
+
+from pipeline.camera import load_certificate
+from pipeline.coding.log import Observation
+from pipeline.contour import detect_contour
+from pipeline.contour.deformed_ring import find_deformed_ring
+from pipeline.contour.water_line import find_water_line
+from pipeline.errors import MeasurementError
+from pipeline.measurement.automatic import measure_automatic
+from pipeline.synth.scene import Deformation, Pipe, Scene
+from pipeline.synth.window import render_window
+
+SAMPLES = Path(__file__).resolve().parent.parent / "sample_videos"
+H = 300.0
+
+
+@pytest.fixture(scope="module")
+def cert():
+    return load_certificate(SAMPLES / "certificates" / "SYN-720x576.json")
+
+
+def _seen(scene: Scene, cert, z: float, **mount):
+    frames, K = render_window(scene, cert, z, **mount)
+    return frames, detect_contour([cv2.cvtColor(f, cv2.COLOR_BGR2GRAY) for f in frames], K, "circular")
+
+
+def _obs(code: str, char1: str = "A") -> Observation:
+    return Observation(1, 1.0, code, char1, "", None, "%", None, "", None, None, False, "", None, "", "", {})
+
+
+@pytest.fixture(scope="module")
+def wet(cert):
+    return _seen(Scene(Pipe("circular", H, "vitrified clay", 1000.0), water_percent=22.0), cert, 1800.0,
+                 offset_mm=(15.0, -25.0), yaw_deg=1.5, pitch_deg=-1.0)
+
+
+@pytest.fixture(scope="module")
+def deformed(cert):
+    scene = Scene(Pipe("circular", H, "concrete", 1000.0), features=(Deformation("d", 2600.0, 3600.0, 9.0),))
+    return _seen(scene, cert, 3000.0 - 2.5 * H, offset_mm=(0.0, -15.0), pitch_deg=1.0)
+
+
+def test_water_line_is_found_at_the_true_level(wet):
+    frames, contour = wet
+    line = find_water_line(frames[0], contour.view)
+    assert line is not None and line.confident, line
+    assert abs(line.level - 0.22) < 0.01
+    # both ends of the chord lie on the water line of one cross-section, left and right of the axis
+    assert line.a[0] < contour.view.vanishing_point[0] < line.b[0]
+
+
+@pytest.mark.parametrize("model", ["perspective", "orthographic"])
+def test_water_level_from_the_image_holds_the_truth_in_its_interval(wet, cert, model):
+    frames, contour = wet
+    q, res = measure_automatic(_obs("BDD"), contour, frames[0], cert, H=H, tolerance=0.0, model=model, seed=3)
+    assert q.origin == "water line edge fit" and q.method == "water_level"
+    assert res.low <= 22.0 <= res.high, (res.value, res.low, res.high)
+    assert res.U95 < 2.0                     # not needlessly wide: a percent or so
+    assert any("water line edge fit" in b.description for b in res.budget)
+
+
+def test_deformed_ring_gives_the_vertical_deformation(deformed, cert):
+    frames, contour = deformed
+    ring = find_deformed_ring(frames[0], contour)
+    assert ring is not None and ring.confident, ring
+    assert abs(ring.height - 0.91) < 0.01
+    q, res = measure_automatic(_obs("BAA"), contour, frames[0], cert, H=H, tolerance=0.0, model="perspective", seed=4)
+    assert q.method == "deformation" and res.low <= 9.0 <= res.high, (res.value, res.low, res.high)
+    assert res.confident
+
+
+def test_an_undeformed_joint_is_not_taken_for_a_deformation(cert):
+    frames, contour = _seen(Scene(Pipe("circular", H, "concrete", 1000.0)), cert, 1200.0, offset_mm=(0.0, -15.0))
+    ring = find_deformed_ring(frames[0], contour)
+    assert ring is None or not ring.confident
+
+
+def test_a_dry_pipe_has_no_water_line(cert):
+    frames, contour = _seen(Scene(Pipe("circular", H, "concrete", 1000.0)), cert, 1500.0, offset_mm=(10.0, -20.0))
+    assert find_water_line(frames[0], contour.view) is None
+    with pytest.raises(MeasurementError, match="no water line stands out"):
+        measure_automatic(_obs("BDD"), contour, frames[0], cert, H=H, tolerance=0.0, model="perspective", seed=1)
+
+
+def test_a_horizontal_deformation_needs_marks(deformed, cert):
+    frames, contour = deformed
+    with pytest.raises(MeasurementError, match="horizontal deformation is measured from marks only"):
+        measure_automatic(_obs("BAA", "B"), contour, frames[0], cert, H=H, tolerance=0.0, model="perspective", seed=1)

@@ -183,7 +183,8 @@ def cmd_probe(args: argparse.Namespace) -> int:
     read = reader.read(frame, box, index)
     report["frame"] = index
     report["chainage"] = {"text": read.text, "m": read.value, "score": round(read.score, 4), "box_px": list(box)}
-    report["overlay_lines"] = [t for t, _, _ in reader.lines(frame) if parse_chainage(t) is None]
+    text_lines = reader.lines(frame)
+    report["overlay_lines"] = [t for t, _, _ in text_lines if parse_chainage(t) is None]
     if args.certificate:
         cert = load_certificate(args.certificate)
         und = Undistorter(cert, frame.shape[1], frame.shape[0], str(path))
@@ -199,8 +200,11 @@ def cmd_probe(args: argparse.Namespace) -> int:
             grays += [more[k] for k in around if k in more]
             mask = overlay_mask(path, und)
         report["contour"] = _probe_contour(grays, und, args.shape, mask)
+        if is_image:
+            report["still_ring"] = _probe_still_ring(grays[0], args.shape, [b for _, b, _ in text_lines] + [box])
         if args.debug_image:
-            _draw_contour(und.frame(frame), report["contour"], args.debug_image)
+            _draw_contour(und.frame(frame), report["contour"], args.debug_image, report.get("still_ring"))
+        report.get("still_ring", {}).pop("_polygon", None)
         report["contour"].pop("_polygons", None)
         report["contour"].pop("_vp", None)
     elif args.debug_image:
@@ -237,12 +241,31 @@ def _probe_contour(grays, und, shape: str, mask) -> dict:
     return out
 
 
-def _draw_contour(image, contour: dict, out_path) -> None:
-    """The ideal frame with the rings found (green) and the vanishing point (red)."""
+def _probe_still_ring(gray, shape: str, text_boxes) -> dict:
+    """The ring of a single still (``pipeline.contour.still``), the overlay's text boxes masked out."""
+    from pipeline.contour.still import ring_in_still
+
+    mask = np.full(gray.shape, 255, np.uint8)
+    for x0, y0, x1, y1 in text_boxes:
+        mask[max(0, y0 - 6):y1 + 7, max(0, x0 - 6):x1 + 7] = 0
+    ring = ring_in_still(gray, shape, mask=mask)
+    if ring is None:
+        return {"found": False, "problems": ["no closed ring of the header's profile stands out in this still"]}
+    return {"found": True, "confident": ring.confident, "problems": list(ring.problems),
+            "centre_px": [round(c, 2) for c in ring.centre], "p_H_px": round(ring.p_H, 2),
+            "u_p_H_px": round(ring.u_p_H, 2), "points": ring.n_points, "arc_coverage_deg": ring.coverage_deg,
+            "rms_px": round(ring.rms_px, 3), "_polygon": ring.polygon.tolist()}
+
+
+def _draw_contour(image, contour: dict, out_path, still_ring: dict | None = None) -> None:
+    """The ideal frame with the rings found (green), the still's ring (yellow) and the vanishing point (red)."""
     import cv2
 
     for poly in contour.pop("_polygons", []):
         cv2.polylines(image, [np.round(np.asarray(poly)).astype(np.int32)], True, (0, 255, 0), 1, cv2.LINE_AA)
+    if still_ring and still_ring.get("_polygon"):
+        cv2.polylines(image, [np.round(np.asarray(still_ring["_polygon"])).astype(np.int32)], True, (0, 255, 255), 2,
+                      cv2.LINE_AA)
     vp = contour.pop("_vp", None)
     if vp is not None:
         cv2.drawMarker(image, (int(round(vp[0])), int(round(vp[1]))), (0, 0, 255), cv2.MARKER_CROSS, 15, 2)

@@ -4,6 +4,7 @@ import csv
 import json
 from pathlib import Path
 
+import cv2
 import numpy as np
 import pytest
 
@@ -126,3 +127,22 @@ def test_windows_of_one_video_are_checked_against_one_another():
     expected = contours[398].covariance + np.cov(poses.T, ddof=1) * (np.arange(5) < 4)[:, None] * (np.arange(5) < 4)
     assert np.allclose(out[398].covariance, expected)
     assert out[398].covariance[4, 4] == 0.0
+
+
+def test_a_single_still_gives_the_ring_of_its_visible_joint_face():
+    """One rendered still, camera on the axis: the ring found lies within the joint's band (from the socket
+    face before the gap to the gap's far edge), and is seen all round."""
+    from pipeline.contour.still import ring_in_still
+    from pipeline.synth.render import LIP_MM
+    from pipeline.synth.scene import Pipe, Scene
+    from pipeline.synth.window import render_window
+
+    cert = load_certificate(SAMPLES / "certificates" / "SYN-720x576.json")
+    pipe = Pipe("circular", 300.0, "concrete", 1000.0)
+    for z_cam in (250.0, 420.0):
+        frames, K = render_window(Scene(pipe), cert, z_cam, back_mm=0.0)
+        ring = ring_in_still(cv2.cvtColor(frames[0], cv2.COLOR_BGR2GRAY), "circular")
+        near, far = 1000.0 - pipe.gap_mm / 2 - LIP_MM, 1000.0 + pipe.gap_mm / 2
+        assert ring is not None and ring.coverage_deg == 360.0
+        assert K[1, 1] * pipe.height_mm / (far - z_cam) < ring.p_H < K[1, 1] * pipe.height_mm / (near - z_cam)
+        assert "one ring in one still" in ring.problems[0]

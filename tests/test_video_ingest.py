@@ -125,6 +125,21 @@ def test_probe_command_on_a_real_frame(capsys):
     assert any("Vitrified Clay" in line for line in report["overlay_lines"])
 
 
+@pytest.mark.parametrize("name", ["1.045-1.040_0002.jpg", "1.045-1.040_0003.jpg"])
+def test_probe_finds_the_joint_ring_on_real_frames(capsys, tmp_path, name):
+    debug = tmp_path / "debug.png"
+    cert = Path(__file__).resolve().parent.parent / "docs" / "real-frames" / "ASSUMED-840x576.json"
+    assert main(["probe", str(REAL / name), "--certificate", str(cert), "--shape", "circular", "--json",
+                 "--debug-image", str(debug)]) == 0
+    ring = json.loads(capsys.readouterr().out)["still_ring"]
+    assert ring["found"] and ring["arc_coverage_deg"] >= 120 and ring["rms_px"] < 1.5
+    # the joint ring seen around the image centre, a third to a half of the frame high; one still: not confident
+    assert 200 < ring["p_H_px"] < 380 and 300 < ring["centre_px"][0] < 480 and 230 < ring["centre_px"][1] < 360
+    assert 0 < ring["u_p_H_px"] < 0.05 * ring["p_H_px"]
+    assert not ring["confident"] and "one ring in one still" in ring["problems"][0]
+    assert cv2.imread(str(debug)).shape == (576, 840, 3)
+
+
 def test_overlay_lines_against_the_header(reader):
     from pipeline.video.overlay_check import overlay_header_mismatches
 

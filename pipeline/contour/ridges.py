@@ -12,7 +12,7 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
-__all__ = ["dark_centre", "ridge_points", "static_overlay_mask"]
+__all__ = ["dark_centre", "ridge_points", "edge_points", "static_overlay_mask"]
 
 DARK_FLOOR = 16.0   # grey levels added before the log: compression banding in the dark far pipe is not a ring
 
@@ -40,17 +40,42 @@ def ridge_points(gray: np.ndarray, centre, *, n_angles: int = 720, min_radius: f
     robust standard deviations of the detrended polar image; ``mask``
     (rows, cols), non-zero where points are allowed (e.g. off the overlay).
     """
+    polar, valid = _log_polar(gray, centre, n_angles)
+    ridge = polar - cv2.GaussianBlur(polar, (0, 0), sigmaX=6, sigmaY=2)
+    # bright socket faces and dark joint gaps alike
+    return _peaks(np.abs(ridge), ridge, valid, centre, gray.shape, n_angles, min_radius, k_noise, mask)
+
+
+def edge_points(gray: np.ndarray, centre, *, n_angles: int = 720, min_radius: float = 8.0,
+                k_noise: float = 4.0, mask: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Like ``ridge_points``, for step edges across the rays, darker on the centre's side: a pipe end seen
+    past a joint on real footage is such an edge rather than a thin bright ridge."""
+    polar, valid = _log_polar(gray, centre, n_angles)
+    smooth = cv2.GaussianBlur(polar, (0, 0), sigmaX=1.2, sigmaY=2)
+    step = np.zeros_like(smooth)
+    step[:, 1:-1] = 0.5 * (smooth[:, 2:] - smooth[:, :-2])
+    return _peaks(np.maximum(step, 0.0), step, valid, centre, gray.shape, n_angles, min_radius, k_noise, mask)
+
+
+def _log_polar(gray: np.ndarray, centre, n_angles: int) -> tuple[np.ndarray, np.ndarray]:
+    """The log image unwrapped about ``centre`` (angle rows x radius columns, one column per px) and where it is inside."""
     g = np.log(gray.astype(np.float32) + DARK_FLOOR) * 32.0   # contrast relative to the light level, above the noise floor
     x0, y0 = float(centre[0]), float(centre[1])
     rows, cols = g.shape
     reach = int(np.ceil(max(np.hypot(x0 - cx, y0 - cy) for cx in (0, cols) for cy in (0, rows))))
     polar = cv2.warpPolar(g, (reach, n_angles), (x0, y0), reach, cv2.WARP_POLAR_LINEAR + cv2.WARP_FILL_OUTLIERS)
     inside = cv2.warpPolar(np.ones_like(g), (reach, n_angles), (x0, y0), reach, cv2.WARP_POLAR_LINEAR + cv2.WARP_FILL_OUTLIERS)
-    ridge = polar - cv2.GaussianBlur(polar, (0, 0), sigmaX=6, sigmaY=2)
-    valid = inside > 0.999
-    mad = np.median(np.abs(ridge[valid] - np.median(ridge[valid])))
+    return polar, inside > 0.999
+
+
+def _peaks(ridge: np.ndarray, signed: np.ndarray, valid: np.ndarray, centre, shape, n_angles: int, min_radius: float,
+           k_noise: float, mask) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Sub-pixel radial maxima of a polar response above k_noise robust sigmas of its signed form, as image
+    points, strengths and curve labels."""
+    x0, y0 = float(centre[0]), float(centre[1])
+    rows, cols = shape[:2]
+    mad = np.median(np.abs(signed[valid] - np.median(signed[valid])))
     threshold = max(3.0, k_noise * 1.4826 * mad)
-    ridge = np.abs(ridge)    # bright socket faces and dark joint gaps alike
     centre_v, left, right = ridge[:, 1:-1], ridge[:, :-2], ridge[:, 2:]
     peak = (centre_v > left) & (centre_v >= right) & (centre_v > threshold) & valid[:, 1:-1] & valid[:, :-2] & valid[:, 2:]
     peak_map = np.zeros(ridge.shape, np.uint8)

@@ -25,7 +25,9 @@ from pathlib import Path
 import numpy as np
 
 from pipeline.camera import load_certificate
+from pipeline.coding import read_log
 from pipeline.contour import PipeView
+from pipeline.measurement.wall import contour_under
 from pipeline.video.ingest import ingest_chainage
 from pipeline.video.overlay_ocr import OverlayReader
 from pipeline.video.pipe_contour import contours_at_frames, overlay_mask
@@ -74,10 +76,13 @@ def main() -> None:
                                       und, header["shape"], height_mm=header["height_mm"],
                                       tolerance_mm=header["height_tolerance_mm"], mask=mask)
         t_contours = time.perf_counter() - t1
+        logged = {o.row: o for o in read_log(folder / "observations.csv", header["section_length_m"])}
         for obs in truth["observations"]:
             if not obs.get("quantities"):
                 continue
-            pc = contours[obs["frame"]]
+            # the wall's departure under the observation, as the measurement takes it (displaced joints logged)
+            pc = contour_under(logged[obs["row"]], list(logged.values()), contours[obs["frame"]],
+                               unit_length_m=header["pipe_unit_length_m"], height_mm=header["height_mm"])
             for q in obs["quantities"]:
                 idx = plane_points(obs["code"], obs["char1"], q["quantity"])
                 marked = und.points(q["points_px_noise_free"])[idx]

@@ -38,8 +38,6 @@ def test_perspective_model_reproduces_the_true_values_from_noise_free_marks(pack
     truth, cert, und, view = _truth(package)
     for o in truth["observations"]:
         for q in o["quantities"]:
-            if o["feature"] == "crack-long" and package.startswith("S01"):
-                continue    # drawn on the deformation's ramp, where the wall is not the nominal profile
             method = CODES[o["code"]].quantification(q["quantity"], o["char1"]).method
             p = und.points(q["points_px_noise_free"])
             Pa, Pb = marked_points(METHODS[method].surfaces, view.shape, p[0, 0], p[0, 1], p[1, 0], p[1, 1],
@@ -117,3 +115,18 @@ def test_orthographic_linear_result_is_checked_by_monte_carlo():
     assert r.mc_trials >= 100_000 and r.delta > 0
     assert r.interval.startswith("linear") == r.linear_validated
     assert {line.label for line in r.budget} == {"p_X", "p_H", "certificate", "approximation"}
+
+
+def test_a_logged_displaced_joint_widens_the_wall_term_on_the_pipe_after_it():
+    from pipeline.coding.log import Observation
+    from pipeline.measurement.wall import displaced_wall_u
+
+    def obs(row, distance, code, char1="", q1=None):
+        return Observation(row, distance, code, char1, "", q1, "mm", None, "", None, None, False, "", None, "", "", {})
+
+    log = [obs(1, 1.0, "BAB", "B", 3.0), obs(2, 1.8, "BAJ", "B", 9.0), obs(3, 1.8, "BAJ", "A", 20.0),
+           obs(4, 2.5, "BAB", "B", 3.0), obs(5, 4.5, "BAB", "B", 3.0)]
+    u = {o.row: displaced_wall_u(o, log, unit_length_m=2.5, height_mm=300.0) for o in log}
+    assert u[1] == 0.0 and u[5] == 0.0           # before the joint; on the pipe after the next joint
+    assert u[2] == 0.0                            # the step itself models the displaced pipe
+    assert u[3] == u[4] == pytest.approx(9.0 / np.sqrt(3.0) / 300.0)

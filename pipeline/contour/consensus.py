@@ -70,8 +70,20 @@ def reconcile_windows(contours: dict[int, PipeContour], windows: dict[int, list[
             reason = (f"the pose fitted around frame {f} (RMS {contours[f].rms_px:.2f} px) disagrees grossly with the "
                       f"better fit around frame {best} (RMS {contours[best].rms_px:.2f} px) from overlapping frames; "
                       "that pose is used")
-            out[f] = dataclasses.replace(contours[best], problems=list(contours[best].problems) + [reason])
+            out[f] = _borrow(contours[f], contours[best], reason)
             replaced.add(f)
+    # A window whose own fit is not trusted takes the pose of a trusted overlapping window it disagrees with.
+    for f in contours:
+        if f in frames or not np.all(np.isfinite(contours[f].covariance)) or not len(_fitted(contours[f])):
+            continue
+        own = set(windows.get(f, [f]))
+        trusted = [g for g in frames if g not in replaced and _m2(contours[f], contours[g]) > GROSS_M2
+                   and len(own & sets[g]) >= MIN_OVERLAP * min(len(own), len(sets[g]))]
+        if trusted:
+            best = min(trusted, key=lambda g: contours[g].rms_px)
+            reason = (f"the pose fitted around frame {f} is not trusted ({'; '.join(contours[f].problems)}) and "
+                      f"disagrees with the fit around frame {best} from overlapping frames; that pose is used")
+            out[f] = _borrow(contours[f], contours[best], reason)
     agreeing = [f for f in frames if f not in replaced]
     for f in agreeing:
         group = [f] + [g for g in overlapping(f) if g not in replaced]
@@ -84,3 +96,9 @@ def reconcile_windows(contours: dict[int, PipeContour], windows: dict[int, list[
         scatter[:, held] = 0.0
         out[f] = dataclasses.replace(contours[f], covariance=contours[f].covariance + scatter)
     return out
+
+
+def _borrow(own: PipeContour, other: PipeContour, reason: str) -> PipeContour:
+    """``other``'s pose and rings for ``own``'s frame, flagged with ``reason``; ``own``'s deformed rings stay
+    (they were seen from this frame)."""
+    return dataclasses.replace(other, problems=list(other.problems) + [reason], deformed=list(own.deformed))

@@ -11,13 +11,14 @@ does not. So:
    cross-section's depth t;
 2. every ridge point of the frame is carried along its ray into the plane
    Z = t (pipe coordinates [H]); an ellipse is fitted there to the points
-   near the ring, with the points off it by more than ``INLIER_H`` dropped,
+   near the ring, with the points off it dropped (``section_shape``),
    repeated; t is then moved until the ellipse's invert lies on the wall
    (points carried into another plane scale about the camera's axis);
 3. the candidate whose ellipse departs most from the profile, with enough
    points and arc, is the deformed ring: its crown and its invert in the
    image are the two points a BAA A would be marked with; their standard
-   uncertainty is the fit's residual in the image.
+   uncertainty comes from a delete-one-sector jackknife of the ring's
+   height (shared by the two points).
 """
 
 from __future__ import annotations
@@ -29,11 +30,11 @@ import numpy as np
 
 from .detect import PipeContour
 from .ridges import dark_centre, ridge_points
+from .section_shape import extents, fit_section, points_in_plane, sector_jackknife
 
 __all__ = ["DeformedRing", "find_deformed_ring"]
 
 LOWER_ARC_H = -0.3           # ridge points below this height [H] carry a ring's depth
-INLIER_H = 0.012             # gate on a point's distance from the fitted ellipse in its plane [H]
 MIN_POINTS = 60
 MIN_ARC_DEG = 200.0
 MIN_DEPARTURE = 0.01         # the ring's vertical dimension departs from the profile by at least this [H]
@@ -56,37 +57,6 @@ class DeformedRing:
     @property
     def confident(self) -> bool:
         return not self.problems
-
-
-def _in_plane(contour: PipeContour, pts: np.ndarray, t: float) -> np.ndarray:
-    """Pipe coordinates (X, Y) [H] where the rays through ideal points (n, 2) meet the plane Z = t."""
-    view = contour.view
-    d = view.rays(pts)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        s = np.where(d[:, 2] > 1e-9, t / d[:, 2], np.nan)
-    return np.column_stack([view.ox + s * d[:, 0], view.oy + s * d[:, 1]])
-
-
-def _ellipse_distance(xy: np.ndarray, centre, axes, angle_deg) -> np.ndarray:
-    """Approximate distance [H] of points from an ellipse (radial, in the ellipse's own frame)."""
-    c, s = np.cos(np.radians(angle_deg)), np.sin(np.radians(angle_deg))
-    p = xy - centre
-    u = np.column_stack([c * p[:, 0] + s * p[:, 1], -s * p[:, 0] + c * p[:, 1]])
-    a, b = axes[0] / 2, axes[1] / 2
-    r = np.hypot(u[:, 0] / a, u[:, 1] / b)
-    return np.abs(r - 1.0) * np.hypot(*u.T) / np.maximum(r, 1e-9)
-
-
-def _fit_in_plane(xy: np.ndarray):
-    """Ellipse (centre, axes, angle) fitted to points in a plane, off-ellipse points dropped: and the inliers."""
-    keep = np.all(np.isfinite(xy), axis=1) & (np.hypot(xy[:, 0], xy[:, 1] + 0.0) < 1.0)
-    fit = None
-    for gate in (0.1, 0.04, INLIER_H, INLIER_H):
-        if keep.sum() < MIN_POINTS:
-            return None, keep
-        fit = cv2.fitEllipseDirect(xy[keep].astype(np.float32))
-        keep = keep & (_ellipse_distance(xy, np.array(fit[0]), fit[1], fit[2]) < gate)
-    return fit, keep
 
 
 def find_deformed_ring(ideal_bgr: np.ndarray, contour: PipeContour, *, vertical: bool = True,
@@ -116,27 +86,25 @@ def find_deformed_ring(ideal_bgr: np.ndarray, contour: PipeContour, *, vertical:
     for depth in candidates:
         fit = None
         for _ in range(3):
-            plane = _in_plane(contour, pts, depth)
-            fit, keep = _fit_in_plane(plane)
+            plane = points_in_plane(view, pts, depth)
+            fit, keep = fit_section(plane, MIN_POINTS)
             if fit is None:
                 break
             # the plane moves until the ring's invert sits on the wall: points scale about the camera with t
-            bottom = float(np.array(cv2.boxPoints(fit))[:, 1].min())
+            bottom = fit[0][1] - extents(fit)[1] / 2
             if bottom - view.oy >= -1e-6:
                 fit = None
                 break
             depth *= (-0.5 - view.oy) / (bottom - view.oy)
         if fit is None:
             continue
-        plane = _in_plane(contour, pts, depth)
-        fit, keep = _fit_in_plane(plane)
+        plane = points_in_plane(view, pts, depth)
+        fit, keep = fit_section(plane, MIN_POINTS)
         if fit is None:
             continue
         ang = np.degrees(np.arctan2(plane[keep, 1] - fit[0][1], plane[keep, 0] - fit[0][0])) % 360
         arc = 10.0 * len(np.unique(np.floor(ang / 10)))
-        corners = np.array(cv2.boxPoints(fit))
-        height = float(corners[:, 1].max() - corners[:, 1].min())
-        width = float(corners[:, 0].max() - corners[:, 0].min())
+        width, height = extents(fit)
         score = (abs(1.0 - height), int(keep.sum()))
         if keep.sum() >= MIN_POINTS and arc >= MIN_ARC_DEG and (best is None or score > best[0]):
             best = (score, depth, fit, keep, arc, height, width)
@@ -146,10 +114,8 @@ def find_deformed_ring(ideal_bgr: np.ndarray, contour: PipeContour, *, vertical:
     (xc, yc), _, _ = fit
     crown_y, invert_y = yc + height / 2, yc - height / 2
     crown, invert = view.project(np.array([[xc, crown_y, depth], [xc, invert_y, depth]]))
-    # the residual in the image: ring points against the fitted ellipse carried back to the image
-    dist_h = _ellipse_distance(_in_plane(contour, pts[keep], depth), np.array(fit[0]), fit[1], fit[2])
-    px_per_h = float(view.p_H(depth)[0])
-    u_px = float(np.sqrt(np.mean(dist_h ** 2))) * px_per_h
+    u_px = sector_jackknife(points_in_plane(view, pts[keep], depth), fit, lambda e: extents(e)[1]) \
+        * float(view.p_H(depth)[0]) / np.sqrt(2.0)
     problems = []
     if abs(1.0 - height) < MIN_DEPARTURE:
         problems.append(f"the ring departs from the profile by {100 * abs(1.0 - height):.1f} % only: "

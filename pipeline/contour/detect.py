@@ -10,11 +10,15 @@ Method (docs/contour.md):
 3. from each first pose: rings as the peaks of each frame's depth histogram
    with enough points and arc coverage, a least-squares fit of the shared
    pose and every ring's depth to the ring points (reprojection error
-   [px]), rings that do not follow the family dropped, repeated; the fit
-   whose rings are closest to their points is kept;
-4. the pose covariance from that fit;
+   [px]), rings that do not follow the family dropped, and so are deformed
+   rings (their whole ridge curves, carried into their plane, are squashed
+   against the profile: ``section_shape``; circular pipes), repeated; the
+   fit whose rings are closest to their points is kept;
+4. the pose covariance from that fit; a pose from fewer than ``MIN_RINGS``
+   rings, or from partial arcs only, is not trusted;
 5. for any wall point, the cross-section through it and its p_H, with
-   u(p_H) from the pose covariance and the wall's departure from the profile.
+   u(p_H) from the pose covariance and the wall's departure from the
+   profile; a plane near a deformed ring of the frame is not trusted.
 """
 
 from __future__ import annotations
@@ -28,6 +32,7 @@ from scipy.sparse import lil_matrix
 
 from ..profiles import ray_to_wall
 from .ridges import dark_centre, ridge_points
+from .section_shape import extents, fit_section, points_in_plane, profile_aspect, sector_jackknife
 from .view import POSE_PARAMETERS, PipeView
 
 __all__ = ["Ring", "PlaneContour", "PipeContour", "detect_contour", "wall_u_from_tolerance"]
@@ -39,9 +44,13 @@ OFFSET_PRIOR_H = 0.3        # standard deviation of the camera offset prior [H]:
 INLIER_PX = 2.0             # gate on a ring point's reprojection residual [px]
 MIN_RING_POINTS = 40
 MIN_RING_COVERAGE_DEG = 90.0
+MIN_RINGS = 3               # a confident pose needs at least this many rings,
+MIN_BEST_COVERAGE_DEG = 180.0   # and one of them seen over at least this arc
 MAX_RMS_PX = 1.5
 MAX_RING_RMS_PX = 1.0       # a ring fitting worse than this (or twice the median ring) is not of the family
 MAX_RELATIVE_U = 0.02       # u(p_H)/p_H above which a plane is not trusted
+MAX_ASPECT_DEPARTURE = 0.02  # a ring whose height / width departs more than this (and 3 u) from the profile's is deformed
+DEFORMED_REACH_H = 1.0      # planes closer than this to a deformed ring [H] are off the nominal wall
 
 
 @dataclass(frozen=True)
@@ -82,6 +91,7 @@ class PipeContour:
     seed: tuple[float, float]
     problems: list[str] = field(default_factory=list)
     wall_u: float = 0.0            # standard uncertainty of the wall's radial position against the profile [H]
+    deformed: list[tuple[int, float]] = field(default_factory=list)   # (frame, depth [H]) of rings off the profile's shape
 
     @property
     def confident(self) -> bool:
@@ -91,9 +101,9 @@ class PipeContour:
         view = self.view.with_pose(pose)
         return float(view.p_H(view.depths(point[None])[0])[0])
 
-    def at_points(self, points) -> PlaneContour:
+    def at_points(self, points, *, deformed_here: bool = False) -> PlaneContour:
         """The cross-section through wall points (n, 2) [px] marked in one plane: the mean of their depths."""
-        planes = [self.at_point(p) for p in np.asarray(points, float).reshape(-1, 2)]
+        planes = [self.at_point(p, deformed_here=deformed_here) for p in np.asarray(points, float).reshape(-1, 2)]
         if len(planes) == 1 or not all(np.isfinite(p.depth) for p in planes):
             return planes[0]
         t = float(np.mean([p.depth for p in planes]))
@@ -101,8 +111,13 @@ class PipeContour:
                             tuple(np.mean([p.dp_H_dpoint for p in planes], axis=0)), self.view.ring(t),
                             all(p.confident for p in planes), tuple(dict.fromkeys(r for p in planes for r in p.reasons)))
 
-    def at_point(self, point) -> PlaneContour:
-        """The cross-section plane through the ideal wall point (x, y) [px], its p_H and u(p_H)."""
+    def at_point(self, point, *, deformed_here: bool = False) -> PlaneContour:
+        """The cross-section plane through the ideal wall point (x, y) [px], its p_H and u(p_H).
+
+        deformed_here : the point is known to lie where the pipe is deformed
+        (a deformation's undeformed wall point), so a deformed ring nearby is
+        no reason for doubt.
+        """
         q = np.asarray(point, float).reshape(2)
         t = float(self.view.depths(q[None])[0])
         reasons = list(self.problems)
@@ -124,6 +139,10 @@ class PipeContour:
         u = float(np.sqrt(max(u_fit2, 0.0) + (p_H * self.wall_u / reach) ** 2))
         dq = np.array([(self._p_H_at(pose, q + e) - self._p_H_at(pose, q - e)) / 0.2 for e in (np.array([0.1, 0.0]), np.array([0.0, 0.1]))])
         depths = [r.depth for r in self.rings]
+        near = [d for f, d in self.deformed if f == 0 and abs(d - t) < DEFORMED_REACH_H]
+        if near and not deformed_here:
+            reasons.append(f"a deformed section was found at depth {near[0]:.2f} H, near this plane ({t:.2f} H): "
+                           "the wall here is off the nominal profile")
         if depths and not (min(depths) / 1.5 <= t <= max(depths) * 1.5):
             reasons.append(f"the plane (depth {t:.2f} H) lies far outside the detected rings ({min(depths):.2f}-{max(depths):.2f} H)")
         if u > MAX_RELATIVE_U * p_H:
@@ -272,10 +291,11 @@ def _pose_from_peaks(view: PipeView, pts: np.ndarray, frame_of: np.ndarray) -> P
     return _pose_from_templates(view, np.concatenate(rows), labels)
 
 
-def _refine(view: PipeView, pts: np.ndarray, frame_of: np.ndarray):
-    """Rings as depth peaks of the pose, then the least-squares fit, misfit rings dropped, repeated."""
+def _refine(view: PipeView, pts: np.ndarray, frame_of: np.ndarray, curve_of: np.ndarray):
+    """Rings as depth peaks of the pose, then the least-squares fit, misfit and deformed rings dropped, repeated."""
     rings = _ring_peaks(view, pts, frame_of)
     sol = free = None
+    deformed: list[tuple[int, float]] = []
     for loss in ("soft_l1", "soft_l1", "soft_l1", "linear"):
         rings = _keep_rings(view, pts, frame_of, rings)
         if not rings:
@@ -286,7 +306,40 @@ def _refine(view: PipeView, pts: np.ndarray, frame_of: np.ndarray):
         rings = [(frame, t) for (frame, _), t in zip(rings, depths)]
         if loss != "linear":
             rings = _drop_misfits(view, pts, frame_of, rings)
-    return view, rings, sol, free
+            flags = _deformed_rings(view, pts, frame_of, curve_of, rings)
+            deformed += [r for r, bad in zip(rings, flags) if bad]
+            rings = [r for r, bad in zip(rings, flags) if not bad]
+    return view, rings, sol, free, deformed
+
+
+def _aspect(ellipse) -> float:
+    width, height = extents(ellipse)
+    return height / width
+
+
+def _deformed_rings(view: PipeView, pts: np.ndarray, frame_of: np.ndarray, curve_of: np.ndarray,
+                    rings: list[tuple[int, float]]) -> list[bool]:
+    """Whether each ring is a deformed section: its whole ridge curves, carried into its plane, trace a shape
+    whose height / width departs from the profile's (a joint inside a deformed stretch; its lower arc can
+    still pass for a ring of the family and pull the pose)."""
+    if not rings or view.shape != "circular":
+        # an ellipse fitted to part of an egg profile changes with the part: the test holds for circles only
+        return [False] * len(rings)
+    ring_of, _ = _assign(view, pts, frame_of, rings)
+    nominal = profile_aspect(view.shape)
+    out = []
+    for i, (frame, t) in enumerate(rings):
+        mine = ring_of == i
+        same = (frame_of == frame) & np.isin(curve_of, np.unique(curve_of[mine]))
+        xy = points_in_plane(view, pts[same], t)
+        fit, keep = fit_section(xy, MIN_RING_POINTS)
+        if fit is None or _coverage_deg(view, pts[same][keep]) < MIN_BEST_COVERAGE_DEG:
+            out.append(False)       # too little of the ring to judge its shape
+            continue
+        departure = _aspect(fit) / nominal - 1.0
+        u = sector_jackknife(xy[keep], fit, _aspect) / nominal
+        out.append(abs(departure) > max(3.0 * u, MAX_ASPECT_DEPARTURE))
+    return out
 
 
 def _search_pose(view: PipeView, pts: np.ndarray, frame_of: np.ndarray) -> PipeView:
@@ -448,7 +501,7 @@ def detect_contour(ideal_grays, camera_matrix: np.ndarray, shape: str, *,
                           _pose_from_peaks(start, pts, frame_of)) if v is not None]
     if not starts:
         starts = [_search_pose(start, pts[steer], frame_of[steer])]
-    fits = [f for f in (_refine(v, pts, frame_of) for v in starts) if f is not None]
+    fits = [f for f in (_refine(v, pts, frame_of, curve_of) for v in starts) if f is not None]
     if not fits:
         empty.problems.append("no cross-section ring with enough points and arc coverage")
         return empty
@@ -456,7 +509,7 @@ def detect_contour(ideal_grays, camera_matrix: np.ndarray, shape: str, *,
     assigned = [_assign(f[0], pts, frame_of, f[1]) for f in fits]
     rms_of = [float(np.sqrt(np.mean(res[ring_of >= 0] ** 2))) for ring_of, res in assigned]
     best = int(np.argmin(rms_of))
-    (view, rings, sol, free), (ring_of, res), rms = fits[best], assigned[best], rms_of[best]
+    (view, rings, sol, free, deformed), (ring_of, res), rms = fits[best], assigned[best], rms_of[best]
     sel = ring_of >= 0
     dof = max(2 * int(sel.sum()) - len(sol.x), 1)
     # Residuals along one ring share its error (blur, texture, the ring's own shape), so the
@@ -479,8 +532,13 @@ def detect_contour(ideal_grays, camera_matrix: np.ndarray, shape: str, *,
         problems.append("rings at one depth only: the camera offset rests on its prior")
     if rms > MAX_RMS_PX:
         problems.append(f"ring residual {rms:.2f} px exceeds {MAX_RMS_PX} px")
+    if len(found) < MIN_RINGS:
+        problems.append(f"only {len(found)} ring(s) follow the profile: too few to fix the pose")
+    elif max(r.coverage_deg for r in found) < MIN_BEST_COVERAGE_DEG:
+        problems.append(f"no ring is seen over more than {max(r.coverage_deg for r in found):.0f} degrees: "
+                        "partial arcs do not fix the pose")
     return PipeContour(view, cov, sorted(found, key=lambda r: (r.frame, r.depth)), rms, len(pts), tuple(seed),
-                       problems, wall_u)
+                       problems, wall_u, sorted(set(deformed)))
 
 
 def wall_u_from_tolerance(height_mm: float, tolerance_mm: float) -> float:

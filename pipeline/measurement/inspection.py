@@ -37,6 +37,7 @@ from ..video.reader import read_frame
 from ..video.undistort import Undistorter
 from .automatic import AUTOMATIC_CODES, measure_automatic
 from .quantity import MODELS, MarkedQuantity, QuantityResult, measure_quantity
+from .wall import contour_under
 
 __all__ = ["InspectionResult", "measure_package", "file_sha256", "file_digests", "package_digest", "ideal_point_and_u", "marked_quantity"]
 
@@ -180,6 +181,10 @@ def measure_package(folder: str | os.PathLike, *, certificates: str | os.PathLik
                                   tolerance_mm=header.height_tolerance_mm, mask=mask)
     t_contour = time.perf_counter() - t0
 
+    def under(obs: Observation, contour):
+        return contour_under(obs, observations, contour, unit_length_m=header.pipe_unit_length_m,
+                             height_mm=header.height_mm)
+
     def ideal(frame: int) -> np.ndarray:
         if frame not in ideal_frames:
             ideal_frames[frame] = und.frame(read_frame(manifest.video, frame))
@@ -197,7 +202,8 @@ def measure_package(folder: str | os.PathLike, *, certificates: str | os.PathLik
                     raise MeasurementError("; ".join(str(p) for p in bad))
                 t0 = time.perf_counter()
                 marked = marked_quantity(obs, m, und, cert)
-                res = measure_quantity(marked, contours[frame], cert, H=header.height_mm, tolerance=header.height_tolerance_mm,
+                res = measure_quantity(marked, under(obs, contours[frame]), cert, H=header.height_mm,
+                                       tolerance=header.height_tolerance_mm,
                                        model=model, seed=_seed(manifest.package_id, obs.row, m.quantity))
                 t_measure += time.perf_counter() - t0
                 row.update(_quantity_fields(res))
@@ -212,7 +218,7 @@ def measure_package(folder: str | os.PathLike, *, certificates: str | os.PathLik
             if frame is None or not 0 <= frame < info.frame_count:
                 raise MeasurementError(f"row {r}: no frame for its video time or chainage")
             t0 = time.perf_counter()
-            q, res = measure_automatic(obs, contours[frame], ideal(frame), cert, H=header.height_mm,
+            q, res = measure_automatic(obs, under(obs, contours[frame]), ideal(frame), cert, H=header.height_mm,
                                        tolerance=header.height_tolerance_mm, model=model, mask=mask,
                                        seed=_seed(manifest.package_id, r, "Q1 contour"))
             t_measure += time.perf_counter() - t0

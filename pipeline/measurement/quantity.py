@@ -55,7 +55,7 @@ INPUT_DESCRIPTIONS = {
     "yaw": "camera yaw (contour fit)", "pitch": "camera pitch (contour fit)", "roll": "camera roll (contour fit)",
     "xa": "mark a, x (marking, certificate residual)", "ya": "mark a, y (marking, certificate residual)",
     "xb": "mark b, x (marking, certificate residual)", "yb": "mark b, y (marking, certificate residual)",
-    "wall": "wall position against the nominal profile (tolerance)",
+    "wall": "wall position against the nominal profile (tolerance, displaced joints logged before it)",
 }
 
 
@@ -192,7 +192,7 @@ def measure_quantity(q: MarkedQuantity, contour: PipeContour, cert: Certificate,
     method = METHODS[q.method]
     shape, view = contour.view.shape, contour.view
     on_wall = [p for p, s in zip((q.a, q.b), method.surfaces) if s == "wall"]
-    plane = contour.at_points(np.array(on_wall))
+    plane = contour.at_points(np.array(on_wall), deformed_here=q.method == "deformation")
     if not np.isfinite(plane.depth):
         raise MeasurementError(f"{q.code} {q.quantity}: the marked wall point does not lie on the pipe wall as detected "
                                f"({'; '.join(plane.reasons)})")

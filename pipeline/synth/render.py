@@ -167,9 +167,9 @@ class Renderer:
         """
         hits = self._segments(z_cam)
         z = z_cam + hits.s * self.dz
-        deformed = self._deform(hits, z, z_cam)
-        if deformed is not hits:
-            hits = deformed
+        if self.scene.of_type(Deformation):
+            # _deform may change a copy's hits in place: the wall positions must follow it either way
+            hits = self._deform(hits, z, z_cam)
             z = z_cam + hits.s * self.dz
 
         iz = (z * (1.0 / TEXEL_MM)).astype(np.int32) & (self.tex.shape[0] - 1)

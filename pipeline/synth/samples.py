@@ -65,7 +65,7 @@ def sample_specs() -> list[tuple[PackageSpec, tuple[int, int]]]:
         scene=Scene(Pipe("circular", _true_height(300, 3, 11), "concrete", 2500.0), features=(
             Crack("crack-circ", "circumferential", 1300.0, 5.0, clock_from=10, clock_to=2),
             Connection("lateral", 1900.0, 2, 150.0),
-            Deformation("deformation", 2200.0, 2600.0, 8.0),
+            Deformation("deformation", 4700.0, 5300.0, 8.0),     # around joint 2: a deformed joint ring
             Crack("crack-long", "longitudinal", 2650.0, 4.0, clock=10, length_mm=500.0),
             DisplacedJoint("joint-1", 1, 20.0, 10.0, clock=6),
         )),

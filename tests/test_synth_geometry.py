@@ -88,3 +88,27 @@ def test_joint_ring_radius_is_f_R_over_d(tmp_path):
         checks.append((d, expected, measured))
     for d, expected, measured in checks:
         assert measured == pytest.approx(expected, abs=0.5), f"d = {d} mm: f R / d = {expected:.2f} px, ring at {measured:.2f} px"
+
+
+def test_a_joint_inside_a_deformed_stretch_is_drawn_deformed_also_when_it_is_displaced():
+    """The wall positions follow the deformation whatever else changes the rays (here a displaced joint's segments)."""
+    from pipeline.contour.ridges import dark_centre, ridge_points
+    from pipeline.synth.scene import Deformation, DisplacedJoint
+    from pipeline.video.undistort import Undistorter
+
+    cert = sample_certificate(720, 576)
+    R, e, z_cam = 150.0, 0.08, 1700.0
+    scene = Scene(Pipe("circular", 2 * R, "concrete", 2500.0), features=(
+        Deformation("d", 2200.0, 2600.0, 100 * e), DisplacedJoint("j", 1, 20.0, 10.0, clock=6)))
+    und = Undistorter(cert, 720, 576)
+    gray = cv2.cvtColor(und.frame(Renderer(scene, cert, offset_mm=(0.0, -10.0)).render(z_cam)), cv2.COLOR_BGR2GRAY)
+    pts, _, _ = ridge_points(gray, dark_centre(gray))
+    K, th = und.K, np.linspace(0, 2 * np.pi, 721)
+
+    def near(a, b, z):      # ridge points within 1.5 px of the section (half-axes a, b; invert in place) at z
+        X, Y = a * np.cos(th), -R + b + b * np.sin(th) + 10.0
+        P = np.c_[K[0, 0] * X / (z - z_cam) + K[0, 2], -K[1, 1] * Y / (z - z_cam) + K[1, 2]]
+        return int((np.min(np.linalg.norm(pts[:, None] - P[None], axis=2), axis=1) < 1.5).sum())
+
+    z = 2490.0        # the socket face before joint 1, inside the deformed stretch
+    assert near(R * (1 + e), R * (1 - e), z) > 3 * near(R, R, z)

@@ -94,3 +94,10 @@ def test_a_horizontal_deformation_needs_marks(deformed, cert):
     frames, contour = deformed
     with pytest.raises(MeasurementError, match="horizontal deformation is measured from marks only"):
         measure_automatic(_obs("BAA", "B"), contour, frames[0], cert, H=H, tolerance=0.0, model="perspective", seed=1)
+
+
+def test_which_logged_observations_the_image_alone_measures():
+    from pipeline.measurement.automatic import measurable_automatically
+
+    assert measurable_automatically(_obs("BDD")) and measurable_automatically(_obs("BAA", "A"))
+    assert not measurable_automatically(_obs("BAA", "B")) and not measurable_automatically(_obs("BAB", "B"))

@@ -23,10 +23,15 @@ from ..contour.water_line import find_water_line
 from ..errors import MeasurementError
 from .quantity import MarkedQuantity, QuantityResult, measure_quantity
 
-__all__ = ["AUTOMATIC_CODES", "automatic_points", "measure_automatic"]
+__all__ = ["AUTOMATIC_CODES", "automatic_points", "measure_automatic", "measurable_automatically"]
 
 AUTOMATIC_CODES = {"BDD": "water_level", "BAA": "deformation"}
 ORIGIN = {"water_level": "water line edge fit", "deformation": "deformed ring fit"}
+
+
+def measurable_automatically(obs: Observation) -> bool:
+    """Whether a valid logged observation is one the image alone can measure (BDD; BAA A)."""
+    return obs.code in AUTOMATIC_CODES and not obs.problems and not (obs.code == "BAA" and obs.char1 == "B")
 
 
 def automatic_points(obs: Observation, contour: PipeContour, ideal_bgr: np.ndarray, cert: Certificate, *,

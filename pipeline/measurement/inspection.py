@@ -35,7 +35,7 @@ from ..report.thumbnail import THUMBNAIL_WIDTH_PX, measurement_thumbnail
 from ..video.pipe_contour import contours_at_frames, overlay_mask
 from ..video.reader import read_frame
 from ..video.undistort import Undistorter
-from .automatic import AUTOMATIC_CODES, measure_automatic
+from .automatic import measurable_automatically, measure_automatic
 from .quantity import MODELS, MarkedQuantity, QuantityResult, measure_quantity
 from .wall import contour_under
 
@@ -173,7 +173,7 @@ def measure_package(folder: str | os.PathLike, *, certificates: str | os.PathLik
     for m in marks:
         by_frame[m.frame].append(m)
     automatic = {o.row: _automatic_frame(o, by_row_marks(marks, o.row), ingest.track, info)
-                 for o in observations if o.code in AUTOMATIC_CODES and not o.problems}
+                 for o in observations if measurable_automatically(o)}
     frames = sorted({f for f in [*by_frame, *(f for f in automatic.values() if f is not None)] if 0 <= f < info.frame_count})
     t0 = time.perf_counter()
     say(f"{manifest.package_id}: pipe contours at {len(frames)} frame(s)")
@@ -189,6 +189,7 @@ def measure_package(folder: str | os.PathLike, *, certificates: str | os.PathLik
         if frame not in ideal_frames:
             ideal_frames[frame] = und.frame(read_frame(manifest.video, frame))
         return ideal_frames[frame]
+
     for frame in sorted(by_frame):
         for m in by_frame[frame]:
             obs = by_row[m.row]
@@ -227,10 +228,11 @@ def measure_package(folder: str | os.PathLike, *, certificates: str | os.PathLik
         except (PipegaugeError, ValueError) as exc:
             row.update(status="error", error=str(exc))
         result.measurements.append(row)
-    n_bad = sum(r["status"] != "ok" for r in result.measurements)
+    # what the image alone could not give is reported on its row, but the logged quantities decide the status
+    n_bad = sum(r["status"] != "ok" for r in result.measurements if r["source"] == "marks")
     record.update(status="ok" if not problems and not n_bad else "partial",
                   error=None if not problems and not n_bad else f"{len(problems)} input problem(s), {n_bad} quantity(ies) not measured",
-                  n_observations=len(observations), n_measurements=len(result.measurements) - n_bad,
+                  n_observations=len(observations), n_measurements=sum(r["status"] == "ok" for r in result.measurements),
                   n_problems=len(problems), problems=problems, time_contour_s=t_contour, time_measure_s=t_measure,
                   time_total_s=time.perf_counter() - t_start)
     return result

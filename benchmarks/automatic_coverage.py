@@ -3,12 +3,13 @@
 For random scenes (circular pipes, camera offset and tilt, water 5-35 %;
 deformations 4-15 % with a joint inside the deformed stretch, no water),
 frames are rendered around one camera position (``pipeline.synth.window``),
+and the deformations are measured both as A (height) and B (width);
 the pose is fitted to their rings, and the quantity is measured from the
 frame with ``pipeline.measurement.automatic`` in both models. Prints the
 share of true values inside the reported U95 interval (target 93-98 %), the
 median |error| / U95 and the median U95, per quantity and model.
 
-    python benchmarks/automatic_coverage.py [--cases 30] [--seed 5] [--kind water_level|deformation]
+    python benchmarks/automatic_coverage.py [--cases 30] [--seed 5] [--kind water_level|deformation|deformation_B]
 """
 
 from __future__ import annotations
@@ -31,7 +32,7 @@ from pipeline.synth.scene import Deformation, Pipe, Scene
 from pipeline.synth.window import render_window
 
 SAMPLES = Path(__file__).resolve().parent.parent / "sample_videos"
-KINDS = ("water_level", "deformation")
+KINDS = ("water_level", "deformation", "deformation_B")
 
 
 def case(kind: str, rng: np.random.Generator, cert):
@@ -46,7 +47,8 @@ def case(kind: str, rng: np.random.Generator, cert):
     joint = 3000.0
     scene = Scene(Pipe("circular", H, "concrete", 1000.0),
                   features=(Deformation("d", joint - 400.0, joint + 600.0, pct),))
-    return scene, joint - float(rng.uniform(2.2, 3.0)) * H, mount, pct, "BAA"
+    # the rendered deformation keeps the perimeter: height 1 - e, width 1 + e, so BAA B = -100 e
+    return scene, joint - float(rng.uniform(2.2, 3.0)) * H, mount, pct if kind == "deformation" else -pct, "BAA"
 
 
 def main() -> None:
@@ -67,7 +69,8 @@ def main() -> None:
             H = scene.pipe.height_mm
             contour = detect_contour([cv2.cvtColor(f, cv2.COLOR_BGR2GRAY) for f in frames], K, "circular",
                                      wall_u=wall_u_from_tolerance(H, 0.0))
-            obs = Observation(1, z / 1000, code, "A", "", truth, "%", None, "", None, None, False, "", None, "", "", {})
+            char1 = "B" if kind == "deformation_B" else "A"
+            obs = Observation(1, z / 1000, code, char1, "", truth, "%", None, "", None, None, False, "", None, "", "", {})
             for model in ("perspective", "orthographic"):
                 try:
                     _, res = measure_automatic(obs, contour, frames[0], cert, H=H, tolerance=0.0, model=model, seed=i)

@@ -90,14 +90,18 @@ def test_a_dry_pipe_has_no_water_line(cert):
         measure_automatic(_obs("BDD"), contour, frames[0], cert, H=H, tolerance=0.0, model="perspective", seed=1)
 
 
-def test_a_horizontal_deformation_needs_marks(deformed, cert):
+@pytest.mark.parametrize("model", ["perspective", "orthographic"])
+def test_the_horizontal_dimension_of_the_deformed_ring(deformed, cert, model):
+    """The rendered deformation squashes the section to an ellipse of width 1.09 H: BAA B = 100 (1 - 1.09) = -9 %."""
     frames, contour = deformed
-    with pytest.raises(MeasurementError, match="horizontal deformation is measured from marks only"):
-        measure_automatic(_obs("BAA", "B"), contour, frames[0], cert, H=H, tolerance=0.0, model="perspective", seed=1)
+    q, res = measure_automatic(_obs("BAA", "B"), contour, frames[0], cert, H=H, tolerance=0.0, model=model, seed=5)
+    assert q.method == "deformation_width" and q.anchor is not None
+    assert res.low <= -9.0 <= res.high and res.U95 < 2.0, (res.value, res.low, res.high)
+    assert any(b.label == "xo" for b in res.budget) == (model == "perspective")
 
 
 def test_which_logged_observations_the_image_alone_measures():
     from pipeline.measurement.automatic import measurable_automatically
 
     assert measurable_automatically(_obs("BDD")) and measurable_automatically(_obs("BAA", "A"))
-    assert not measurable_automatically(_obs("BAA", "B")) and not measurable_automatically(_obs("BAB", "B"))
+    assert measurable_automatically(_obs("BAA", "B")) and not measurable_automatically(_obs("BAB", "B"))

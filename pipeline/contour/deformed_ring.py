@@ -16,9 +16,10 @@ does not. So:
    (points carried into another plane scale about the camera's axis);
 3. the candidate whose ellipse departs most from the profile, with enough
    points and arc, is the deformed ring: its crown and its invert in the
-   image are the two points a BAA A would be marked with; their standard
-   uncertainty comes from a delete-one-sector jackknife of the ring's
-   height (shared by the two points).
+   image are the two points a BAA A would be marked with, its sides at the
+   centre height those of a BAA B (in the invert's cross-section); their
+   standard uncertainty comes from a delete-one-sector jackknife of the
+   ring's height or width (shared by the two points).
 """
 
 from __future__ import annotations
@@ -28,6 +29,7 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
+from ..profiles import profile_width
 from .detect import PipeContour
 from .ridges import dark_centre, ridge_points
 from .section_shape import extents, fit_section, points_in_plane, sector_jackknife
@@ -37,7 +39,7 @@ __all__ = ["DeformedRing", "find_deformed_ring"]
 LOWER_ARC_H = -0.3           # ridge points below this height [H] carry a ring's depth
 MIN_POINTS = 60
 MIN_ARC_DEG = 200.0
-MIN_DEPARTURE = 0.01         # the ring's vertical dimension departs from the profile by at least this [H]
+MIN_DEPARTURE = 0.01         # the ring's height or width departs from the profile's by at least this [1]
 
 
 @dataclass(frozen=True)
@@ -50,6 +52,9 @@ class DeformedRing:
     a: tuple[float, float]         # crown, ideal (x, y) [px]
     b: tuple[float, float]         # invert, ideal (x, y) [px]
     u_px: float                    # standard uncertainty of a coordinate of a or b [px]
+    left: tuple[float, float]      # the sides at the ellipse's centre height, ideal (x, y) [px]
+    right: tuple[float, float]
+    u_side_px: float               # standard uncertainty of a coordinate of left or right [px]
     n_points: int
     arc_deg: float
     problems: tuple[str, ...]
@@ -59,17 +64,13 @@ class DeformedRing:
         return not self.problems
 
 
-def find_deformed_ring(ideal_bgr: np.ndarray, contour: PipeContour, *, vertical: bool = True,
+def find_deformed_ring(ideal_bgr: np.ndarray, contour: PipeContour, *,
                        mask: np.ndarray | None = None) -> DeformedRing | None:
-    """The ring of a deformed stretch in an ideal frame, or None when no ring departs from the profile.
+    """The ring of a deformed stretch in an ideal frame (its invert in view), or None.
 
     contour : pose fitted to the undeformed rings (``detect_contour``);
-    vertical : the deformation of the vertical dimension (BAA A); the
-    horizontal one (B) is not measured without marks (its two sides both
-    leave the wall, so nothing anchors the plane).
+    mask : non-zero where ridge points may be taken.
     """
-    if not vertical:
-        return None
     gray = cv2.cvtColor(ideal_bgr, cv2.COLOR_BGR2GRAY) if ideal_bgr.ndim == 3 else ideal_bgr
     view = contour.view
     pts, _, _ = ridge_points(gray, dark_centre(gray), mask=mask)
@@ -113,14 +114,19 @@ def find_deformed_ring(ideal_bgr: np.ndarray, contour: PipeContour, *, vertical:
     _, depth, fit, keep, arc, height, width = best
     (xc, yc), _, _ = fit
     crown_y, invert_y = yc + height / 2, yc - height / 2
-    crown, invert = view.project(np.array([[xc, crown_y, depth], [xc, invert_y, depth]]))
-    u_px = sector_jackknife(points_in_plane(view, pts[keep], depth), fit, lambda e: extents(e)[1]) \
-        * float(view.p_H(depth)[0]) / np.sqrt(2.0)
+    crown, invert, left, right = view.project(np.array([[xc, crown_y, depth], [xc, invert_y, depth],
+                                                        [xc - width / 2, yc, depth], [xc + width / 2, yc, depth]]))
+    ring = points_in_plane(view, pts[keep], depth)
+    px_per_h = float(view.p_H(depth)[0])
+    u_px = sector_jackknife(ring, fit, lambda e: extents(e)[1]) * px_per_h / np.sqrt(2.0)
+    u_side_px = sector_jackknife(ring, fit, lambda e: extents(e)[0]) * px_per_h / np.sqrt(2.0)
     problems = []
-    if abs(1.0 - height) < MIN_DEPARTURE:
-        problems.append(f"the ring departs from the profile by {100 * abs(1.0 - height):.1f} % only: "
+    departure = max(abs(1.0 - height), abs(1.0 - width / profile_width(view.shape, 1.0)))
+    if departure < MIN_DEPARTURE:
+        problems.append(f"the ring departs from the profile by {100 * departure:.1f} % only: "
                         "it may be an undeformed joint")
     if abs(invert_y + 0.5) > 0.03:
         problems.append(f"its invert lies {100 * abs(invert_y + 0.5):.0f} % of H off the wall")
     return DeformedRing(depth, height, width, (float(crown[0]), float(crown[1])), (float(invert[0]), float(invert[1])),
-                        max(u_px, 0.1), int(keep.sum()), arc, tuple(problems))
+                        max(u_px, 0.1), (float(left[0]), float(left[1])), (float(right[0]), float(right[1])),
+                        max(u_side_px, 0.1), int(keep.sum()), arc, tuple(problems))

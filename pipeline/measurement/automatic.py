@@ -1,7 +1,8 @@
-"""Quantities the pipe contour gives without marks: BDD water level and BAA deformation.
+"""Quantities the pipe contour gives without marks: BDD water level and BAA deformation (A vertical, B horizontal).
 
 Each automatic finding is turned into the two points an operator would have
-marked (the water line's chord; the deformed crown and the invert below it),
+marked (the water line's chord; the deformed crown and the invert below it;
+the two sides in the invert's cross-section),
 in the ideal image, with the standard uncertainty of their position from the
 image fit itself. ``measure_quantity`` then applies either measurement model
 and its uncertainty budget unchanged: the pose covariance, the wall
@@ -30,8 +31,8 @@ ORIGIN = {"water_level": "water line edge fit", "deformation": "deformed ring fi
 
 
 def measurable_automatically(obs: Observation) -> bool:
-    """Whether a valid logged observation is one the image alone can measure (BDD; BAA A)."""
-    return obs.code in AUTOMATIC_CODES and not obs.problems and not (obs.code == "BAA" and obs.char1 == "B")
+    """Whether a valid logged observation is one the image alone can measure (BDD, BAA)."""
+    return obs.code in AUTOMATIC_CODES and not obs.problems
 
 
 def automatic_points(obs: Observation, contour: PipeContour, ideal_bgr: np.ndarray, cert: Certificate, *,
@@ -40,7 +41,7 @@ def automatic_points(obs: Observation, contour: PipeContour, ideal_bgr: np.ndarr
 
     Raises MeasurementError when the contour shows nothing to measure.
     """
-    method = AUTOMATIC_CODES[obs.code]
+    method = "deformation_width" if obs.code == "BAA" and obs.char1 == "B" else AUTOMATIC_CODES[obs.code]
     if not np.all(np.isfinite(contour.covariance)):
         raise MeasurementError(f"{obs.code}: no camera pose could be fitted ({'; '.join(contour.problems)})")
     if method == "water_level":
@@ -48,9 +49,6 @@ def automatic_points(obs: Observation, contour: PipeContour, ideal_bgr: np.ndarr
         if found is None:
             raise MeasurementError(f"{obs.code}: no water line stands out along the pipe wall")
         what = "water line"
-    elif obs.char1 == "B":
-        raise MeasurementError(f"{obs.code} B: a horizontal deformation is measured from marks only "
-                               "(both sides leave the wall, so the image alone does not fix its cross-section)")
     else:
         found = find_deformed_ring(ideal_bgr, contour, mask=mask)
         if found is None:
@@ -58,7 +56,13 @@ def automatic_points(obs: Observation, contour: PipeContour, ideal_bgr: np.ndarr
                                    "(a deformation is measured on a joint ring inside the deformed stretch)")
         what = "deformed ring"
     u = math.hypot(found.u_px, cert.image_coordinate_u_px)
-    q = MarkedQuantity(obs.code, obs.char1, "Q1", method, found.a, found.b, u, u, origin=ORIGIN[method])
+    if method == "deformation_width":
+        # the sides, in the cross-section of the invert (a deformed pipe keeps its invert on the wall)
+        u_side = math.hypot(found.u_side_px, cert.image_coordinate_u_px)
+        q = MarkedQuantity(obs.code, obs.char1, "Q1", method, found.left, found.right, u_side, u_side,
+                           origin=ORIGIN["deformation"], anchor=found.b, u_anchor=u)
+    else:
+        q = MarkedQuantity(obs.code, obs.char1, "Q1", method, found.a, found.b, u, u, origin=ORIGIN[method])
     return q, tuple(f"{what}: {p}" for p in found.problems)
 
 

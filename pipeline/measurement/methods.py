@@ -46,6 +46,9 @@ METHODS = {m.name: m for m in (
     Method("step", "mm", ("wall", "plane"), True, "from a wall point to the displaced wall in its cross-section"),
     Method("deformation", "%", ("plane", "wall"), False,
            "100 (1 - d / D): d between the deformed wall (a) and the opposite wall (b), D the pipe's dimension"),
+    Method("deformation_width", "%", ("plane", "plane"), False,
+           "100 (1 - w / W): w between the two sides (a, b) in the cross-section through a wall point (the anchor: "
+           "the invert, which a deformed pipe keeps on the wall), W the profile's width"),
     Method("intrusion", "%", ("wall", "plane"), False, "100 d / H: from the wall (a) to the intruding tip (b)"),
     Method("water_level", "%", ("wall", "wall"), False, "100 h / H: height of the water line's chord above the invert"),
     Method("deposit_area", "%", ("wall", "wall"), False, "100 A(h) / A: cross-section below the deposit surface's chord"),
@@ -69,7 +72,7 @@ def value_from_points(method: str, shape: str, Pa: np.ndarray, Pb: np.ndarray, H
         return H * d
     if method == "axial":
         return H * np.abs(Pa[..., 2] - Pb[..., 2])
-    if method == "deformation":
+    if method in ("deformation", "deformation_width"):
         return 100.0 * (1.0 - d / reference)
     if method == "intrusion":
         return 100.0 * d
@@ -94,7 +97,7 @@ def value_from_image_ratio(method: str, shape: str, ratio, H, below=True, refere
     """
     if method in ("length", "axial", "step"):
         return H * ratio                      # X = SC p_X with SC = H / p_H
-    if method == "deformation":
+    if method in ("deformation", "deformation_width"):
         return 100.0 * (1.0 - ratio / reference)
     if method == "intrusion":
         return 100.0 * ratio

@@ -55,6 +55,7 @@ INPUT_DESCRIPTIONS = {
     "yaw": "camera yaw (contour fit)", "pitch": "camera pitch (contour fit)", "roll": "camera roll (contour fit)",
     "xa": "mark a, x (marking, certificate residual)", "ya": "mark a, y (marking, certificate residual)",
     "xb": "mark b, x (marking, certificate residual)", "yb": "mark b, y (marking, certificate residual)",
+    "xo": "anchor on the wall, x (marking, certificate residual)", "yo": "anchor on the wall, y (marking, certificate residual)",
     "wall": "wall position against the nominal profile (tolerance, displaced joints logged before it)",
 }
 
@@ -72,6 +73,8 @@ class MarkedQuantity:
     u_a: float                # standard uncertainty of each coordinate of a, ideal image [px]
     u_b: float
     origin: str = "marking"   # where a and b come from: the operator's marking or an image fit
+    anchor: tuple[float, float] | None = None   # wall point fixing the cross-section of two points off the wall, ideal [px]
+    u_anchor: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -191,8 +194,10 @@ def measure_quantity(q: MarkedQuantity, contour: PipeContour, cert: Certificate,
         raise ValueError(f"unknown model {model!r}; use one of {', '.join(MODELS)}")
     method = METHODS[q.method]
     shape, view = contour.view.shape, contour.view
-    on_wall = [p for p, s in zip((q.a, q.b), method.surfaces) if s == "wall"]
-    plane = contour.at_points(np.array(on_wall), deformed_here=q.method == "deformation")
+    on_wall = [p for p, s in zip((q.a, q.b), method.surfaces) if s == "wall"] or [q.anchor]
+    if on_wall == [None]:
+        raise MeasurementError(f"{q.code} {q.quantity}: {q.method} needs a wall point (anchor) for its cross-section")
+    plane = contour.at_points(np.array(on_wall), deformed_here=q.method.startswith("deformation"))
     if not np.isfinite(plane.depth):
         raise MeasurementError(f"{q.code} {q.quantity}: the marked wall point does not lie on the pipe wall as detected "
                                f"({'; '.join(plane.reasons)})")
@@ -207,19 +212,20 @@ def measure_quantity(q: MarkedQuantity, contour: PipeContour, cert: Certificate,
     K = dict(fx=view.fx, fy=view.fy, cx=view.cx, cy=view.cy)
     mid = 0.5 * (a + b)
 
-    def perspective(ox, oy, yaw, pitch, roll, xa, ya, xb, yb, wall, certificate, H):
+    def perspective(ox, oy, yaw, pitch, roll, xa, ya, xb, yb, wall, certificate, H, xo=None, yo=None):
         # the certificate factor stretches the marks about their midpoint
         xa_, ya_ = mid[0] + certificate * (xa - mid[0]), mid[1] + certificate * (ya - mid[1])
         xb_, yb_ = mid[0] + certificate * (xb - mid[0]), mid[1] + certificate * (yb - mid[1])
         Pa, Pb = marked_points(method.surfaces, shape, xa_, ya_, xb_, yb_, ox=ox, oy=oy, yaw=yaw, pitch=pitch,
-                               roll=roll, wall=wall, **K)
+                               roll=roll, wall=wall, anchor=None if xo is None else (xo, yo), **K)
         return value_from_points(q.method, shape, Pa, Pb, H, reference)
 
     def orthographic(p_X, p_H, certificate, approximation, H):
         return value_from_image_ratio(q.method, shape, certificate * p_X / p_H, H, below, reference) + approximation
 
     pose = dict(zip(("ox", "oy", "yaw", "pitch", "roll"), view.pose))
-    at_estimates = dict(**pose, xa=a[0], ya=a[1], xb=b[0], yb=b[1], wall=1.0, certificate=1.0, H=H)
+    anchored = {} if q.anchor is None else {"xo": q.anchor[0], "yo": q.anchor[1]}
+    at_estimates = dict(**pose, xa=a[0], ya=a[1], xb=b[0], yb=b[1], wall=1.0, certificate=1.0, H=H, **anchored)
     v_persp = float(np.asarray(perspective(**at_estimates)).reshape(-1)[0])
     v_ortho = float(np.asarray(value_from_image_ratio(q.method, shape, p_X / plane.p_H, H, below, reference)).reshape(-1)[0])
     if not (math.isfinite(v_persp) and math.isfinite(v_ortho)):
@@ -238,7 +244,7 @@ def measure_quantity(q: MarkedQuantity, contour: PipeContour, cert: Certificate,
         fixed = {n: v for n, v in pose.items() if n not in names}
         inputs = InputSet({"xa": Normal(a[0], q.u_a), "ya": Normal(a[1], q.u_a), "xb": Normal(b[0], q.u_b),
                            "yb": Normal(b[1], q.u_b), "wall": Normal(1.0, max(2 * contour.wall_u, 1e-12)),
-                           **fixed, **common},
+                           **{k: Normal(v, max(q.u_anchor, 1e-12)) for k, v in anchored.items()}, **fixed, **common},
                           joint=[JointNormal(names, [pose[n] for n in names], cov[np.ix_(free, free)])] if names else [])
         fn = perspective
     lin = propagate_linear(fn, inputs, name=q.quantity)

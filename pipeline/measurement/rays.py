@@ -52,10 +52,16 @@ def plane_point(d: np.ndarray, ox, oy, t) -> np.ndarray:
 
 
 def marked_points(surfaces: tuple[str, str], shape: str, xa, ya, xb, yb, *, fx, fy, cx, cy,
-                  ox, oy, yaw, pitch, roll, wall=1.0) -> tuple[np.ndarray, np.ndarray]:
-    """Pipe coordinates (n, 3) [H] of marks a and b, each on the wall or in the other's cross-section."""
+                  ox, oy, yaw, pitch, roll, wall=1.0, anchor=None) -> tuple[np.ndarray, np.ndarray]:
+    """Pipe coordinates (n, 3) [H] of marks a and b, each on the wall or in the other's cross-section;
+    both ("plane", "plane") in the cross-section through ``anchor`` = (x, y) [px], a wall point."""
     da = ray_directions(xa, ya, fx, fy, cx, cy, yaw, pitch, roll)
     db = ray_directions(xb, yb, fx, fy, cx, cy, yaw, pitch, roll)
+    if surfaces == ("plane", "plane"):
+        if anchor is None:
+            raise ValueError("two points off the wall need an anchor on the wall to fix their cross-section")
+        t = wall_point(ray_directions(*anchor, fx, fy, cx, cy, yaw, pitch, roll), ox, oy, shape, wall)[:, 2]
+        return plane_point(da, ox, oy, t), plane_point(db, ox, oy, t)
     if surfaces == ("wall", "wall"):
         return wall_point(da, ox, oy, shape, wall), wall_point(db, ox, oy, shape, wall)
     if surfaces == ("wall", "plane"):

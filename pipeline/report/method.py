@@ -21,7 +21,12 @@ def method_statement(model: str | None) -> list[str]:
         "observation is the one the contractor marked. Marked points are undistorted with the camera's calibration "
         "certificate (Brown model, eqs. 16-19). The pipe contour (camera pose in the pipe) is fitted to the joint "
         "rings of the frames around the observation; p_H is the pixel height of the cross-section through the marked "
-        "points, with u(p_H) from the fit's covariance and the wall's tolerance.",
+        "points, with u(p_H) from the fit's covariance and the wall's tolerance (and the step of a displaced joint "
+        "logged before it).",
+        "Quantities marked \"from the image alone\" were measured without the contractor's marks: the water level "
+        "(BDD) from the water line found along the wall with the fitted pose, a deformation (BAA, vertical or "
+        "horizontal) from a joint ring inside the deformed stretch; the points found stand in for marks, with their "
+        "uncertainty from the image fit.",
     ]
     if model == "orthographic":
         specific = [

@@ -66,7 +66,8 @@ def _assert_dataset_sound(dataset: Path) -> None:
         pq.read_table(p)                                  # every stored file is whole
     for table in ("inspections", "observations", "measurements"):
         frame = read_table(dataset, table)
-        key = ["inspection_id"] + (["row"] if table == "observations" else ["row", "quantity"] if table == "measurements" else [])
+        key = ["inspection_id"] + (["row"] if table == "observations" else ["row", "quantity", "source"]
+                                   if table == "measurements" else [])
         assert not frame.duplicated(key).any(), f"duplicate rows in {table}"
 
 

@@ -187,7 +187,8 @@ def test_run_on_a_local_dask_cluster_with_two_workers(tmp_path, env):
     assert len(workers) == 2, run.stderr
     inspections = read_table(out / "dataset", "inspections")
     assert sorted(inspections.inspection_id) == sorted(GOOD) and (inspections.status == "ok").all()
-    assert len(read_table(out / "dataset", "measurements")) == 12
+    m = read_table(out / "dataset", "measurements")
+    assert (m.source == "marks").sum() == 12 and (m.source == "contour").sum() == 2    # S01's BAA, S02's BDD
 
 
 def _free_port() -> int:

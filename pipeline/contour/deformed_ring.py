@@ -32,7 +32,7 @@ import numpy as np
 from ..profiles import profile_width
 from .detect import PipeContour
 from .ridges import dark_centre, ridge_points
-from .section_shape import extents, fit_section, points_in_plane, sector_jackknife
+from .section_shape import extents, fit_ellipse, fit_section, points_in_plane, sector_jackknife
 
 __all__ = ["DeformedRing", "find_deformed_ring"]
 
@@ -118,8 +118,8 @@ def find_deformed_ring(ideal_bgr: np.ndarray, contour: PipeContour, *,
                                                         [xc - width / 2, yc, depth], [xc + width / 2, yc, depth]]))
     ring = points_in_plane(view, pts[keep], depth)
     px_per_h = float(view.p_H(depth)[0])
-    u_px = sector_jackknife(ring, fit, lambda e: extents(e)[1]) * px_per_h / np.sqrt(2.0)
-    u_side_px = sector_jackknife(ring, fit, lambda e: extents(e)[0]) * px_per_h / np.sqrt(2.0)
+    u_px = sector_jackknife(ring, fit[0], lambda p: extents(fit_ellipse(p))[1]) * px_per_h / np.sqrt(2.0)
+    u_side_px = sector_jackknife(ring, fit[0], lambda p: extents(fit_ellipse(p))[0]) * px_per_h / np.sqrt(2.0)
     problems = []
     departure = max(abs(1.0 - height), abs(1.0 - width / profile_width(view.shape, 1.0)))
     if departure < MIN_DEPARTURE:

@@ -32,7 +32,7 @@ from scipy.sparse import lil_matrix
 
 from ..profiles import ray_to_wall
 from .ridges import dark_centre, ridge_points
-from .section_shape import extents, fit_section, points_in_plane, profile_aspect, sector_jackknife
+from .section_shape import extents, fit_ellipse, fit_section, points_in_plane, profile_aspect, sector_jackknife
 from .view import POSE_PARAMETERS, PipeView
 
 __all__ = ["Ring", "PlaneContour", "PipeContour", "detect_contour", "wall_u_from_tolerance"]
@@ -337,7 +337,7 @@ def _deformed_rings(view: PipeView, pts: np.ndarray, frame_of: np.ndarray, curve
             out.append(False)       # too little of the ring to judge its shape
             continue
         departure = _aspect(fit) / nominal - 1.0
-        u = sector_jackknife(xy[keep], fit, _aspect) / nominal
+        u = sector_jackknife(xy[keep], fit[0], lambda p: _aspect(fit_ellipse(p))) / nominal
         out.append(abs(departure) > max(3.0 * u, MAX_ASPECT_DEPARTURE))
     return out
 

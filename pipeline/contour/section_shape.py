@@ -18,7 +18,8 @@ import numpy as np
 from ..profiles import profile_polygon
 from .view import PipeView
 
-__all__ = ["points_in_plane", "fit_section", "extents", "sector_jackknife", "profile_aspect", "INLIER_H"]
+__all__ = ["points_in_plane", "fit_ellipse", "ellipse_distance", "fit_section", "extents", "sector_jackknife",
+           "profile_aspect", "INLIER_H"]
 
 INLIER_H = 0.012             # gate on a point's distance from the fitted ellipse in its plane [H]
 SECTORS = 8
@@ -32,8 +33,13 @@ def points_in_plane(view: PipeView, pts: np.ndarray, t: float) -> np.ndarray:
     return np.column_stack([view.ox + s * d[:, 0], view.oy + s * d[:, 1]])
 
 
-def _distance(xy: np.ndarray, fit) -> np.ndarray:
-    """Approximate distance [H] of points from an ellipse (radial, in the ellipse's own frame)."""
+def fit_ellipse(points: np.ndarray):
+    """Ellipse (centre, full axes, angle [deg]) through points (n, 2), n >= 5 (OpenCV's direct fit)."""
+    return cv2.fitEllipseDirect(np.asarray(points, np.float32))
+
+
+def ellipse_distance(xy: np.ndarray, fit) -> np.ndarray:
+    """Approximate distance of points (n, 2) from an ellipse (radial, in the ellipse's own frame) [their units]."""
     (cx, cy), (w, h), ang = fit
     c, s = np.cos(np.radians(ang)), np.sin(np.radians(ang))
     p = xy - (cx, cy)
@@ -50,10 +56,10 @@ def fit_section(xy: np.ndarray, min_points: int, keep: np.ndarray | None = None)
     for gate in (0.1, 0.04, INLIER_H, INLIER_H):
         if keep.sum() < min_points:
             return None, keep
-        fit = cv2.fitEllipseDirect(xy[keep].astype(np.float32))
+        fit = fit_ellipse(xy[keep])
         if not np.all(np.isfinite(fit[1])) or min(fit[1]) <= 0:
             return None, keep
-        keep = keep & (_distance(xy, fit) < gate)
+        keep = keep & (ellipse_distance(xy, fit) < gate)
     return fit, keep
 
 
@@ -64,16 +70,16 @@ def extents(fit) -> tuple[float, float]:
     return float(2 * np.hypot(w / 2 * c, h / 2 * s)), float(2 * np.hypot(w / 2 * s, h / 2 * c))
 
 
-def sector_jackknife(xy: np.ndarray, fit, statistic) -> float:
-    """Standard uncertainty of ``statistic(ellipse)`` by a delete-one-sector jackknife over SECTORS angular
-    sectors about the ellipse's centre (neighbouring ridge points share blur and texture: the sectors, not
-    the points, are independent); inf with fewer than 3 sectors."""
-    ang = np.arctan2(xy[:, 1] - fit[0][1], xy[:, 0] - fit[0][0]) % (2 * np.pi)
+def sector_jackknife(points: np.ndarray, centre, estimate) -> float:
+    """Standard uncertainty of ``estimate(points)`` by a delete-one-sector jackknife over SECTORS angular
+    sectors about ``centre`` (neighbouring ridge points share blur and texture: the sectors, not the points,
+    are independent); inf with fewer than 3 sectors."""
+    ang = np.arctan2(points[:, 1] - centre[1], points[:, 0] - centre[0]) % (2 * np.pi)
     sector = np.floor(ang / (2 * np.pi / SECTORS)).astype(int)
     present = np.unique(sector)
     if len(present) < 3:
         return float("inf")
-    values = np.array([statistic(cv2.fitEllipseDirect(xy[sector != k].astype(np.float32))) for k in present])
+    values = np.array([estimate(points[sector != k]) for k in present])
     n = len(present)
     return float(np.sqrt((n - 1) / n * np.sum((values - values.mean()) ** 2)))
 
@@ -81,5 +87,5 @@ def sector_jackknife(xy: np.ndarray, fit, statistic) -> float:
 @functools.lru_cache(maxsize=None)
 def profile_aspect(shape: str) -> float:
     """Height / width of the ellipse fitted to the undeformed profile (1 for a circle)."""
-    width, height = extents(cv2.fitEllipseDirect(profile_polygon(shape, 1.0, 720).astype(np.float32)))
+    width, height = extents(fit_ellipse(profile_polygon(shape, 1.0, 720)))
     return height / width

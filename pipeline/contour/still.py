@@ -13,7 +13,7 @@ eq. 12). Method:
    they cover (rings are closed; text and texture are not);
 3. the header's profile fitted to the best circle's inliers (scale = p_H,
    ``detect._template_fit``);
-4. u(p_H): delete-one-sector jackknife over ``SECTORS`` angular sectors of
+4. u(p_H): delete-one-sector jackknife over 8 angular sectors of
    the inliers (neighbouring ridge points share blur and texture, so the
    sectors, not the points, are independent), combined with the profile's
    tolerance.
@@ -25,13 +25,14 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..profiles import profile_polygon, ray_to_wall
 from .detect import INLIER_PX, MIN_CURVE_POINTS, _template_fit
 from .ridges import dark_centre, edge_points, ridge_points
+from .section_shape import ellipse_distance, extents, fit_ellipse, sector_jackknife
 
 __all__ = ["StillRing", "ring_in_still"]
 
 TRIALS = 600
-SECTORS = 8
 MIN_COVERAGE_DEG = 180.0
 MIN_INLIERS = 80
 ONE_STILL = ("one ring in one still: the camera's offset and tilt are not known, so p_H holds in this ring's plane "
@@ -120,81 +121,47 @@ def ring_in_still(gray: np.ndarray, shape: str, *, mask: np.ndarray | None = Non
     inliers = pts[best][keep]
     if len(inliers) < MIN_INLIERS:
         return None
-    # delete-one-sector jackknife of the profile's scale
-    ang = np.arctan2(*(inliers - centre).T[::-1]) % (2 * np.pi)
-    sector = np.floor(ang / (2 * np.pi / SECTORS)).astype(int)
-    present = np.unique(sector)
-    scales = np.array([_template_fit(inliers[sector != s], shape)[1] for s in present])
-    n = len(present)
-    u_fit = float(np.sqrt((n - 1) / n * np.sum((scales - scales.mean()) ** 2))) if n >= 3 else float("inf")
-    u = float(np.hypot(u_fit, 2 * wall_u * p_H))
+    u = float(np.hypot(sector_jackknife(inliers, centre, lambda p: _template_fit(p, shape)[1]), 2 * wall_u * p_H))
     d = inliers - centre
-    from ..profiles import ray_to_wall
     rho = ray_to_wall(shape, 1.0, (0.0, 0.0), np.stack([d[:, 0], -d[:, 1]], 1) / np.hypot(*d.T)[:, None])
     rms = float(np.sqrt(np.mean((np.hypot(*d.T) - p_H * rho) ** 2)))
     coverage = _coverage(inliers, centre)
+    poly = profile_polygon(shape, 1.0, 360) * p_H
+    polygon = np.column_stack([centre[0] + poly[:, 0], centre[1] - poly[:, 1]])
+    return StillRing((float(centre[0]), float(centre[1])), float(p_H), u, len(inliers), coverage, rms, polygon,
+                     _problems(coverage, u, p_H))
+
+
+def _problems(coverage: float, u: float, p_H: float) -> tuple[str, ...]:
     problems = [ONE_STILL]
     if coverage < MIN_COVERAGE_DEG:
         problems.append(f"the ring is seen over {coverage:.0f} degrees only")
     if u > 0.02 * p_H:
         problems.append(f"u(p_H) is {100 * u / p_H:.1f} % of p_H")
-    from ..profiles import profile_polygon
-    poly = profile_polygon(shape, 1.0, 360) * p_H
-    polygon = np.column_stack([centre[0] + poly[:, 0], centre[1] - poly[:, 1]])
-    return StillRing((float(centre[0]), float(centre[1])), float(p_H), u, len(inliers), coverage, rms, polygon,
-                     tuple(problems))
-
-
-def _ellipse_distance(pts: np.ndarray, box) -> np.ndarray:
-    (cx, cy), (w, h), ang = box
-    c, s = np.cos(np.radians(ang)), np.sin(np.radians(ang))
-    d = pts - (cx, cy)
-    u = np.column_stack([c * d[:, 0] + s * d[:, 1], -s * d[:, 0] + c * d[:, 1]])
-    r = np.hypot(u[:, 0] / (w / 2), u[:, 1] / (h / 2))
-    return np.abs(r - 1.0) * np.hypot(*u.T) / np.maximum(r, 1e-9)
-
-
-def _vertical_extent(box) -> float:
-    """Height [px] of an ellipse (centre, full axes, angle [deg]): a circular ring's image height, p_H."""
-    (_, _), (w, h), ang = box
-    t = np.radians(ang)
-    return float(2 * np.hypot(w / 2 * np.sin(t), h / 2 * np.cos(t)))
+    return tuple(problems)
 
 
 def _ellipse_ring(pts: np.ndarray, seed_inliers: np.ndarray, wall_u: float) -> StillRing | None:
-    """A circular pipe's ring seen obliquely is an ellipse: refined from the RANSAC circle's inliers."""
-    import cv2
-
+    """A circular pipe's ring seen obliquely is an ellipse: refined from the RANSAC circle's inliers;
+    its image height is p_H."""
     keep = seed_inliers
     box = None
     for gate in (4.0, 3.0, INLIER_PX, INLIER_PX):
         if keep.sum() < MIN_INLIERS:
             return None
-        box = cv2.fitEllipseDirect(pts[keep].astype(np.float32))
-        keep = _ellipse_distance(pts, box) < gate
+        box = fit_ellipse(pts[keep])
+        keep = ellipse_distance(pts, box) < gate
     inliers = pts[keep]
     if len(inliers) < MIN_INLIERS:
         return None
     centre = np.array(box[0])
-    p_H = _vertical_extent(box)
-    ang = np.arctan2(*(inliers - centre).T[::-1]) % (2 * np.pi)
-    sector = np.floor(ang / (2 * np.pi / SECTORS)).astype(int)
-    present = np.unique(sector)
-    heights = np.array([_vertical_extent(cv2.fitEllipseDirect(inliers[sector != k].astype(np.float32)))
-                        for k in present]) if len(present) >= 3 else np.array([np.inf])
-    n = len(present)
-    u_fit = float(np.sqrt((n - 1) / n * np.sum((heights - heights.mean()) ** 2))) if n >= 3 else float("inf")
-    u = float(np.hypot(u_fit, 2 * wall_u * p_H))
-    rms = float(np.sqrt(np.mean(_ellipse_distance(inliers, box) ** 2)))
+    p_H = extents(box)[1]
+    u = float(np.hypot(sector_jackknife(inliers, centre, lambda p: extents(fit_ellipse(p))[1]), 2 * wall_u * p_H))
+    rms = float(np.sqrt(np.mean(ellipse_distance(inliers, box) ** 2)))
     coverage = _coverage(inliers, centre)
-    problems = [ONE_STILL]
-    if coverage < MIN_COVERAGE_DEG:
-        problems.append(f"the ring is seen over {coverage:.0f} degrees only")
-    if u > 0.02 * p_H:
-        problems.append(f"u(p_H) is {100 * u / p_H:.1f} % of p_H")
     t = np.linspace(0, 2 * np.pi, 360, endpoint=False)
     (cx, cy), (w, h), a = box
     ca, sa = np.cos(np.radians(a)), np.sin(np.radians(a))
     ex, ey = w / 2 * np.cos(t), h / 2 * np.sin(t)
     polygon = np.column_stack([cx + ca * ex - sa * ey, cy + sa * ex + ca * ey])
-    return StillRing((float(cx), float(cy)), p_H, u, len(inliers), coverage, rms, polygon, tuple(problems))
+    return StillRing((float(cx), float(cy)), p_H, u, len(inliers), coverage, rms, polygon, _problems(coverage, u, p_H))

@@ -52,7 +52,7 @@ def automatic_points(obs: Observation, contour: PipeContour, ideal_bgr: np.ndarr
     else:
         found = find_deformed_ring(ideal_bgr, contour, mask=mask)
         if found is None:
-            raise MeasurementError(f"{obs.code}: no ring with its invert in view departs from the profile "
+            raise MeasurementError(f"{obs.code}: no joint ring with its invert in view was found in this frame "
                                    "(a deformation is measured on a joint ring inside the deformed stretch)")
         what = "deformed ring"
     u = math.hypot(found.u_px, cert.image_coordinate_u_px)

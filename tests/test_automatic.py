@@ -69,6 +69,9 @@ def test_water_level_from_the_image_holds_the_truth_in_its_interval(wet, cert, m
 
 def test_deformed_ring_gives_the_vertical_deformation(deformed, cert):
     frames, contour = deformed
+    # the pose is fitted to the undeformed rings; the deformed joint's rings are found and left out
+    assert any(frame == 0 for frame, _ in contour.deformed)
+    assert np.allclose(contour.view.pose[:4], [0.0, -15.0 / H, 0.0, np.radians(1.0)], atol=0.005)
     ring = find_deformed_ring(frames[0], contour)
     assert ring is not None and ring.confident, ring
     assert abs(ring.height - 0.91) < 0.01

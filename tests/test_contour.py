@@ -129,6 +129,25 @@ def test_windows_of_one_video_are_checked_against_one_another():
     assert out[398].covariance[4, 4] == 0.0
 
 
+def test_an_untrusted_window_borrows_the_pose_of_a_trusted_overlapping_one():
+    from pipeline.contour.consensus import reconcile_windows
+
+    sd = [0.002, 0.004, 0.001, 0.002, 0.0]
+    good = [0.0, -0.034, 0.0, 0.0, 0.0]
+    partial = _fit([-0.15, -0.17, 0.09, -0.13, 0.0], sd, rms=0.5)          # a better RMS, but from partial arcs
+    partial.problems.append("no ring is seen over more than 140 degrees: partial arcs do not fix the pose")
+    partial.deformed.append((0, 2.0))
+    contours = {436: _fit(good, sd, rms=0.57), 1002: partial}
+    out = reconcile_windows(contours, {436: list(range(0, 40)), 1002: list(range(20, 60))})
+    assert np.allclose(out[1002].view.pose, good) and not out[1002].confident
+    assert "is not trusted (no ring is seen over more than 140 degrees" in out[1002].problems[-1]
+    assert out[1002].deformed == [(0, 2.0)]          # what was seen from that frame stays with it
+    assert out[436].confident and out[436].deformed == []
+    # a window that agrees with no trusted neighbour, or has none, is left as it was
+    alone = reconcile_windows({1002: partial}, {1002: list(range(20, 60))})
+    assert alone[1002] is partial
+
+
 def test_a_single_still_gives_the_ring_of_its_visible_joint_face():
     """One rendered still, camera on the axis: the ring found lies within the joint's band (from the socket
     face before the gap to the gap's far edge), and is seen all round."""

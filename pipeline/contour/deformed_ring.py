@@ -32,7 +32,7 @@ import numpy as np
 from ..profiles import profile_width
 from .detect import PipeContour
 from .ridges import dark_centre, ridge_points
-from .section_shape import extents, fit_ellipse, fit_section, points_in_plane, sector_jackknife
+from .section_shape import arc_coverage_deg, extents, fit_ellipse, fit_section, points_in_plane, sector_jackknife
 
 __all__ = ["DeformedRing", "find_deformed_ring"]
 
@@ -103,8 +103,7 @@ def find_deformed_ring(ideal_bgr: np.ndarray, contour: PipeContour, *,
         fit, keep = fit_section(plane, MIN_POINTS)
         if fit is None:
             continue
-        ang = np.degrees(np.arctan2(plane[keep, 1] - fit[0][1], plane[keep, 0] - fit[0][0])) % 360
-        arc = 10.0 * len(np.unique(np.floor(ang / 10)))
+        arc = arc_coverage_deg(plane[keep], fit[0])
         width, height = extents(fit)
         score = (abs(1.0 - height), int(keep.sum()))
         if keep.sum() >= MIN_POINTS and arc >= MIN_ARC_DEG and (best is None or score > best[0]):

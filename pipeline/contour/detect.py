@@ -32,7 +32,8 @@ from scipy.sparse import lil_matrix
 
 from ..profiles import ray_to_wall
 from .ridges import dark_centre, ridge_points
-from .section_shape import extents, fit_ellipse, fit_section, points_in_plane, profile_aspect, sector_jackknife
+from .section_shape import (arc_coverage_deg, extents, fit_ellipse, fit_section, points_in_plane, profile_aspect,
+                            sector_jackknife)
 from .view import POSE_PARAMETERS, PipeView
 
 __all__ = ["Ring", "PlaneContour", "PipeContour", "detect_contour", "wall_u_from_tolerance"]
@@ -257,8 +258,7 @@ def _pose_from_templates(view: PipeView, pts: np.ndarray, curve_of: np.ndarray) 
         c, scale, keep = _template_fit(mine, view.shape)
         if keep.sum() < max(MIN_RING_POINTS, 0.7 * len(mine)) or not 4.0 < scale < 20.0 * max(view.cx, view.cy):
             continue
-        arc = np.degrees(np.arctan2(*(mine[keep] - c).T[::-1])) % 360
-        if 10.0 * len(np.unique(np.floor(arc / 10))) < MIN_RING_COVERAGE_DEG:
+        if arc_coverage_deg(mine[keep], c) < MIN_RING_COVERAGE_DEG:
             continue
         rows.append((c[0], c[1], scale))
     if len({round(np.log(s), 1) for _, _, s in rows}) < 2:
@@ -387,9 +387,7 @@ def _ring_peaks(view: PipeView, pts: np.ndarray, frame_of: np.ndarray, width: fl
 
 def _coverage_deg(view: PipeView, pts: np.ndarray) -> float:
     """Share of the circumference [deg] covered by wall points, in 10 degree bins."""
-    xy, _ = view.wall_hits(pts)
-    ang = np.degrees(np.arctan2(xy[:, 1], xy[:, 0])) % 360
-    return 10.0 * len(np.unique(np.floor(ang / 10)))
+    return arc_coverage_deg(view.wall_hits(pts)[0], (0.0, 0.0))
 
 
 def _residuals(view: PipeView, pts: np.ndarray, depth: np.ndarray) -> np.ndarray:

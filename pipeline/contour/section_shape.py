@@ -19,7 +19,7 @@ from ..profiles import profile_polygon
 from .view import PipeView
 
 __all__ = ["points_in_plane", "fit_ellipse", "ellipse_distance", "fit_section", "extents", "sector_jackknife",
-           "profile_aspect", "INLIER_H"]
+           "arc_coverage_deg", "profile_aspect", "INLIER_H"]
 
 INLIER_H = 0.012             # gate on a point's distance from the fitted ellipse in its plane [H]
 SECTORS = 8
@@ -68,6 +68,12 @@ def extents(fit) -> tuple[float, float]:
     (_, _), (w, h), ang = fit
     c, s = np.cos(np.radians(ang)), np.sin(np.radians(ang))
     return float(2 * np.hypot(w / 2 * c, h / 2 * s)), float(2 * np.hypot(w / 2 * s, h / 2 * c))
+
+
+def arc_coverage_deg(points: np.ndarray, centre) -> float:
+    """Share of the circumference about ``centre`` [deg] that points (n, 2) cover, in 10 degree bins."""
+    ang = np.degrees(np.arctan2(points[:, 1] - centre[1], points[:, 0] - centre[0])) % 360
+    return 10.0 * len(np.unique(np.floor(ang / 10)))
 
 
 def sector_jackknife(points: np.ndarray, centre, estimate) -> float:

@@ -28,7 +28,7 @@ import numpy as np
 from ..profiles import profile_polygon, ray_to_wall
 from .detect import INLIER_PX, MIN_CURVE_POINTS, _template_fit
 from .ridges import dark_centre, edge_points, ridge_points
-from .section_shape import ellipse_distance, extents, fit_ellipse, sector_jackknife
+from .section_shape import arc_coverage_deg, ellipse_distance, extents, fit_ellipse, sector_jackknife
 
 __all__ = ["StillRing", "ring_in_still"]
 
@@ -62,11 +62,6 @@ def _candidates(gray: np.ndarray, centre, mask) -> tuple[np.ndarray, np.ndarray,
     p1, s1, c1 = ridge_points(gray, centre, mask=mask)
     p2, s2, c2 = edge_points(gray, centre, mask=mask)
     return np.vstack([p1, p2]), np.concatenate([s1, s2]), np.concatenate([c1, c2 + (c1.max() + 1 if len(c1) else 0)])
-
-
-def _coverage(pts: np.ndarray, centre: np.ndarray) -> float:
-    ang = np.degrees(np.arctan2(*(pts - centre).T[::-1])) % 360
-    return 10.0 * len(np.unique(np.floor(ang / 10)))
 
 
 def _circle_through(p: np.ndarray) -> tuple[np.ndarray, float] | None:
@@ -110,7 +105,7 @@ def ring_in_still(gray: np.ndarray, shape: str, *, mask: np.ndarray | None = Non
         inl = np.abs(np.hypot(*(pts - c).T) - r) < INLIER_PX
         if inl.sum() < MIN_INLIERS:
             continue
-        score = inl.sum() * _coverage(pts[inl], c) / 360.0
+        score = inl.sum() * arc_coverage_deg(pts[inl], c) / 360.0
         if score > best_score:
             best, best_score = inl, score
     if best is None:
@@ -125,7 +120,7 @@ def ring_in_still(gray: np.ndarray, shape: str, *, mask: np.ndarray | None = Non
     d = inliers - centre
     rho = ray_to_wall(shape, 1.0, (0.0, 0.0), np.stack([d[:, 0], -d[:, 1]], 1) / np.hypot(*d.T)[:, None])
     rms = float(np.sqrt(np.mean((np.hypot(*d.T) - p_H * rho) ** 2)))
-    coverage = _coverage(inliers, centre)
+    coverage = arc_coverage_deg(inliers, centre)
     poly = profile_polygon(shape, 1.0, 360) * p_H
     polygon = np.column_stack([centre[0] + poly[:, 0], centre[1] - poly[:, 1]])
     return StillRing((float(centre[0]), float(centre[1])), float(p_H), u, len(inliers), coverage, rms, polygon,
@@ -158,7 +153,7 @@ def _ellipse_ring(pts: np.ndarray, seed_inliers: np.ndarray, wall_u: float) -> S
     p_H = extents(box)[1]
     u = float(np.hypot(sector_jackknife(inliers, centre, lambda p: extents(fit_ellipse(p))[1]), 2 * wall_u * p_H))
     rms = float(np.sqrt(np.mean(ellipse_distance(inliers, box) ** 2)))
-    coverage = _coverage(inliers, centre)
+    coverage = arc_coverage_deg(inliers, centre)
     t = np.linspace(0, 2 * np.pi, 360, endpoint=False)
     (cx, cy), (w, h), a = box
     ca, sa = np.cos(np.radians(a)), np.sin(np.radians(a))

@@ -172,7 +172,7 @@ def measure_package(folder: str | os.PathLike, *, certificates: str | os.PathLik
     by_frame: dict[int, list[Mark]] = defaultdict(list)
     for m in marks:
         by_frame[m.frame].append(m)
-    automatic = {o.row: _automatic_frame(o, by_row_marks(marks, o.row), ingest.track, info)
+    automatic = {o.row: _automatic_frame(o, [m for m in marks if m.row == o.row], ingest.track, info)
                  for o in observations if measurable_automatically(o)}
     frames = sorted({f for f in [*by_frame, *(f for f in automatic.values() if f is not None)] if 0 <= f < info.frame_count})
     t0 = time.perf_counter()
@@ -246,10 +246,6 @@ def _thumbnail(ideal_bgr: np.ndarray, contour, marked: MarkedQuantity, row: int,
             "height_px": round(h * THUMBNAIL_WIDTH_PX / w), "image_jpeg": jpeg}
 
 
-def by_row_marks(marks: list[Mark], row: int) -> list[Mark]:
-    return [m for m in marks if m.row == row]
-
-
 def _automatic_frame(obs: Observation, marks: list[Mark], track, info) -> int | None:
     """The frame an automatic quantity is measured on: its marks' frame, else its video time, else its chainage."""
     if marks:
@@ -262,11 +258,18 @@ def _automatic_frame(obs: Observation, marks: list[Mark], track, info) -> int | 
         return None
 
 
-def _automatic_base(obs: Observation, frame: int | None, track, model: str) -> dict:
+def _chainage_at(track, frame: int | None) -> tuple[float, float]:
+    """(chainage [m], its u [m]) at a frame; nan for a frame outside the video or none."""
+    if frame is None:
+        return float("nan"), float("nan")
     try:
-        chainage, u_chainage = track.at_frame(frame)
-    except (IndexError, TypeError):
-        chainage, u_chainage = float("nan"), float("nan")
+        return track.at_frame(frame)
+    except IndexError:
+        return float("nan"), float("nan")
+
+
+def _automatic_base(obs: Observation, frame: int | None, track, model: str) -> dict:
+    chainage, u_chainage = _chainage_at(track, frame)
     return {"row": obs.row, "quantity": "Q1", "source": "contour", "code": obs.code, "char1": obs.char1,
             "char2": obs.char2, "model": model, "frame": frame, "chainage_m": chainage, "u_chainage_m": u_chainage,
             "distance_m": obs.distance_m, "operator_value": obs.q1, "status": "ok", "error": None}
@@ -277,10 +280,7 @@ def _header_fields(h: SectionHeader) -> dict:
 
 
 def _measurement_base(obs: Observation, m: Mark, track, model: str) -> dict:
-    try:
-        chainage, u_chainage = track.at_frame(m.frame)
-    except IndexError:
-        chainage, u_chainage = float("nan"), float("nan")
+    chainage, u_chainage = _chainage_at(track, m.frame)
     q = obs.q1 if m.quantity == "Q1" else obs.q2
     return {"row": obs.row, "quantity": m.quantity, "source": "marks", "code": obs.code, "char1": obs.char1, "char2": obs.char2,
             "model": model, "frame": m.frame, "chainage_m": chainage, "u_chainage_m": u_chainage,

@@ -42,7 +42,7 @@ from pipeline.synth.samples import sample_specs
 from pipeline.synth.scene import Deformation
 from pipeline.video.ingest import ingest_chainage
 from pipeline.video.overlay_ocr import OverlayReader
-from pipeline.video.pipe_contour import contours_at_frames, overlay_mask
+from pipeline.video.pipe_contour import contours_at_frames, overlay_mask_of
 from pipeline.video.undistort import Undistorter
 
 SAMPLES = Path(__file__).resolve().parent.parent / "sample_videos"
@@ -129,8 +129,9 @@ def main() -> None:
         cert = load_certificate(SAMPLES / "certificates" / f"{manifest.certificate_id}.json")
         W, Hh = cert.image_width_px, cert.image_height_px
         und = Undistorter(cert, W, Hh)
-        track = ingest_chainage(manifest.video, reader).track
-        mask = overlay_mask(manifest.video, und)
+        ingest = ingest_chainage(manifest.video, reader)
+        track = ingest.track
+        mask = overlay_mask_of(ingest.spread_frames.values(), und)
         obs = read_log(manifest.observations, header.section_length_m)
         marks, _ = read_marks(manifest.marks, obs)
         by_row = {o.row: o for o in obs}

@@ -11,7 +11,10 @@ import pytest
 from flows.cli import main
 from pipeline.camera import load_certificate
 from pipeline.errors import CertificateError, CorruptVideoError, OverlayError
+from pipeline.synth.overlay import Overlay, chainage_text
 from pipeline.video.chainage_track import fit_track
+from pipeline.video.glyphs import GlyphTemplates
+from pipeline.video.ingest import MASK_FRAMES, ingest_chainage
 from pipeline.video.overlay_ocr import OverlayRead, OverlayReader, parse_chainage
 from pipeline.video.reader import check_integrity, iter_frames, probe_video
 from pipeline.video.undistort import Undistorter
@@ -157,3 +160,53 @@ def test_overlay_lines_against_the_header(reader):
         header = json.loads((SAMPLES / package / "header.json").read_text())
         lines = [t for t, _, _ in reader.lines(frame) if parse_chainage(t) is None]
         assert overlay_header_mismatches(lines, header) == [], (package, lines)
+
+
+@pytest.mark.parametrize("package", PACKAGES)
+def test_ingest_reads_most_frames_by_learned_glyphs(reader, package):
+    video = SAMPLES / package / "video.mp4"
+    truth = list(csv.DictReader(open(SAMPLES / package / "truth" / "frames.csv")))
+    ingest = ingest_chainage(video, reader, every=4)
+    correct = sum(r.text == truth[r.frame]["displayed"] for r in ingest.reads)
+    assert correct >= 0.99 * len(ingest.reads), f"{correct}/{len(ingest.reads)} read correctly"
+    assert ingest.ocr_reads <= 0.2 * len(ingest.reads), f"{ingest.ocr_reads} of {len(ingest.reads)} crops needed the OCR"
+    assert ingest.disagreements == 0
+    error = np.abs(ingest.track.values - np.array([float(t["counter_m"]) for t in truth]))
+    assert error.max() < 0.02, f"largest track error {error.max():.4f} m"
+    assert len(ingest.spread_frames) == MASK_FRAMES and ingest.info.frame_count == len(truth)
+
+
+def _overlay_crop(value_m: float, seed: int) -> np.ndarray:
+    """The chainage box of a synthetic frame (text over a random textured background)."""
+    rng = np.random.default_rng(seed)
+    frame = cv2.GaussianBlur(rng.integers(0, 256, (576, 720, 3), dtype=np.uint8), (0, 0), 3)
+    overlay = Overlay(720, 576, ["SECTION"])
+    overlay.apply(frame, value_m)
+    x0, y0, x1, y1 = overlay.box
+    return cv2.cvtColor(frame[y0:y1 + 8, x0 - 12:x1], cv2.COLOR_BGR2GRAY)
+
+
+def test_glyph_templates_read_what_they_learned_and_refuse_the_rest():
+    templates = GlyphTemplates()
+    for k, value in enumerate([10.23, 5.67, 8.90, 11.11]):       # every character but 4
+        assert templates.learn(_overlay_crop(value, k), chainage_text(value))
+    for k, value in enumerate([3.21, 9.87, 10.50, 2.86]):
+        assert templates.read(_overlay_crop(value, 100 + k))[0] == chainage_text(value)
+    assert templates.read(_overlay_crop(4.44, 7)) is None          # never seen a 4: the OCR must read it
+    assert not templates.learn(_overlay_crop(1.23, 8), "1.2m")     # text and glyphs disagree: nothing learned
+    templates.forget()
+    assert templates.read(_overlay_crop(3.21, 9)) is None
+
+
+def test_ingest_refuses_a_truncated_video(reader, tmp_path):
+    frames = []
+    for k in range(40):
+        frame = cv2.imread(str(REAL / "1.045-1.040_0002.jpg"))
+        frame = cv2.resize(frame, (720, 576))
+        frames.append(Overlay(720, 576, ["SECTION"]).apply(frame, 1.0 + 0.01 * k))
+    avi = tmp_path / "cut.avi"
+    _write_video(avi, frames, "MJPG")
+    data = avi.read_bytes()
+    avi.write_bytes(data[: len(data) // 2])
+    with pytest.raises(CorruptVideoError, match=r"cut.avi: truncated or corrupt: .*last good frame \d+"):
+        ingest_chainage(avi, reader)

@@ -36,7 +36,8 @@ from .section_shape import (arc_coverage_deg, extents, fit_ellipse, fit_section,
                             sector_jackknife)
 from .view import POSE_PARAMETERS, PipeView
 
-__all__ = ["Ring", "PlaneContour", "PipeContour", "detect_contour", "wall_u_from_tolerance"]
+__all__ = ["Ring", "PlaneContour", "PipeContour", "FrameCandidates", "frame_candidates", "detect_contour",
+           "contour_from_candidates", "wall_u_from_tolerance"]
 
 MAX_CANDIDATES_PER_FRAME = 2000
 MIN_CURVE_POINTS = 30       # ridge curves shorter than this are texture
@@ -48,6 +49,7 @@ MIN_RING_COVERAGE_DEG = 90.0
 MIN_RINGS = 3               # a confident pose needs at least this many rings,
 MIN_BEST_COVERAGE_DEG = 180.0   # and one of them seen over at least this arc
 MAX_RMS_PX = 1.5
+FIT_POINTS_PER_RING = 120   # points of one ring entering the least squares (spread along it)
 MAX_RING_RMS_PX = 1.0       # a ring fitting worse than this (or twice the median ring) is not of the family
 MAX_RELATIVE_U = 0.02       # u(p_H)/p_H above which a plane is not trusted
 MAX_ASPECT_DEPARTURE = 0.02  # a ring whose height / width departs more than this (and 3 u) from the profile's is deformed
@@ -375,8 +377,9 @@ def _ring_peaks(view: PipeView, pts: np.ndarray, frame_of: np.ndarray, width: fl
     lo = lt.min()
     counts = np.bincount(np.floor((lt - lo) / width).astype(int)).astype(float)
     smooth = np.convolve(counts, [0.25, 0.5, 0.25], mode="same")
-    peaks = [i for i in range(len(smooth)) if smooth[i] >= MIN_RING_POINTS / 3
-             and smooth[i] == smooth[max(0, i - 3):i + 4].max()]
+    padded = np.pad(smooth, 3)
+    window_max = np.max(np.lib.stride_tricks.sliding_window_view(padded, 7), axis=1)   # max over i-3..i+3
+    peaks = np.nonzero((smooth >= MIN_RING_POINTS / 3) & (smooth == window_max))[0]
     out = []
     for i in peaks:
         v = lo + (i + 0.5) * width
@@ -390,27 +393,40 @@ def _coverage_deg(view: PipeView, pts: np.ndarray) -> float:
     return arc_coverage_deg(view.wall_hits(pts)[0], (0.0, 0.0))
 
 
-def _residuals(view: PipeView, pts: np.ndarray, depth: np.ndarray) -> np.ndarray:
-    """Distances [px] of points from the ring at their assigned depth, per point (n,)."""
-    return np.hypot(*(view.reproject(pts, depth) - pts).T)
-
-
 def _assign(view: PipeView, pts: np.ndarray, frame_of: np.ndarray, rings: list[tuple[int, float]]) -> tuple[np.ndarray, np.ndarray]:
     """Nearest ring of its own frame for each point, within INLIER_PX: (ring index or -1 (n,), residual (n,))."""
     if not rings:
         return np.full(len(pts), -1), np.full(len(pts), np.inf)
     res = np.full((len(pts), len(rings)), np.inf)
+    xy, _ = view.wall_hits(pts)      # where each point's ray meets the wall does not depend on the ring
     for i, (frame, t) in enumerate(rings):
         mine = frame_of == frame
-        res[mine, i] = _residuals(view, pts[mine], np.full(int(mine.sum()), t))
+        moved = view.project(np.column_stack([xy[mine], np.full(int(mine.sum()), t)]))
+        res[mine, i] = np.hypot(*(moved - pts[mine]).T)
     res = np.where(np.isfinite(res), res, np.inf)
     k = np.argmin(res, axis=1)
     r = res[np.arange(len(pts)), k]
     return np.where(r < INLIER_PX, k, -1), r
 
 
+def _thin(ring_of: np.ndarray, per_ring: int) -> np.ndarray:
+    """Indices of at most ``per_ring`` points of each ring, evenly spaced in their order along the ring."""
+    keep = []
+    for i in np.unique(ring_of):
+        mine = np.nonzero(ring_of == i)[0]
+        keep.append(mine[np.linspace(0, len(mine) - 1, min(per_ring, len(mine))).round().astype(int)])
+    return np.sort(np.concatenate(keep)) if keep else np.arange(0)
+
+
 def _fit(view: PipeView, pts: np.ndarray, ring_of: np.ndarray, depths: list[float], loss: str):
-    """Least squares of the shared pose and every ring's depth to the ring points' reprojection [px]."""
+    """Least squares of the shared pose and every ring's depth to the ring points' reprojection [px].
+
+    Each ring enters with at most FIT_POINTS_PER_RING points spread along it:
+    neighbouring points of one ring share their error (the pose covariance
+    counts rings, not points), so more of them add time, not information.
+    """
+    take = _thin(ring_of, FIT_POINTS_PER_RING)
+    pts, ring_of = pts[take], ring_of[take]
     free = np.nonzero(_pose_mask(view.shape))[0]
     x0 = np.concatenate([view.pose[free], np.log(depths)])
     sparsity = lil_matrix((2 * len(pts) + 2, len(x0)), dtype=int)
@@ -451,6 +467,33 @@ def _keep_rings(view, pts, frame_of, rings):
             and _coverage_deg(view, pts[ring_of == i]) >= MIN_RING_COVERAGE_DEG]
 
 
+@dataclass(frozen=True)
+class FrameCandidates:
+    """What one ideal frame offers the pose fit: its dark centre (x, y) [px], and ridge points (n, 2) (x, y)
+    [px] on long curves with their curve labels (n,)."""
+
+    centre: np.ndarray
+    points: np.ndarray
+    curves: np.ndarray
+
+
+def frame_candidates(gray: np.ndarray, mask: np.ndarray | None = None) -> FrameCandidates:
+    """Ridge points of one ideal grey frame (rows, cols) about its dark centre; ``mask`` as in ``detect_contour``.
+
+    A frame's candidates do not depend on the other frames of a window, so a
+    video's overlapping windows compute them once per frame.
+    """
+    centre = dark_centre(gray)
+    pts, strength, curve = ridge_points(gray, centre, mask=mask)
+    ids, sizes = np.unique(curve, return_counts=True)
+    on = np.isin(curve, ids[sizes >= MIN_CURVE_POINTS])
+    pts, strength, curve = pts[on], strength[on], curve[on]
+    if len(pts) > MAX_CANDIDATES_PER_FRAME:
+        top = np.argsort(strength)[::-1][:MAX_CANDIDATES_PER_FRAME]
+        pts, curve = pts[top], curve[top]
+    return FrameCandidates(centre, pts, curve)
+
+
 def detect_contour(ideal_grays, camera_matrix: np.ndarray, shape: str, *,
                    mask: np.ndarray | None = None, seed=None, wall_u: float = 0.0) -> PipeContour:
     """Find the pipe's rings and the camera pose from ideal (undistorted) grey frames.
@@ -471,29 +514,24 @@ def detect_contour(ideal_grays, camera_matrix: np.ndarray, shape: str, *,
     ``confident`` is False.
     """
     frames = [ideal_grays] if isinstance(ideal_grays, np.ndarray) and ideal_grays.ndim == 2 else list(ideal_grays)
+    return contour_from_candidates([frame_candidates(g, mask) for g in frames], camera_matrix, shape,
+                                   seed=seed, wall_u=wall_u)
+
+
+def contour_from_candidates(candidates: list[FrameCandidates], camera_matrix: np.ndarray, shape: str, *,
+                            seed=None, wall_u: float = 0.0) -> PipeContour:
+    """``detect_contour`` from the frames' ``frame_candidates`` (the first frame is the reference)."""
     K = np.asarray(camera_matrix, float)
     view = PipeView(shape, K[0, 0], K[1, 1], K[0, 2], K[1, 2])
-    centres = np.array([dark_centre(g) for g in frames])
-    seed = np.median(centres, axis=0) if seed is None else np.asarray(seed, float)
-    all_pts, all_frame, all_curve = [], [], []
-    for j, g in enumerate(frames):
-        pts, strength, curve = ridge_points(g, centres[j], mask=mask)
-        ids, sizes = np.unique(curve, return_counts=True)
-        long_curves = ids[sizes >= MIN_CURVE_POINTS]
-        on = np.isin(curve, long_curves)
-        pts, strength, curve = pts[on], strength[on], curve[on]
-        if len(pts) > MAX_CANDIDATES_PER_FRAME:
-            top = np.argsort(strength)[::-1][:MAX_CANDIDATES_PER_FRAME]
-            pts, curve = pts[top], curve[top]
-        all_pts.append(pts)
-        all_frame.append(np.full(len(pts), j))
-        all_curve.append(curve + 1_000_000 * j)
-    pts, frame_of, curve_of = np.concatenate(all_pts), np.concatenate(all_frame), np.concatenate(all_curve)
+    seed = np.median([c.centre for c in candidates], axis=0) if seed is None else np.asarray(seed, float)
+    pts = np.concatenate([c.points for c in candidates])
+    frame_of = np.concatenate([np.full(len(c.points), j) for j, c in enumerate(candidates)])
+    curve_of = np.concatenate([c.curves + 1_000_000 * j for j, c in enumerate(candidates)])
     empty = PipeContour(view, np.full((5, 5), np.inf), [], float("nan"), len(pts), tuple(seed))
     if len(pts) < 2 * MIN_RING_POINTS:
         empty.problems.append(f"only {len(pts)} ridge points: no rings visible")
         return empty
-    steer = np.isin(frame_of, np.unique(np.linspace(0, len(frames) - 1, SEARCH_FRAMES).round().astype(int)))
+    steer = np.isin(frame_of, np.unique(np.linspace(0, len(candidates) - 1, SEARCH_FRAMES).round().astype(int)))
     start = _initial_view(view, seed)
     starts = [v for v in (_pose_from_templates(start, pts, curve_of),
                           _pose_from_peaks(start, pts, frame_of)) if v is not None]
@@ -508,11 +546,11 @@ def detect_contour(ideal_grays, camera_matrix: np.ndarray, shape: str, *,
     rms_of = [float(np.sqrt(np.mean(res[ring_of >= 0] ** 2))) for ring_of, res in assigned]
     best = int(np.argmin(rms_of))
     (view, rings, sol, free, deformed), (ring_of, res), rms = fits[best], assigned[best], rms_of[best]
-    sel = ring_of >= 0
-    dof = max(2 * int(sel.sum()) - len(sol.x), 1)
+    n_fit = (len(sol.fun) - 2) // 2
+    dof = max(2 * n_fit - len(sol.x), 1)
     # Residuals along one ring share its error (blur, texture, the ring's own shape), so the
     # rings, not the points, are the independent observations: scale by points per ring.
-    s2 = float(np.sum(sol.fun[:-2] ** 2) / dof) * int(sel.sum()) / len(rings)
+    s2 = float(np.sum(sol.fun[:-2] ** 2) / dof) * n_fit / len(rings)
     try:
         J = sol.jac.toarray() if hasattr(sol.jac, "toarray") else sol.jac
         cov_x = np.linalg.inv(J.T @ J) * s2

@@ -23,10 +23,12 @@ def dark_centre(gray: np.ndarray, sigma_frac: float = 0.03) -> np.ndarray:
     gray : (rows, cols) image; sigma_frac : blur sigma as a share of the
     larger image side (the far pipe is a dark disc, texture must vanish).
     """
-    sigma = sigma_frac * max(gray.shape)
-    blur = cv2.GaussianBlur(gray.astype(np.float32), (0, 0), sigma)
+    # the blur is wide: on a 4x smaller image it costs 1/16 and finds the same blob
+    f = 4
+    small = cv2.resize(gray, (gray.shape[1] // f, gray.shape[0] // f), interpolation=cv2.INTER_AREA)
+    blur = cv2.GaussianBlur(small.astype(np.float32), (0, 0), sigma_frac * max(gray.shape) / f)
     row, col = np.unravel_index(int(np.argmin(blur)), blur.shape)
-    return np.array([float(col), float(row)])
+    return np.array([(col + 0.5) * f - 0.5, (row + 0.5) * f - 0.5])
 
 
 def ridge_points(gray: np.ndarray, centre, *, n_angles: int = 720, min_radius: float = 8.0,

@@ -32,7 +32,7 @@ from ..video.ingest import ingest_chainage
 from ..video.overlay_check import overlay_header_mismatches
 from ..video.overlay_ocr import OverlayReader
 from ..report.thumbnail import THUMBNAIL_WIDTH_PX, measurement_thumbnail
-from ..video.pipe_contour import contours_at_frames, overlay_mask
+from ..video.pipe_contour import contours_at_frames, overlay_mask_of
 from ..video.reader import read_frame
 from ..video.undistort import Undistorter
 from .automatic import measurable_automatically, measure_automatic
@@ -159,7 +159,7 @@ def measure_package(folder: str | os.PathLike, *, certificates: str | os.PathLik
                       chainage_read_rate=ingest.read_rate)
         record["warnings"] = overlay_header_mismatches(ingest.overlay_text, asdict(header))
         und = Undistorter(cert, info.width, info.height, what=str(manifest.video))
-        mask = overlay_mask(manifest.video, und)
+        mask = overlay_mask_of(ingest.spread_frames.values(), und)
         record["time_track_s"] = time.perf_counter() - t0
     except PipegaugeError as exc:
         record["time_total_s"] = time.perf_counter() - t_start

@@ -1,6 +1,11 @@
-"""Ingest of one video: integrity, the chainage overlay, and the chainage track.
+"""Ingest of one video in one decoding pass: integrity, the chainage overlay, the track, frames for the overlay mask.
 
-(The pipe contour and p_H at the observation frames come next; see issue 4.)
+The chainage box and the overlay's header lines are found on the first
+frame by RapidOCR (detection and recognition). Every ``every``-th frame's
+box is then read by glyph templates learned from the OCR's own reads of
+this video (``glyphs``); a crop the templates cannot read clearly, and
+every ``VERIFY_EVERY``-th crop as a check, goes to the OCR. A template read
+that the OCR contradicts drops the templates (they are learned again).
 """
 
 from __future__ import annotations
@@ -9,11 +14,20 @@ import os
 from dataclasses import dataclass, field
 from itertools import islice
 
+import cv2
+import numpy as np
+
+from ..errors import OverlayError
 from .chainage_track import ChainageTrack, CounterModel, fit_track
+from .glyphs import GlyphTemplates
 from .overlay_ocr import OverlayRead, OverlayReader, parse_chainage
-from .reader import VideoInfo, check_integrity, iter_frames
+from .reader import FrameScan, VideoInfo, iter_frames, probe_video
 
 __all__ = ["ChainageIngest", "ingest_chainage"]
+
+VERIFY_EVERY = 50        # one template read in this many is read by the OCR too
+LEARN_SCORE = 0.9        # OCR reads at least this sure teach the templates
+MASK_FRAMES = 16         # frames kept, spread over the video, to find the burned-in overlay
 
 
 @dataclass
@@ -23,6 +37,9 @@ class ChainageIngest:
     reads: list[OverlayRead]
     track: ChainageTrack
     overlay_text: list[str] = field(default_factory=list)   # the overlay's other lines (section, size, material)
+    spread_frames: dict[int, np.ndarray] = field(default_factory=dict)   # BGR frames spread over the video
+    ocr_reads: int = 0               # crops read by the OCR (the rest by glyph templates)
+    disagreements: int = 0           # template reads the OCR contradicted
 
     @property
     def read_rate(self) -> float:
@@ -33,18 +50,51 @@ class ChainageIngest:
 def ingest_chainage(path: str | os.PathLike, reader: OverlayReader | None = None, *, every: int = 4,
                     counter: CounterModel = CounterModel(),
                     box: tuple[int, int, int, int] | None = None) -> ChainageIngest:
-    """Check the video, find the chainage box (or use a contractor's ``box``), read every ``every``-th frame, fit the track.
+    """Decode the video once: check it, find the chainage box (or use a contractor's ``box``), read every
+    ``every``-th frame, keep ``MASK_FRAMES`` frames spread over it; then fit the track.
 
     every : sampling interval [frames]; 4 keeps the track within 0.02 m on the
         samples (docs/ingest.md), sparser sampling misplaces the ends of stops
     """
-    info = check_integrity(path)
     reader = reader or OverlayReader()
-    step = max(1, info.frame_count // 6)
-    first = [f for _, f in islice(iter_frames(path, every=step), 3)]
+    info = probe_video(path)
+    spread = set(np.linspace(0, max(info.frame_count - 1, 0), MASK_FRAMES).round().astype(int).tolist())
+    overlay_text: list[str] = []
     if box is None:
-        box = reader.locate_chainage(first, str(path))
-    overlay_text = [t for t, _, _ in reader.lines(first[0]) if parse_chainage(t) is None] if first else []
-    reads = [reader.read(frame, box, i) for i, frame in iter_frames(path, every=every)]
-    track = fit_track(reads, info.frame_count, info.fps, counter=counter, source=str(path))
-    return ChainageIngest(info, box, reads, track, overlay_text)
+        box, overlay_text = _locate(path, info, reader)
+    x0, y0, x1, y1 = box
+    glyphs = GlyphTemplates()
+    reads, kept, ocr_reads, disagreements = [], {}, 0, 0
+    scan = FrameScan(path, lambda i: i % every == 0 or i in spread)
+    for index, frame in scan:
+        if index in spread:
+            kept[index] = frame
+        if index % every:
+            continue
+        crop = cv2.cvtColor(frame[y0:y1, x0:x1], cv2.COLOR_BGR2GRAY)
+        got = glyphs.read(crop)
+        if got is not None and (len(reads) + 1) % VERIFY_EVERY:
+            reads.append(OverlayRead(index, got[0], parse_chainage(got[0]), got[1]))
+            continue
+        read = reader.read(frame, box, index)
+        ocr_reads += 1
+        if got is not None and got[0] != read.text.replace(" ", "") and read.value is not None:
+            disagreements += 1
+            glyphs.forget()
+        if read.value is not None and read.score >= LEARN_SCORE:
+            glyphs.learn(crop, read.text)
+        reads.append(read)
+    track = fit_track(reads, scan.info.frame_count, scan.info.fps, counter=counter, source=str(path))
+    return ChainageIngest(scan.info, box, reads, track, overlay_text, kept, ocr_reads, disagreements)
+
+
+def _locate(path, info: VideoInfo, reader: OverlayReader) -> tuple[tuple[int, int, int, int], list[str]]:
+    """The chainage box and the other overlay lines, from the first frame, else from frames spread over the video."""
+    step = max(1, info.frame_count // 6)
+    for _, frame in islice(iter_frames(path, every=step), 3):
+        found = reader.lines(frame)
+        box = reader.chainage_box(frame, found)
+        if box is not None:
+            return box, [t for t, _, _ in found if parse_chainage(t) is None]
+    raise OverlayError(f"{path}: no chainage reading (like 12.34m) found in the first 3 frames sampled; "
+                       "check that the video has a chainage overlay, or give the overlay box of this contractor")

@@ -63,32 +63,37 @@ class OverlayReader:
         return sorted(out, key=lambda t: (t[1][1], t[1][0]))
 
     def locate_chainage(self, frames: list[np.ndarray], source: str = "the video") -> tuple[int, int, int, int]:
-        """Box (x0, y0, x1, y1) [px] of the chainage display, found in the first frames.
+        """Box (x0, y0, x1, y1) [px] of the chainage display, found in the first of ``frames`` that shows one."""
+        for frame in frames:
+            box = self.chainage_box(frame, self.lines(frame))
+            if box is not None:
+                return box
+        raise OverlayError(f"{source}: no chainage reading (like 12.34m) found in the first {len(frames)} frames; "
+                           "check that the video has a chainage overlay, or give the overlay box of this contractor")
+
+    def chainage_box(self, frame: np.ndarray, found) -> tuple[int, int, int, int] | None:
+        """Box (x0, y0, x1, y1) [px] of the chainage among a frame's text ``found`` (``lines``), or None.
 
         Text fragments on one line that together read as a chainage (OCR
         detection may split "7.74m" into "7" and "74m") are joined.
         """
-        for frame in frames:
-            found = self.lines(frame)
-            for i, (text, box, _) in enumerate(found):
-                group = [(text, box)]
-                for other, obox, _ in found[i + 1:]:
-                    same_line = abs((obox[1] + obox[3]) - (box[1] + box[3])) < 0.6 * (box[3] - box[1] + 1)
-                    near = 0 <= obox[0] - group[-1][1][2] < 2.5 * (box[3] - box[1] + 1)
-                    if same_line and near:
-                        group.append((other, obox))
-                for k in range(len(group), 0, -1):
-                    joined = "".join(t for t, _ in group[:k])
-                    if parse_chainage(joined) is not None or (k > 1 and parse_chainage(joined.replace(" ", "")) is not None):
-                        xs0, ys0, xs1, ys1 = zip(*(b for _, b in group[:k]))
-                        h, w = frame.shape[:2]
-                        pad = max(4, (max(ys1) - min(ys0)) // 3)
-                        crop = (max(0, min(xs0) - 3 * pad), max(0, min(ys0) - pad), min(w, max(xs1) + 3 * pad), min(h, max(ys1) + pad))
-                        read = self.read(frame, crop)
-                        if read.value is not None:
-                            return crop
-        raise OverlayError(f"{source}: no chainage reading (like 12.34m) found in the first {len(frames)} frames; "
-                           "check that the video has a chainage overlay, or give the overlay box of this contractor")
+        for i, (text, box, _) in enumerate(found):
+            group = [(text, box)]
+            for other, obox, _ in found[i + 1:]:
+                same_line = abs((obox[1] + obox[3]) - (box[1] + box[3])) < 0.6 * (box[3] - box[1] + 1)
+                near = 0 <= obox[0] - group[-1][1][2] < 2.5 * (box[3] - box[1] + 1)
+                if same_line and near:
+                    group.append((other, obox))
+            for k in range(len(group), 0, -1):
+                joined = "".join(t for t, _ in group[:k])
+                if parse_chainage(joined) is not None or (k > 1 and parse_chainage(joined.replace(" ", "")) is not None):
+                    xs0, ys0, xs1, ys1 = zip(*(b for _, b in group[:k]))
+                    h, w = frame.shape[:2]
+                    pad = max(4, (max(ys1) - min(ys0)) // 3)
+                    crop = (max(0, min(xs0) - 3 * pad), max(0, min(ys0) - pad), min(w, max(xs1) + 3 * pad), min(h, max(ys1) + pad))
+                    if self.read(frame, crop).value is not None:
+                        return crop
+        return None
 
     def read(self, frame: np.ndarray, box: tuple[int, int, int, int], index: int = 0) -> OverlayRead:
         """Recognition only, on the chainage box."""

@@ -9,20 +9,20 @@ it) are fitted with one pose (``pipeline.contour.detect_contour``).
 from __future__ import annotations
 
 import os
-from collections.abc import Iterable
+from collections.abc import Iterable, Iterator
 
 import cv2
 import numpy as np
 
-from ..contour import PipeContour, detect_contour
+from ..contour import PipeContour
 from ..contour.consensus import reconcile_windows
-from ..contour.detect import wall_u_from_tolerance
+from ..contour.detect import contour_from_candidates, frame_candidates, wall_u_from_tolerance
 from ..contour.ridges import static_overlay_mask
 from .chainage_track import ChainageTrack
-from .reader import iter_frames, probe_video
+from .reader import FrameScan, iter_frames, probe_video
 from .undistort import Undistorter
 
-__all__ = ["overlay_mask", "window_frames", "read_ideal_grays", "contour_at_frame", "contours_at_frames"]
+__all__ = ["overlay_mask", "overlay_mask_of", "window_frames", "read_ideal_grays", "contours_at_frames"]
 
 SPAN_M = 2.0       # travel either side of the frame whose rings are used [m]
 STEP_M = 0.1       # chainage step between those frames [m]
@@ -36,7 +36,12 @@ def overlay_mask(path: str | os.PathLike, undistorter: Undistorter, n_frames: in
     """Mask (rows, cols) of the ideal image, 0 on the burned-in overlay, from frames spread over the video."""
     info = probe_video(path)
     every = max(1, info.frame_count // n_frames)
-    return static_overlay_mask([_gray(undistorter.frame(f)) for _, f in iter_frames(path, every=every)])
+    return overlay_mask_of([f for _, f in iter_frames(path, every=every)], undistorter)
+
+
+def overlay_mask_of(frames: Iterable[np.ndarray], undistorter: Undistorter) -> np.ndarray:
+    """``overlay_mask`` from BGR frames already read (``ChainageIngest.spread_frames``)."""
+    return static_overlay_mask([_gray(undistorter.frame(f)) for f in frames])
 
 
 def window_frames(track: ChainageTrack, frame: int, span_m: float = SPAN_M, step_m: float = STEP_M) -> list[int]:
@@ -52,37 +57,40 @@ def window_frames(track: ChainageTrack, frame: int, span_m: float = SPAN_M, step
 
 def read_ideal_grays(path: str | os.PathLike, frames: Iterable[int], undistorter: Undistorter) -> dict[int, np.ndarray]:
     """Ideal grey images of the given frames, reading forward once."""
+    return dict(_read_forward(path, frames, lambda f: _gray(undistorter.frame(f))))
+
+
+def _read_forward(path: str | os.PathLike, frames: Iterable[int], convert) -> Iterator[tuple[int, object]]:
+    """(index, convert(BGR frame)) of the given frames, in one forward decoding that stops after the last."""
     wanted = set(frames)
-    out = {}
-    for i, f in iter_frames(path):
-        if i in wanted:
-            out[i] = _gray(undistorter.frame(f))
-            if len(out) == len(wanted):
-                break
-    return out
+    if not wanted:
+        return
+    last = max(wanted)
+    for i, f in FrameScan(path, wanted.__contains__):
+        yield i, convert(f)
+        if i == last:
+            return
 
 
 def contours_at_frames(path: str | os.PathLike, frames: Iterable[int], track: ChainageTrack, undistorter: Undistorter,
                        shape: str, *, height_mm: float, tolerance_mm: float,
                        mask: np.ndarray | None = None) -> dict[int, PipeContour]:
     """The pipe contours of several frames of one video, checked against one another
-    (``pipeline.contour.consensus.reconcile_windows``: the mount does not move, so the fits must agree)."""
-    contours, windows = {}, {}
-    for frame in sorted(set(frames)):
-        windows[frame] = window_frames(track, frame)
-        contours[frame] = contour_at_frame(path, frame, track, undistorter, shape, height_mm=height_mm,
-                                           tolerance_mm=tolerance_mm, mask=mask)
-    return reconcile_windows(contours, windows)
+    (``pipeline.contour.consensus.reconcile_windows``: the mount does not move, so the fits must agree).
 
-
-def contour_at_frame(path: str | os.PathLike, frame: int, track: ChainageTrack, undistorter: Undistorter,
-                     shape: str, *, height_mm: float, tolerance_mm: float, mask: np.ndarray | None = None) -> PipeContour:
-    """The pipe contour for a frame: pose from the rings of the frames around it along the chainage.
+    Each frame's contour is fitted to the rings of the frames around it along
+    the chainage (``window_frames``). The video is read once, forward, for
+    all windows, and each frame's ridge points are found once however many
+    windows share it.
 
     shape, height_mm, tolerance_mm : from the section header (the wall's
     departure from the nominal profile enters u(p_H)).
     """
-    order = window_frames(track, frame)
-    grays = read_ideal_grays(path, order, undistorter)
-    return detect_contour([grays[i] for i in order if i in grays], undistorter.K, shape, mask=mask,
-                          wall_u=wall_u_from_tolerance(height_mm, tolerance_mm))
+    windows = {frame: window_frames(track, frame) for frame in sorted(set(frames))}
+    candidates = dict(_read_forward(path, {i for w in windows.values() for i in w},
+                                    lambda f: frame_candidates(_gray(undistorter.frame(f)), mask)))
+    wall_u = wall_u_from_tolerance(height_mm, tolerance_mm)
+    contours = {frame: contour_from_candidates([candidates[i] for i in order if i in candidates], undistorter.K, shape,
+                                               wall_u=wall_u)
+                for frame, order in windows.items()}
+    return reconcile_windows(contours, windows)

@@ -5,14 +5,14 @@ from __future__ import annotations
 import os
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Iterator
+from typing import Callable, Iterator
 
 import cv2
 import numpy as np
 
 from ..errors import CorruptVideoError
 
-__all__ = ["VideoInfo", "probe_video", "check_integrity", "iter_frames", "read_frame"]
+__all__ = ["VideoInfo", "FrameScan", "probe_video", "check_integrity", "iter_frames", "read_frame"]
 
 
 @dataclass(frozen=True)
@@ -64,14 +64,45 @@ def check_integrity(path: str | os.PathLike) -> VideoInfo:
 
     A video that stops early raises CorruptVideoError naming the last good frame.
     """
-    info = probe_video(path)
-    cap = _open(path)
-    good = 0
-    try:
-        while cap.grab():
-            good += 1
-    finally:
-        cap.release()
+    scan = FrameScan(path, lambda index: False)
+    for _ in scan:
+        pass
+    return scan.info
+
+
+class FrameScan:
+    """One forward decoding of a whole video, yielding (index, BGR frame) where ``wanted(index)``.
+
+    Every frame is decoded (grab); only the wanted ones are converted
+    (retrieve). After the loop, ``info`` holds the checked frame count: a
+    video that stops before the count its container states raises
+    CorruptVideoError naming the last good frame, so one pass serves both
+    the integrity check and the reading.
+    """
+
+    def __init__(self, path: str | os.PathLike, wanted: Callable[[int], bool]):
+        self.path, self.wanted = path, wanted
+        self.info = probe_video(path)
+        self.decoded = 0
+
+    def __iter__(self) -> Iterator[tuple[int, np.ndarray]]:
+        cap = _open(self.path)
+        try:
+            while cap.grab():
+                index = self.decoded
+                self.decoded += 1
+                if self.wanted(index):
+                    ok, frame = cap.retrieve()
+                    if ok:
+                        yield index, frame
+        finally:
+            cap.release()
+        self.info = _checked_count(self.info, self.decoded)
+
+
+def _checked_count(info: VideoInfo, good: int) -> VideoInfo:
+    """``info`` with the number of frames that decoded; raises when the video stops early."""
+    path = info.path
     if good == 0:
         raise CorruptVideoError(f"{path}: no frame can be decoded; the file is damaged")
     if info.frame_count > 0 and good < info.frame_count:

@@ -24,6 +24,7 @@ Method (docs/contour.md):
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from functools import lru_cache
 
 import numpy as np
 from scipy.optimize import least_squares
@@ -49,7 +50,8 @@ MIN_RING_COVERAGE_DEG = 90.0
 MIN_RINGS = 3               # a confident pose needs at least this many rings,
 MIN_BEST_COVERAGE_DEG = 180.0   # and one of them seen over at least this arc
 MAX_RMS_PX = 1.5
-FIT_POINTS_PER_RING = 120   # points of one ring entering the least squares (spread along it)
+FIT_POINT_STRIDE = 3        # one ring point in this many enters the least squares
+TEMPLATE_FIT_POINTS = 150   # points of one curve entering the first-pose profile fit (spread along it)
 MAX_RING_RMS_PX = 1.0       # a ring fitting worse than this (or twice the median ring) is not of the family
 MAX_RELATIVE_U = 0.02       # u(p_H)/p_H above which a plane is not trusted
 MAX_ASPECT_DEPARTURE = 0.02  # a ring whose height / width departs more than this (and 3 u) from the profile's is deformed
@@ -200,6 +202,16 @@ def _circle_fit(pts: np.ndarray) -> tuple[np.ndarray, float, np.ndarray]:
     return c, r, keep
 
 
+@lru_cache(maxsize=None)
+def _profile_radius(shape: str, n: int = 7200):
+    """rho(theta): distance [H] from the profile's centre to its wall at angle theta [rad] (y up), tabulated
+    every 0.05 degree and interpolated (the exact ray-arc intersection costs ten times more; a first pose does
+    not need it)."""
+    theta = np.linspace(-np.pi, np.pi, n + 1)
+    rho = ray_to_wall(shape, 1.0, (0.0, 0.0), np.stack([np.cos(theta), np.sin(theta)], 1))
+    return lambda angle: np.interp(angle, theta, rho)
+
+
 def _template_fit(pts: np.ndarray, shape: str) -> tuple[np.ndarray, float, np.ndarray]:
     """Fit the header's profile, scaled and shifted (no tilt, no roll), to one ring's points.
 
@@ -209,17 +221,20 @@ def _template_fit(pts: np.ndarray, shape: str) -> tuple[np.ndarray, float, np.nd
     c, r, keep = _circle_fit(pts)
     x0 = np.array([c[0], c[1], 2.0 * r])
 
+    radius = _profile_radius(shape)
+
     def fun(x, P):
         d = P - x[:2]
-        dist = np.hypot(*d.T)
-        rho = ray_to_wall(shape, 1.0, (0.0, 0.0), np.stack([d[:, 0], -d[:, 1]], 1) / dist[:, None])
-        return dist - x[2] * rho
+        return np.hypot(*d.T) - x[2] * radius(np.arctan2(-d[:, 1], d[:, 0]))
 
     if shape != "circular":
         for _ in range(2):
             if keep.sum() < 5:
                 break
-            x0 = least_squares(fun, x0, args=(pts[keep],), loss="soft_l1", f_scale=1.0).x
+            inliers = pts[keep]
+            spread = inliers[np.linspace(0, len(inliers) - 1, min(len(inliers), TEMPLATE_FIT_POINTS)).round().astype(int)]
+            x0 = least_squares(fun, x0, args=(spread,), loss="soft_l1", f_scale=1.0,
+                               xtol=1e-4, ftol=1e-4).x   # a first pose: 0.05 px is plenty
             keep = np.abs(fun(x0, pts)) < INLIER_PX
     return x0[:2], float(x0[2]), keep
 
@@ -409,23 +424,23 @@ def _assign(view: PipeView, pts: np.ndarray, frame_of: np.ndarray, rings: list[t
     return np.where(r < INLIER_PX, k, -1), r
 
 
-def _thin(ring_of: np.ndarray, per_ring: int) -> np.ndarray:
-    """Indices of at most ``per_ring`` points of each ring, evenly spaced in their order along the ring."""
-    keep = []
+def _thin(ring_of: np.ndarray, stride: int) -> np.ndarray:
+    """Indices of every ``stride``-th point of each ring, in their order along it (rings keep their weights)."""
+    keep = np.zeros(len(ring_of), bool)
     for i in np.unique(ring_of):
-        mine = np.nonzero(ring_of == i)[0]
-        keep.append(mine[np.linspace(0, len(mine) - 1, min(per_ring, len(mine))).round().astype(int)])
-    return np.sort(np.concatenate(keep)) if keep else np.arange(0)
+        keep[np.nonzero(ring_of == i)[0][::stride]] = True
+    return np.nonzero(keep)[0]
 
 
 def _fit(view: PipeView, pts: np.ndarray, ring_of: np.ndarray, depths: list[float], loss: str):
     """Least squares of the shared pose and every ring's depth to the ring points' reprojection [px].
 
-    Each ring enters with at most FIT_POINTS_PER_RING points spread along it:
-    neighbouring points of one ring share their error (the pose covariance
-    counts rings, not points), so more of them add time, not information.
+    Every FIT_POINT_STRIDE-th point of each ring enters: neighbouring points
+    of one ring share their error (the pose covariance counts rings, not
+    points), so all of them add time, not information; rings keep their
+    weight in proportion to their points.
     """
-    take = _thin(ring_of, FIT_POINTS_PER_RING)
+    take = _thin(ring_of, FIT_POINT_STRIDE)
     pts, ring_of = pts[take], ring_of[take]
     free = np.nonzero(_pose_mask(view.shape))[0]
     x0 = np.concatenate([view.pose[free], np.log(depths)])
@@ -489,7 +504,7 @@ def frame_candidates(gray: np.ndarray, mask: np.ndarray | None = None) -> FrameC
     on = np.isin(curve, ids[sizes >= MIN_CURVE_POINTS])
     pts, strength, curve = pts[on], strength[on], curve[on]
     if len(pts) > MAX_CANDIDATES_PER_FRAME:
-        top = np.argsort(strength)[::-1][:MAX_CANDIDATES_PER_FRAME]
+        top = np.sort(np.argsort(strength)[::-1][:MAX_CANDIDATES_PER_FRAME])   # kept in their order around the centre
         pts, curve = pts[top], curve[top]
     return FrameCandidates(centre, pts, curve)
 

@@ -1,11 +1,12 @@
 """Benchmark of video ingest against decoding alone, measured in one run.
 
 For each sample video: the time of a bare ``cv2.VideoCapture.grab`` loop over
-the whole video (decode only), and the time of ``ingest_chainage`` (integrity
-check, locating the chainage box, OCR of every n-th frame, track fit) for a
-few sampling intervals, with the track's largest error against the truth.
-Target (issue 4): ingest / decode-only at most 1.5, for the complete ingest
-(contours included, which are not built yet).
+the whole video (decode only), and the time of ``ingest_chainage`` (one
+decoding pass: integrity check, locating the chainage box by OCR, every n-th
+frame's box read by learned glyph templates or the OCR, track fit) for a few
+sampling intervals, with how many crops the OCR read and the track's largest
+error against the truth. Target (issue 4): ingest / decode-only at most 1.5,
+for the complete ingest (contours included: ``contour_accuracy.py``).
 
     python benchmarks/ingest.py [--every 4 12]
 """
@@ -50,8 +51,9 @@ def main() -> None:
             result = ingest_chainage(video, reader, every=every)
             t_ingest = time.perf_counter() - t0
             err = np.abs(result.track.values - truth)
-            print(f"  every {every:2d} frames: ingest {t_ingest:.2f} s, ratio {t_ingest / t_decode:.1f} "
-                  f"(target <= 1.5); track error max {err.max():.3f} m, 95th percentile {np.percentile(err, 95):.3f} m")
+            print(f"  every {every:2d} frames: ingest {t_ingest:.2f} s, ratio {t_ingest / t_decode:.1f} (target <= 1.5); "
+                  f"{result.ocr_reads} of {len(result.reads)} crops by OCR, {result.disagreements} contradicted; "
+                  f"track error max {err.max():.3f} m, 95th percentile {np.percentile(err, 95):.3f} m")
 
 
 if __name__ == "__main__":

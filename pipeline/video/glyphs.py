@@ -81,6 +81,7 @@ class GlyphTemplates:
     stroke_px: int = 4
     sums: dict[str, np.ndarray] = field(default_factory=dict)
     widths: dict[str, list[int]] = field(default_factory=dict)
+    _compiled: tuple | None = field(default=None, init=False, repr=False)
 
     def learn(self, crop: np.ndarray, text: str) -> bool:
         """Add the glyphs of a crop whose text is known (spaces ignored); False when the crop does not cut into
@@ -102,7 +103,7 @@ class GlyphTemplates:
 
     def _compile(self) -> tuple[list[str], np.ndarray, np.ndarray]:
         """Characters, their unit-norm mean pictures (k, n) and median widths (k,) [px]."""
-        if getattr(self, "_compiled", None) is None:
+        if self._compiled is None:
             chars = list(self.sums)
             pictures = np.array([self.sums[c] / np.linalg.norm(self.sums[c]) for c in chars])
             self._compiled = chars, pictures, np.array([np.median(self.widths[c]) for c in chars])

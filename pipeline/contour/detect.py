@@ -410,18 +410,21 @@ def _coverage_deg(view: PipeView, pts: np.ndarray) -> float:
 
 def _assign(view: PipeView, pts: np.ndarray, frame_of: np.ndarray, rings: list[tuple[int, float]]) -> tuple[np.ndarray, np.ndarray]:
     """Nearest ring of its own frame for each point, within INLIER_PX: (ring index or -1 (n,), residual (n,))."""
+    ring_of, best = np.full(len(pts), -1), np.full(len(pts), np.inf)
     if not rings:
-        return np.full(len(pts), -1), np.full(len(pts), np.inf)
-    res = np.full((len(pts), len(rings)), np.inf)
+        return ring_of, best
     xy, _ = view.wall_hits(pts)      # where each point's ray meets the wall does not depend on the ring
-    for i, (frame, t) in enumerate(rings):
-        mine = frame_of == frame
-        moved = view.project(np.column_stack([xy[mine], np.full(int(mine.sum()), t)]))
-        res[mine, i] = np.hypot(*(moved - pts[mine]).T)
-    res = np.where(np.isfinite(res), res, np.inf)
-    k = np.argmin(res, axis=1)
-    r = res[np.arange(len(pts)), k]
-    return np.where(r < INLIER_PX, k, -1), r
+    of_frame: dict[int, list[int]] = {}
+    for i, (frame, _) in enumerate(rings):
+        of_frame.setdefault(frame, []).append(i)
+    for frame, indices in of_frame.items():
+        mine = np.flatnonzero(frame_of == frame)
+        for i in indices:
+            moved = view.project(np.column_stack([xy[mine], np.full(len(mine), rings[i][1])]))
+            r = np.hypot(*(moved - pts[mine]).T)
+            closer = r < best[mine]
+            best[mine[closer]], ring_of[mine[closer]] = r[closer], i
+    return np.where(best < INLIER_PX, ring_of, -1), best
 
 
 def _thin(ring_of: np.ndarray, stride: int) -> np.ndarray:

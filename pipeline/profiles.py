@@ -85,11 +85,13 @@ def ray_to_wall(shape: str, H, origin, directions) -> np.ndarray:
         b = np.sum(u * oc, axis=1)
         disc = b * b - (np.sum(oc * oc, axis=1) - (r * scale) ** 2)
         root = np.sqrt(np.where(disc >= 0, disc, np.nan))
+        whole_circle = a1 - a0 >= 2 * math.pi      # every point of it is on the arc: no angle to test
         for lam in (-b - root, -b + root):
-            px, py = oc[:, 0] + lam * u[:, 0], oc[:, 1] + lam * u[:, 1]
-            ang = np.arctan2(py, px)
-            ang = a0 + np.mod(ang - a0, 2 * math.pi)          # into [a0, a0 + 2 pi)
-            on_arc = (lam > 0) & (ang <= a1 + 1e-9)
+            on_arc = lam > 0
+            if not whole_circle:
+                ang = np.arctan2(oc[:, 1] + lam * u[:, 1], oc[:, 0] + lam * u[:, 0])
+                ang = a0 + np.mod(ang - a0, 2 * math.pi)          # into [a0, a0 + 2 pi)
+                on_arc &= ang <= a1 + 1e-9
             best = np.where(on_arc & (lam < best), lam, best)
     return best
 

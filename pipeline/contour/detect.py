@@ -29,7 +29,7 @@ from functools import lru_cache
 import numpy as np
 from scipy.optimize import least_squares
 
-from scipy.sparse import lil_matrix
+from scipy.sparse import csr_matrix
 
 from ..profiles import ray_to_wall
 from .ridges import dark_centre, ridge_points
@@ -342,7 +342,8 @@ def _deformed_rings(view: PipeView, pts: np.ndarray, frame_of: np.ndarray, curve
     if not rings or view.shape != "circular":
         # an ellipse fitted to part of an egg profile changes with the part: the test holds for circles only
         return [False] * len(rings)
-    ring_of, _ = _assign(view, pts, frame_of, rings)
+    wall, _ = view.wall_hits(pts)
+    ring_of, _ = _assign(view, pts, frame_of, rings, wall)
     nominal = profile_aspect(view.shape)
     out = []
     for i, (frame, t) in enumerate(rings):
@@ -350,7 +351,7 @@ def _deformed_rings(view: PipeView, pts: np.ndarray, frame_of: np.ndarray, curve
         same = (frame_of == frame) & np.isin(curve_of, np.unique(curve_of[mine]))
         xy = points_in_plane(view, pts[same], t)
         fit, keep = fit_section(xy, MIN_RING_POINTS)
-        if fit is None or _coverage_deg(view, pts[same][keep]) < MIN_BEST_COVERAGE_DEG:
+        if fit is None or _coverage_deg(wall[same][keep]) < MIN_BEST_COVERAGE_DEG:
             out.append(False)       # too little of the ring to judge its shape
             continue
         departure = _aspect(fit) / nominal - 1.0
@@ -403,17 +404,22 @@ def _ring_peaks(view: PipeView, pts: np.ndarray, frame_of: np.ndarray, width: fl
     return out
 
 
-def _coverage_deg(view: PipeView, pts: np.ndarray) -> float:
-    """Share of the circumference [deg] covered by wall points, in 10 degree bins."""
-    return arc_coverage_deg(view.wall_hits(pts)[0], (0.0, 0.0))
+def _coverage_deg(wall_xy: np.ndarray) -> float:
+    """Share of the circumference [deg] covered by wall points (X, Y) (n, 2) [H], in 10 degree bins."""
+    return arc_coverage_deg(wall_xy, (0.0, 0.0))
 
 
-def _assign(view: PipeView, pts: np.ndarray, frame_of: np.ndarray, rings: list[tuple[int, float]]) -> tuple[np.ndarray, np.ndarray]:
-    """Nearest ring of its own frame for each point, within INLIER_PX: (ring index or -1 (n,), residual (n,))."""
+def _assign(view: PipeView, pts: np.ndarray, frame_of: np.ndarray, rings: list[tuple[int, float]],
+            xy: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """Nearest ring of its own frame for each point, within INLIER_PX: (ring index or -1 (n,), residual (n,)).
+
+    xy : the points' wall hits (``PipeView.wall_hits``), when the caller has them.
+    """
     ring_of, best = np.full(len(pts), -1), np.full(len(pts), np.inf)
     if not rings:
         return ring_of, best
-    xy, _ = view.wall_hits(pts)      # where each point's ray meets the wall does not depend on the ring
+    if xy is None:
+        xy, _ = view.wall_hits(pts)      # where each point's ray meets the wall does not depend on the ring
     of_frame: dict[int, list[int]] = {}
     for i, (frame, _) in enumerate(rings):
         of_frame.setdefault(frame, []).append(i)
@@ -447,11 +453,13 @@ def _fit(view: PipeView, pts: np.ndarray, ring_of: np.ndarray, depths: list[floa
     pts, ring_of = pts[take], ring_of[take]
     free = np.nonzero(_pose_mask(view.shape))[0]
     x0 = np.concatenate([view.pose[free], np.log(depths)])
-    sparsity = lil_matrix((2 * len(pts) + 2, len(x0)), dtype=int)
-    sparsity[:, :len(free)] = 1
-    rows = np.arange(len(pts))
-    sparsity[2 * rows, len(free) + ring_of] = 1
-    sparsity[2 * rows + 1, len(free) + ring_of] = 1
+    # every residual depends on the pose; a point's two residuals on its own ring's depth only
+    n_rows, n_pose = 2 * len(pts) + 2, len(free)
+    pose_rows, pose_cols = np.divmod(np.arange(n_rows * n_pose), n_pose)
+    depth_rows = np.arange(2 * len(pts))
+    sparsity = csr_matrix((np.ones(len(pose_rows) + len(depth_rows), int),
+                           (np.r_[pose_rows, depth_rows], np.r_[pose_cols, n_pose + np.repeat(ring_of, 2)])),
+                          shape=(n_rows, len(x0)))
 
     def unpack(x):
         pose = view.pose.copy()
@@ -480,9 +488,10 @@ def _drop_misfits(view, pts, frame_of, rings):
 
 
 def _keep_rings(view, pts, frame_of, rings):
-    ring_of, _ = _assign(view, pts, frame_of, rings)
+    wall, _ = view.wall_hits(pts)
+    ring_of, _ = _assign(view, pts, frame_of, rings, wall)
     return [r for i, r in enumerate(rings) if np.sum(ring_of == i) >= MIN_RING_POINTS
-            and _coverage_deg(view, pts[ring_of == i]) >= MIN_RING_COVERAGE_DEG]
+            and _coverage_deg(wall[ring_of == i]) >= MIN_RING_COVERAGE_DEG]
 
 
 @dataclass(frozen=True)
@@ -577,9 +586,10 @@ def contour_from_candidates(candidates: list[FrameCandidates], camera_matrix: np
     cov = np.zeros((5, 5))
     cov[np.ix_(free, free)] = cov_x[:len(free), :len(free)]
     found = []
+    wall, _ = view.wall_hits(pts)
     for i, (frame, t) in enumerate(rings):
         on = ring_of == i
-        found.append(Ring(frame, float(t), float(view.p_H(t)[0]), int(on.sum()), _coverage_deg(view, pts[on]),
+        found.append(Ring(frame, float(t), float(view.p_H(t)[0]), int(on.sum()), _coverage_deg(wall[on]),
                           float(np.sqrt(np.mean(res[on] ** 2))) if on.any() else float("nan")))
     problems = []
     if len({round(np.log(r.depth), 1) for r in found}) < 2:

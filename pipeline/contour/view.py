@@ -11,6 +11,7 @@ copy centred at VP - (f/t) (ox, -oy).
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
+from functools import cached_property
 
 import numpy as np
 
@@ -49,7 +50,7 @@ class PipeView:
     def with_pose(self, values) -> "PipeView":
         return replace(self, **dict(zip(POSE_PARAMETERS, map(float, values))))
 
-    @property
+    @cached_property
     def R_wc(self) -> np.ndarray:
         return camera_rotation(self.yaw, self.pitch, self.roll)
 

@@ -85,13 +85,14 @@ def ray_to_wall(shape: str, H, origin, directions) -> np.ndarray:
         b = np.sum(u * oc, axis=1)
         disc = b * b - (np.sum(oc * oc, axis=1) - (r * scale) ** 2)
         root = np.sqrt(np.where(disc >= 0, disc, np.nan))
-        whole_circle = a1 - a0 >= 2 * math.pi      # every point of it is on the arc: no angle to test
+        # A hit is on the arc when its angle from the arc's middle is at most half the arc's span
+        # (d <= h  <=>  cos d >= cos h for d, h in [0, pi]): a dot product instead of an angle.
+        mid, half = 0.5 * (a0 + a1), min(0.5 * (a1 - a0), math.pi)
+        mx, my, cos_half = math.cos(mid), math.sin(mid), math.cos(half) - 1e-12
         for lam in (-b - root, -b + root):
             on_arc = lam > 0
-            if not whole_circle:
-                ang = np.arctan2(oc[:, 1] + lam * u[:, 1], oc[:, 0] + lam * u[:, 0])
-                ang = a0 + np.mod(ang - a0, 2 * math.pi)          # into [a0, a0 + 2 pi)
-                on_arc &= ang <= a1 + 1e-9
+            if half < math.pi:
+                on_arc &= (oc[:, 0] + lam * u[:, 0]) * mx + (oc[:, 1] + lam * u[:, 1]) * my >= cos_half * r * scale
             best = np.where(on_arc & (lam < best), lam, best)
     return best
 

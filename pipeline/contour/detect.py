@@ -391,6 +391,9 @@ def _deformed_rings(view: PipeView, pts: np.ndarray, frame_of: np.ndarray, curve
             out.append(False)       # too little of the ring to judge its shape
             continue
         departure = _aspect(fit) / nominal - 1.0
+        if abs(departure) <= MAX_ASPECT_DEPARTURE:
+            out.append(False)       # within the bound whatever its u: the jackknife is not needed
+            continue
         u = sector_jackknife(xy[keep], fit[0], lambda p: _aspect(fit_ellipse(p))) / nominal
         out.append(abs(departure) > max(3.0 * u, MAX_ASPECT_DEPARTURE))
     return out

@@ -237,7 +237,7 @@ def _profile_residuals(pts: np.ndarray, x: np.ndarray, radius, slope=None):
     """Distances [px] of points (n, 2) from the profile of centre (x[0], x[1]) [px] and scale x[2] [px] along the
     rays from its centre, and (with ``slope``) their Jacobian (n, 3) against x."""
     X, Y = pts[:, 0] - x[0], x[1] - pts[:, 1]          # about the centre, y up
-    dist = np.hypot(X, Y)
+    dist = np.maximum(np.hypot(X, Y), 1e-9)           # a point on the centre itself has no direction
     theta = np.arctan2(Y, X)
     res = dist - x[2] * radius(theta)
     if slope is None:

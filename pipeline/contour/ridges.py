@@ -33,12 +33,11 @@ def dark_centre(gray: np.ndarray, sigma_frac: float = 0.03) -> np.ndarray:
     r0, c0 = max(0, r * f - reach - margin), max(0, c * f - reach - margin)
     r1, c1 = min(gray.shape[0], (r + 1) * f + reach + margin), min(gray.shape[1], (c + 1) * f + reach + margin)
     blur = cv2.GaussianBlur(gray[r0:r1, c0:c1].astype(np.float32), (0, 0), sigma)
-    inner = np.full(blur.shape, np.inf, np.float32)
-    ir0, ic0 = max(0, r * f - reach) - r0, max(0, c * f - reach) - c0
-    ir1, ic1 = min(gray.shape[0], (r + 1) * f + reach) - r0, min(gray.shape[1], (c + 1) * f + reach) - c0
-    inner[ir0:ir1, ic0:ic1] = blur[ir0:ir1, ic0:ic1]
+    ir0, ic0 = max(0, r * f - reach), max(0, c * f - reach)
+    ir1, ic1 = min(gray.shape[0], (r + 1) * f + reach), min(gray.shape[1], (c + 1) * f + reach)
+    inner = blur[ir0 - r0:ir1 - r0, ic0 - c0:ic1 - c0]
     row, col = np.unravel_index(int(np.argmin(inner)), inner.shape)
-    return np.array([float(col + c0), float(row + r0)])
+    return np.array([float(col + ic0), float(row + ir0)])
 
 
 def ridge_points(gray: np.ndarray, centre, *, n_angles: int = 720, min_radius: float = 8.0,

@@ -179,3 +179,12 @@ def test_first_pose_profile_fit_recovers_an_egg_ring_among_outliers():
     c, s, keep = _template_fit(np.vstack([ring, clutter]), "egg")
     assert np.hypot(*(c - centre)) < 0.3 and abs(s - scale) < 0.3
     assert keep[:220].mean() > 0.98 and keep[220:].mean() < 0.2
+
+
+@pytest.mark.parametrize("n", [15, 16])
+def test_overlay_mask_median_on_8_bit_frames_equals_the_float_median(n):
+    """The burned-in overlay's median frame, taken by a partition of the 8-bit values, is numpy's median."""
+    from pipeline.contour.ridges import _median_frame
+
+    stack = np.random.default_rng(n).integers(0, 256, (n, 37, 53), dtype=np.uint8)
+    assert np.array_equal(_median_frame(stack), np.median(stack.astype(np.float32), axis=0).astype(np.uint8))

@@ -8,6 +8,13 @@ sampling intervals, with how many crops the OCR read and the track's largest
 error against the truth. Target (issue 4): ingest / decode-only at most 1.5,
 for the complete ingest (contours included: ``contour_accuracy.py``).
 
+Then the ladder of what the track costs beyond decoding, each rung timed as
+a loop of its own over the same video: grab every frame and convert every
+n-th (retrieve), then also read its chainage box by glyph templates (learned
+beforehand from the ingest's own reads), and what one OCR read of the box
+costs (the ingest sends one crop in ``VERIFY_EVERY`` to the OCR as a check,
+and the first crops, until the templates know every character).
+
     python benchmarks/ingest.py [--every 4 12]
 """
 
@@ -21,7 +28,8 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from pipeline.video.ingest import ingest_chainage
+from pipeline.video.glyphs import GlyphTemplates
+from pipeline.video.ingest import VERIFY_EVERY, ingest_chainage
 from pipeline.video.overlay_ocr import OverlayReader
 
 SAMPLES = Path(__file__).resolve().parent.parent / "sample_videos"
@@ -34,6 +42,48 @@ def decode_only(path: Path) -> float:
         pass
     cap.release()
     return time.perf_counter() - t0
+
+
+def decode_and_convert(path: Path, every: int, box=None, templates: GlyphTemplates | None = None) -> float:
+    """Time of a grab loop that also converts every ``every``-th frame, and reads its ``box`` by ``templates``."""
+    t0 = time.perf_counter()
+    cap = cv2.VideoCapture(str(path))
+    index = 0
+    while cap.grab():
+        if index % every == 0:
+            _, frame = cap.retrieve()
+            if templates is not None:
+                x0, y0, x1, y1 = box
+                templates.read(cv2.cvtColor(frame[y0:y1, x0:x1], cv2.COLOR_BGR2GRAY))
+        index += 1
+    cap.release()
+    return time.perf_counter() - t0
+
+
+def ladder(path: Path, result, reader: OverlayReader, every: int, t_decode: float) -> None:
+    """Print the track's costs beyond decoding, rung by rung, as ratios to the decode-only time."""
+    templates = GlyphTemplates()
+    cap = cv2.VideoCapture(str(path))
+    taught, index, x0, y0, x1, y1 = 0, 0, *result.box
+    wanted = {r.frame: r.text for r in result.reads[:40] if r.value is not None}
+    while taught < 10 and cap.grab() and index <= max(wanted, default=0):
+        if index in wanted:
+            _, frame = cap.retrieve()
+            taught += templates.learn(cv2.cvtColor(frame[y0:y1, x0:x1], cv2.COLOR_BGR2GRAY), wanted[index])
+        index += 1
+    _, frame = cap.read()
+    cap.release()
+    t_convert = decode_and_convert(path, every)
+    t_glyphs = decode_and_convert(path, every, result.box, templates)
+    t0 = time.perf_counter()
+    for _ in range(5):
+        reader.read(frame, result.box)
+    t_ocr = (time.perf_counter() - t0) / 5
+    reads = len(result.reads)
+    print(f"  ladder, every {every}: + convert {t_convert / t_decode:.2f}, + glyph reads {t_glyphs / t_decode:.2f} "
+          f"(decode only = 1); one OCR read {1000 * t_ocr:.0f} ms, a check every {VERIFY_EVERY} reads adds "
+          f"{t_ocr * reads / VERIFY_EVERY / t_decode:.2f}, all {result.ocr_reads} OCR reads of this ingest "
+          f"{t_ocr * result.ocr_reads / t_decode:.2f}")
 
 
 def main() -> None:
@@ -54,6 +104,7 @@ def main() -> None:
             print(f"  every {every:2d} frames: ingest {t_ingest:.2f} s, ratio {t_ingest / t_decode:.1f} (target <= 1.5); "
                   f"{result.ocr_reads} of {len(result.reads)} crops by OCR, {result.disagreements} contradicted; "
                   f"track error max {err.max():.3f} m, 95th percentile {np.percentile(err, 95):.3f} m")
+            ladder(video, result, reader, every, t_decode)
 
 
 if __name__ == "__main__":

@@ -55,12 +55,13 @@ def segment_glyphs(crop: np.ndarray, stroke_px: int = 4) -> tuple[np.ndarray, li
     return hat.astype(np.float32), [(int(a), int(b)) for a, b in zip(starts, ends)], (r0, r1)
 
 
-def _patch(hat: np.ndarray, cols: tuple[int, int], rows: tuple[int, int]) -> np.ndarray:
-    """A glyph resampled to PATCH_SHAPE, zero mean and unit norm (for normalised correlation)."""
-    p = cv2.resize(hat[rows[0]:rows[1], cols[0]:cols[1]], PATCH_SHAPE[::-1], interpolation=cv2.INTER_AREA).ravel()
-    p = p - p.mean()
-    n = np.linalg.norm(p)
-    return p / n if n > 0 else p
+def _patches(hat: np.ndarray, glyphs: list[tuple[int, int]], rows: tuple[int, int]) -> np.ndarray:
+    """Glyphs (g, PATCH_SHAPE.size) resampled to PATCH_SHAPE, each zero mean and unit norm (normalised correlation)."""
+    p = np.array([cv2.resize(hat[rows[0]:rows[1], c0:c1], PATCH_SHAPE[::-1], interpolation=cv2.INTER_AREA).ravel()
+                  for c0, c1 in glyphs])
+    p -= p.mean(axis=1, keepdims=True)
+    n = np.linalg.norm(p, axis=1, keepdims=True)
+    return np.divide(p, n, out=p, where=n > 0)
 
 
 def _split_at_valley(hat: np.ndarray, cols: tuple[int, int], rows: tuple[int, int]) -> list[tuple[int, int]]:
@@ -91,7 +92,7 @@ class GlyphTemplates:
         if len(glyphs) != len(chars) or not chars:
             return False
         for ch, cols in zip(chars, glyphs):
-            self.sums[ch] = self.sums.get(ch, 0.0) + _patch(hat, cols, rows)
+            self.sums[ch] = self.sums.get(ch, 0.0) + _patches(hat, [cols], rows)[0]
             self.widths.setdefault(ch, []).append(cols[1] - cols[0])
         self._compiled = None
         return True
@@ -109,36 +110,38 @@ class GlyphTemplates:
             self._compiled = chars, pictures, np.array([np.median(self.widths[c]) for c in chars])
         return self._compiled
 
-    def _match(self, patch: np.ndarray, width: int) -> tuple[str | None, float]:
-        """Best character for a glyph and its correlation, or (None, score) when it is not clearly one character."""
-        chars, pictures, widths = self._compile()
-        fits = np.abs(width - widths) <= np.maximum(2.0, WIDTH_TOLERANCE * widths)
-        if not fits.any():
-            return None, 0.0
-        scores = np.where(fits, pictures @ patch, -1.0)
-        order = np.argsort(scores)[::-1]
-        best = float(scores[order[0]])
-        second = float(scores[order[1]]) if len(order) > 1 else -1.0
-        return (chars[order[0]], best) if best >= MIN_MATCH and best - second >= MIN_MARGIN else (None, best)
+    def _match(self, patches: np.ndarray, widths: np.ndarray) -> tuple[list[str | None], np.ndarray]:
+        """Best character for each glyph (patches (g, n), widths (g,) [px]), None where it is not clearly one
+        character, and the best correlations (g,)."""
+        chars, pictures, char_widths = self._compile()
+        fits = np.abs(widths[:, None] - char_widths) <= np.maximum(2.0, WIDTH_TOLERANCE * char_widths)
+        scores = np.where(fits, patches @ pictures.T, -1.0)
+        top = np.sort(scores, axis=1)[:, ::-1]
+        best = top[:, 0]
+        second = top[:, 1] if scores.shape[1] > 1 else np.full(len(best), -1.0)
+        clear = fits.any(axis=1) & (best >= MIN_MATCH) & (best - second >= MIN_MARGIN)
+        return [chars[k] if ok else None for k, ok in zip(np.argmax(scores, axis=1), clear)], np.where(fits.any(axis=1), best, 0.0)
 
     def read(self, crop: np.ndarray) -> tuple[str, float] | None:
         """(text, worst glyph's correlation) of a crop, or None when any glyph is not clearly a known character."""
         if not self.sums:
             return None
         hat, glyphs, rows = segment_glyphs(crop, self.stroke_px)
+        if not glyphs:
+            return None
+        found, scores = self._match(_patches(hat, glyphs, rows), np.array([c1 - c0 for c0, c1 in glyphs]))
         text, worst = [], 1.0
-        pending = list(glyphs)
-        while pending:
-            cols = pending.pop(0)
-            ch, score = self._match(_patch(hat, cols, rows), cols[1] - cols[0])
-            if ch is None:
+        for cols, ch, score in zip(glyphs, found, scores):
+            if ch is None:      # perhaps two touching glyphs
                 halves = _split_at_valley(hat, cols, rows)
-                matched = [self._match(_patch(hat, c, rows), c[1] - c[0]) for c in halves] if len(halves) == 2 else []
-                if not matched or any(m[0] is None for m in matched):
+                if len(halves) != 2:
                     return None
-                text += [m[0] for m in matched]
-                worst = min([worst] + [m[1] for m in matched])
+                pair, pair_scores = self._match(_patches(hat, halves, rows), np.array([c1 - c0 for c0, c1 in halves]))
+                if None in pair:
+                    return None
+                text += pair
+                worst = min(worst, float(pair_scores.min()))
                 continue
             text.append(ch)
-            worst = min(worst, score)
-        return ("".join(text), worst) if text else None
+            worst = min(worst, float(score))
+        return "".join(text), worst

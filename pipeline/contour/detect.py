@@ -350,16 +350,18 @@ def _refine(view: PipeView, pts: np.ndarray, frame_of: np.ndarray, curve_of: np.
     sol = free = None
     deformed: list[tuple[int, float]] = []
     for loss in ("soft_l1", "soft_l1", "soft_l1", "linear"):
-        rings = _keep_rings(view, pts, frame_of, rings)
+        wall, _ = view.wall_hits(pts)       # where the points' rays meet the wall: one pose, many rings
+        rings = _keep_rings(view, pts, frame_of, rings, wall)
         if not rings:
             return None
-        ring_of, _ = _assign(view, pts, frame_of, rings)
+        ring_of, _ = _assign(view, pts, frame_of, rings, wall)
         sel = ring_of >= 0
         view, depths, sol, free = _fit(view, pts[sel], ring_of[sel], [t for _, t in rings], loss)
         rings = [(frame, t) for (frame, _), t in zip(rings, depths)]
         if loss != "linear":
-            rings = _drop_misfits(view, pts, frame_of, rings)
-            flags = _deformed_rings(view, pts, frame_of, curve_of, rings)
+            wall, _ = view.wall_hits(pts)
+            rings = _drop_misfits(view, pts, frame_of, rings, wall)
+            flags = _deformed_rings(view, pts, frame_of, curve_of, rings, wall)
             deformed += [r for r, bad in zip(rings, flags) if bad]
             rings = [r for r, bad in zip(rings, flags) if not bad]
     return view, rings, sol, free, deformed
@@ -371,14 +373,13 @@ def _aspect(ellipse) -> float:
 
 
 def _deformed_rings(view: PipeView, pts: np.ndarray, frame_of: np.ndarray, curve_of: np.ndarray,
-                    rings: list[tuple[int, float]]) -> list[bool]:
+                    rings: list[tuple[int, float]], wall: np.ndarray) -> list[bool]:
     """Whether each ring is a deformed section: its whole ridge curves, carried into its plane, trace a shape
     whose height / width departs from the profile's (a joint inside a deformed stretch; its lower arc can
     still pass for a ring of the family and pull the pose)."""
     if not rings or view.shape != "circular":
         # an ellipse fitted to part of an egg profile changes with the part: the test holds for circles only
         return [False] * len(rings)
-    wall, _ = view.wall_hits(pts)
     ring_of, _ = _assign(view, pts, frame_of, rings, wall)
     nominal = profile_aspect(view.shape)
     out = []
@@ -454,22 +455,25 @@ def _assign(view: PipeView, pts: np.ndarray, frame_of: np.ndarray, rings: list[t
 
     xy : the points' wall hits (``PipeView.wall_hits``), when the caller has them.
     """
-    ring_of, best = np.full(len(pts), -1), np.full(len(pts), np.inf)
+    best = np.full(len(pts), np.inf)
     if not rings:
-        return ring_of, best
+        return np.full(len(pts), -1), best
     if xy is None:
         xy, _ = view.wall_hits(pts)      # where each point's ray meets the wall does not depend on the ring
-    of_frame: dict[int, list[int]] = {}
-    for i, (frame, _) in enumerate(rings):
-        of_frame.setdefault(frame, []).append(i)
-    for frame, indices in of_frame.items():
-        mine = np.flatnonzero(frame_of == frame)
-        for i in indices:
-            moved = view.project(np.column_stack([xy[mine], np.full(len(mine), rings[i][1])]))
-            r = np.hypot(*(moved - pts[mine]).T)
-            closer = r < best[mine]
-            best[mine[closer]], ring_of[mine[closer]] = r[closer], i
-    return np.where(best < INLIER_PX, ring_of, -1), best
+    # every (point, ring of the point's frame) pair at once
+    order = np.arange(len(pts)) if np.all(np.diff(frame_of) >= 0) else np.argsort(frame_of, kind="stable")
+    sorted_frames = frame_of[order]
+    ring_frames = np.array([frame for frame, _ in rings])
+    lo, hi = np.searchsorted(sorted_frames, ring_frames, "left"), np.searchsorted(sorted_frames, ring_frames, "right")
+    point = order[np.concatenate([np.arange(a, b) for a, b in zip(lo, hi)])]
+    ring = np.repeat(np.arange(len(rings)), hi - lo)
+    depth = np.array([t for _, t in rings])[ring]
+    r = np.hypot(*(view.project(np.column_stack([xy[point], depth])) - pts[point]).T)
+    np.fmin.at(best, point, r)               # nan (a ray off the wall) never wins
+    nearest = r == best[point]
+    first = np.full(len(pts), len(rings))
+    np.minimum.at(first, point[nearest], ring[nearest])     # the first ring wins a tie
+    return np.where(best < INLIER_PX, first, -1), best
 
 
 def _thin(ring_of: np.ndarray, stride: int) -> np.ndarray:
@@ -518,16 +522,15 @@ def _fit(view: PipeView, pts: np.ndarray, ring_of: np.ndarray, depths: list[floa
     return v, list(t), sol, free
 
 
-def _drop_misfits(view, pts, frame_of, rings):
+def _drop_misfits(view, pts, frame_of, rings, wall):
     """Rings that do not follow the family (a lateral's rim, a deformed section) are dropped."""
-    ring_of, res = _assign(view, pts, frame_of, rings)
+    ring_of, res = _assign(view, pts, frame_of, rings, wall)
     rms = np.array([np.sqrt(np.mean(res[ring_of == i] ** 2)) if np.any(ring_of == i) else np.inf for i in range(len(rings))])
     limit = max(MAX_RING_RMS_PX, 2.0 * float(np.median(rms[np.isfinite(rms)]))) if np.isfinite(rms).any() else MAX_RING_RMS_PX
     return [r for r, e in zip(rings, rms) if e <= limit]
 
 
-def _keep_rings(view, pts, frame_of, rings):
-    wall, _ = view.wall_hits(pts)
+def _keep_rings(view, pts, frame_of, rings, wall):
     ring_of, _ = _assign(view, pts, frame_of, rings, wall)
     return [r for i, r in enumerate(rings) if np.sum(ring_of == i) >= MIN_RING_POINTS
             and _coverage_deg(wall[ring_of == i]) >= MIN_RING_COVERAGE_DEG]

@@ -21,7 +21,7 @@ import numpy as np
 
 __all__ = [
     "SHAPES", "profile_arcs", "profile_polygon", "ray_to_wall", "profile_width", "segment_height_for_area_fraction", "chord_at_height",
-    "exit_table", "wall_point", "level_tables", "clock_to_theta", "theta_to_clock", "perimeter",
+    "exit_table", "wall_point", "arc_of_hit", "level_tables", "clock_to_theta", "theta_to_clock", "perimeter",
 ]
 
 SHAPES = ("circular", "egg")
@@ -95,6 +95,25 @@ def ray_to_wall(shape: str, H, origin, directions) -> np.ndarray:
                 on_arc &= (oc[:, 0] + lam * u[:, 0]) * mx + (oc[:, 1] + lam * u[:, 1]) * my >= cos_half * r * scale
             best = np.where(on_arc & (lam < best), lam, best)
     return best
+
+
+def arc_of_hit(shape: str, hits) -> tuple[np.ndarray, np.ndarray]:
+    """Centre (n, 2) and radius (n,) of the profile arc (``profile_arcs``, H = 1) each wall point (n, 2) lies on.
+
+    Where two arcs meet they are tangent, so either one serves a derivative of
+    the hit (``PipeView.reproject_jacobian``).
+    """
+    q = np.asarray(hits, float).reshape(-1, 2)
+    arcs = np.array(profile_arcs(shape, 1.0))
+    if len(arcs) == 1:
+        return np.broadcast_to(arcs[0, :2], q.shape), np.full(len(q), arcs[0, 2])
+    rel = q[:, None, :] - arcs[None, :, :2]                          # (n, arcs, 2)
+    dist = np.hypot(rel[..., 0], rel[..., 1])
+    mid, half = 0.5 * (arcs[:, 3] + arcs[:, 4]), np.minimum(0.5 * (arcs[:, 4] - arcs[:, 3]), math.pi)
+    # on an arc: the angle from its middle is at most half its span (cosines compared, as in ray_to_wall)
+    on_arc = rel[..., 0] * np.cos(mid) + rel[..., 1] * np.sin(mid) >= (np.cos(half) - 1e-9) * dist
+    k = np.argmin(np.where(on_arc, np.abs(dist - arcs[:, 2]), np.inf), axis=1)
+    return arcs[k, :2], arcs[k, 2]
 
 
 def perimeter(shape: str, H: float) -> float:

@@ -188,3 +188,59 @@ def test_overlay_mask_median_on_8_bit_frames_equals_the_float_median(n):
 
     stack = np.random.default_rng(n).integers(0, 256, (n, 37, 53), dtype=np.uint8)
     assert np.array_equal(_median_frame(stack), np.median(stack.astype(np.float32), axis=0).astype(np.uint8))
+
+
+@pytest.mark.parametrize("shape", ["circular", "egg"])
+def test_reproject_jacobian_matches_central_differences(shape):
+    """The exact chain rule through the ray-wall hit, against central differences of ``reproject``."""
+    rng = np.random.default_rng(1)
+    v = PipeView(shape, 600.0, 610.0, 360.0, 288.0, 0.08, -0.1, 0.03, 0.04, 0.02)
+    t = rng.uniform(0.8, 4.0, 400)
+    pts = v.project(np.column_stack([*profile_polygon(shape, 1.0, 400).T, t])) + rng.normal(0.0, 2.0, (400, 2))
+    moved = t * np.exp(rng.normal(0.0, 0.05, 400))
+    img, J, J_log_t = v.reproject_jacobian(pts, moved)
+    assert np.allclose(img, v.reproject(pts, moved), atol=1e-9)
+    h = 1e-6
+    for k in range(5):
+        step = np.eye(5)[k] * h
+        numeric = (v.with_pose(v.pose + step).reproject(pts, moved) - v.with_pose(v.pose - step).reproject(pts, moved)) / (2 * h)
+        assert np.max(np.abs(numeric - J[:, :, k])) < 1e-5 * np.max(np.abs(numeric))
+    numeric = (v.reproject(pts, moved * np.exp(h)) - v.reproject(pts, moved * np.exp(-h))) / (2 * h)
+    assert np.max(np.abs(numeric - J_log_t)) < 1e-5 * np.max(np.abs(numeric))
+
+
+@pytest.mark.parametrize("loss", ["linear", "soft_l1"])
+def test_pose_and_depth_fit_reaches_scipy_least_squares_solution(loss):
+    """The arrow-structured Levenberg-Marquardt fit against scipy's least_squares on one pose fit with outliers."""
+    from scipy.optimize import least_squares
+
+    from pipeline.contour.pose_lsq import fit_pose_and_depths
+
+    rng = np.random.default_rng(7)
+    truth = PipeView("circular", 600.0, 600.0, 360.0, 288.0, 0.06, -0.08, 0.02, 0.03, 0.0)
+    depths = np.array([1.2, 1.9, 2.7, 3.6])
+    ring_of = np.repeat(np.arange(4), 90)
+    wall = profile_polygon("circular", 1.0, 90)
+    pts = truth.project(np.column_stack([np.tile(wall, (4, 1)), depths[ring_of]])) + rng.normal(0.0, 0.4, (360, 2))
+    pts[::23] += rng.normal(0.0, 8.0, (len(pts[::23]), 2))       # clutter for the robust loss
+    free = np.arange(4)
+
+    def unpack(x):
+        return truth.with_pose(np.r_[x[:4], 0.0]), np.exp(x[4:])
+
+    def residuals(x, jacobian=False):
+        v, t = unpack(x)
+        prior = np.array([v.ox, v.oy]) / 0.3
+        if not jacobian:
+            return np.r_[(v.reproject(pts, t[ring_of]) - pts).ravel(), prior]
+        img, J, J_log_t = v.reproject_jacobian(pts, t[ring_of])
+        pose_cols = np.vstack([J[:, :, free].reshape(-1, 4), np.c_[np.eye(2) / 0.3, np.zeros((2, 2))]])
+        return np.r_[(img - pts).ravel(), prior], pose_cols, J_log_t.ravel()
+
+    x0 = np.r_[0.0, 0.0, 0.0, 0.0, np.log(depths * 1.1)]
+    ours = fit_pose_and_depths(residuals, x0, 4, ring_of, loss=loss)
+    ref = least_squares(residuals, x0, loss=loss, f_scale=1.0, x_scale="jac", diff_step=1e-7)
+    assert np.max(np.abs(ours.x - ref.x)) < 1e-6
+    assert np.allclose(ours.fun, ref.fun, atol=1e-5)
+    if loss == "linear":
+        assert np.allclose(ours.jac, ref.jac, rtol=1e-4, atol=1e-3 * np.abs(ref.jac).max())

@@ -29,10 +29,10 @@ from functools import lru_cache
 import numpy as np
 from scipy.optimize import least_squares
 
-from scipy.sparse import csr_matrix
 
 from ..profiles import ray_to_wall
 from .ridges import dark_centre, ridge_points
+from .pose_lsq import fit_pose_and_depths
 from .section_shape import (arc_coverage_deg, extents, fit_ellipse, fit_section, points_in_plane, profile_aspect,
                             sector_jackknife)
 from .view import POSE_PARAMETERS, PipeView
@@ -496,28 +496,30 @@ def _fit(view: PipeView, pts: np.ndarray, ring_of: np.ndarray, depths: list[floa
     pts, ring_of = pts[take], ring_of[take]
     free = np.nonzero(_pose_mask(view.shape))[0]
     x0 = np.concatenate([view.pose[free], np.log(depths)])
-    # every residual depends on the pose; a point's two residuals on its own ring's depth only
-    n_rows, n_pose = 2 * len(pts) + 2, len(free)
-    pose_rows, pose_cols = np.divmod(np.arange(n_rows * n_pose), n_pose)
-    depth_rows = np.arange(2 * len(pts))
-    sparsity = csr_matrix((np.ones(len(pose_rows) + len(depth_rows), int),
-                           (np.r_[pose_rows, depth_rows], np.r_[pose_cols, n_pose + np.repeat(ring_of, 2)])),
-                          shape=(n_rows, len(x0)))
 
     def unpack(x):
         pose = view.pose.copy()
         pose[free] = x[:len(free)]
         return view.with_pose(pose), np.exp(x[len(free):])
 
-    def fun(x):
-        v, t = unpack(x)
-        d = v.reproject(pts, t[ring_of]) - pts
-        d = np.where(np.isfinite(d), d, 50.0)
-        prior = np.array([v.ox, v.oy]) / OFFSET_PRIOR_H
-        return np.concatenate([d.ravel(), prior])
+    prior_rows = np.zeros((2, len(free)))
+    prior_rows[[0, 1], [0, 1]] = 1.0 / OFFSET_PRIOR_H       # ox, oy come first among the free parameters
 
-    sol = least_squares(fun, x0, loss=loss, f_scale=1.0, x_scale="jac", diff_step=1e-7,
-                        jac_sparsity=sparsity)
+    def residuals(x, jacobian):
+        v, t = unpack(x)
+        prior = np.array([v.ox, v.oy]) / OFFSET_PRIOR_H
+        if not jacobian:
+            d = v.reproject(pts, t[ring_of]) - pts
+            return np.concatenate([np.where(np.isfinite(d), d, 50.0).ravel(), prior])
+        img, J, J_log_t = v.reproject_jacobian(pts, t[ring_of])
+        d = img - pts
+        lost = ~np.isfinite(d)          # a ray off the wall: a constant penalty, no slope
+        pose_cols = np.where(lost[..., None], 0.0, J[:, :, free]).reshape(-1, len(free))
+        along = np.where(lost, 0.0, J_log_t).ravel()
+        return np.concatenate([np.where(lost, 50.0, d).ravel(), prior]), np.vstack([pose_cols, prior_rows]), along
+
+    # every residual depends on the pose; a point's two residuals on its own ring's depth only
+    sol = fit_pose_and_depths(residuals, x0, len(free), ring_of, loss=loss)
     v, t = unpack(sol.x)
     return v, list(t), sol, free
 
@@ -621,8 +623,7 @@ def contour_from_candidates(candidates: list[FrameCandidates], camera_matrix: np
     # rings, not the points, are the independent observations: scale by points per ring.
     s2 = float(np.sum(sol.fun[:-2] ** 2) / dof) * n_fit / len(rings)
     try:
-        J = sol.jac.toarray() if hasattr(sol.jac, "toarray") else sol.jac
-        cov_x = np.linalg.inv(J.T @ J) * s2
+        cov_x = np.linalg.inv(sol.jac.T @ sol.jac) * s2
     except np.linalg.LinAlgError:
         cov_x = np.full((len(sol.x), len(sol.x)), np.inf)
     cov = np.zeros((5, 5))

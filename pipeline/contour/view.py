@@ -15,10 +15,12 @@ from functools import cached_property
 
 import numpy as np
 
-from ..profiles import profile_polygon, ray_to_wall
+from ..profiles import arc_of_hit, profile_polygon, ray_to_wall
 from ..synth.rig import camera_rotation
 
 __all__ = ["PipeView", "POSE_PARAMETERS"]
+
+_ANGLE_STEP = 1e-6     # central difference of the 3 x 3 rotation [rad]: error about 1e-12
 
 POSE_PARAMETERS = ("ox", "oy", "yaw", "pitch", "roll")
 
@@ -92,6 +94,68 @@ class PipeView:
         xy, _ = self.wall_hits(points_px)
         tt = np.broadcast_to(np.asarray(t, float), (len(xy),))
         return self.project(np.column_stack([xy, tt]))
+
+    @cached_property
+    def dR_wc(self) -> np.ndarray:
+        """Derivatives (3, 3, 3) of R_wc along yaw, pitch and roll."""
+        h = _ANGLE_STEP
+        return np.array([(camera_rotation(*(a + h * (i == k) for i, a in enumerate((self.yaw, self.pitch, self.roll))))
+                          - camera_rotation(*(a - h * (i == k) for i, a in enumerate((self.yaw, self.pitch, self.roll)))))
+                         / (2 * h) for k in range(3)])
+
+    def reproject_jacobian(self, points_px, t) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``reproject`` (n, 2) [px] with its derivatives along the pose (n, 2, 5) [px per H or rad] and along
+        log t (n, 2) [px].
+
+        Exact chain rule through the ray-wall intersection: on the arc of
+        centre c and radius r it hits, a ray from the camera along the unit
+        lateral direction u meets the wall at s = -b + sqrt(b^2 - |o - c|^2 +
+        r^2), b = u . (o - c), so ds = -db + (2 b db - d|o - c|^2) / (2 (s + b)).
+        The rotation's own derivatives are central differences of the 3 x 3
+        matrix. Rays that miss the wall give nan (as ``reproject``).
+        """
+        q = np.asarray(points_px, float).reshape(-1, 2)
+        R, o = self.R_wc, np.array([self.ox, self.oy])
+        dc = np.stack([(q[:, 0] - self.cx) / self.fx, (q[:, 1] - self.cy) / self.fy, np.ones(len(q))], axis=1)
+        d = dc @ R.T
+        lateral = np.hypot(d[:, 0], d[:, 1])
+        with np.errstate(invalid="ignore", divide="ignore"):
+            u = d[:, :2] / lateral[:, None]
+            s = ray_to_wall(self.shape, 1.0, o, u)
+            s = np.where(np.isfinite(s), s, np.nan)
+            centre, _ = arc_of_hit(self.shape, np.where(np.isfinite(s)[:, None], o + s[:, None] * u, 0.0))
+            oc = o - centre
+            b = np.sum(u * oc, axis=1)
+            root = s + b                                  # +-sqrt(disc), the root the hit took
+            tt = np.broadcast_to(np.asarray(t, float), (len(q),))
+            p = np.column_stack([s[:, None] * u, tt])     # the point moved to depth t, about the camera [H]
+            pc = (p @ R).T                                # (3, n): components first, each a long row
+            img = np.column_stack([self.cx + self.fx * pc[0] / pc[2], self.cy + self.fy * pc[1] / pc[2]])
+            # rows along (ox, oy, yaw, pitch, roll): the offsets move the ray's origin, the angles turn ray and camera
+            ux, uy, ocx, ocy = u[:, 0], u[:, 1], oc[:, 0], oc[:, 1]
+            dR = self.dR_wc
+            dd = (dc @ np.concatenate([m.T for m in dR], axis=1)).T       # (9, n): angle k, component j at 3 k + j
+            ddx, ddy = dd[0::3], dd[1::3]
+            along_u = ux * ddx + uy * ddy
+            dux, duy = (ddx - ux * along_u) / lateral, (ddy - uy * along_u) / lateral
+            db = np.concatenate([u.T, dux * ocx + duy * ocy])
+            dq = np.zeros_like(db)
+            dq[:2] = 2.0 * oc.T
+            ds = -db + (2.0 * b * db - dq) / (2.0 * root)
+            dpx, dpy = ds * ux, ds * uy                   # the point's change about the camera (its Z stays)
+            dpx[2:] += s * dux
+            dpy[2:] += s * duy
+            turned = (p @ np.concatenate(list(dR), axis=1)).T                # (9, n): p @ dR_k, component j at 3 k + j
+            dpc = [dpx * R[0, j] + dpy * R[1, j] for j in range(3)]
+            for j in range(3):
+                dpc[j][2:] += turned[j::3]
+            J = np.stack([self.fx * (dpc[0] * pc[2] - pc[0] * dpc[2]),
+                          self.fy * (dpc[1] * pc[2] - pc[1] * dpc[2])]) / pc[2] ** 2     # (2, 5, n)
+            J = J.transpose(2, 0, 1)
+            dz = tt * R[2][:, None]                       # (3, n): along log t the point moves along Z by t
+            J_log_t = np.column_stack([self.fx * (dz[0] * pc[2] - pc[0] * dz[2]),
+                                       self.fy * (dz[1] * pc[2] - pc[1] * dz[2])]) / (pc[2] ** 2)[:, None]
+        return img, J, J_log_t
 
     def ring(self, t: float, n: int = 360) -> np.ndarray:
         """The cross-section at depth t [H] as an ideal image polygon (n, 2) [px]."""

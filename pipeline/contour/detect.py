@@ -381,11 +381,13 @@ def _deformed_rings(view: PipeView, pts: np.ndarray, frame_of: np.ndarray, curve
         # an ellipse fitted to part of an egg profile changes with the part: the test holds for circles only
         return [False] * len(rings)
     ring_of, _ = _assign(view, pts, frame_of, rings, wall)
+    members = _members(ring_of, len(rings))
+    of_frame = _members(frame_of, int(frame_of.max()) + 1)
     nominal = profile_aspect(view.shape)
     out = []
     for i, (frame, t) in enumerate(rings):
-        mine = ring_of == i
-        same = (frame_of == frame) & np.isin(curve_of, np.unique(curve_of[mine]))
+        in_frame = of_frame[frame]
+        same = in_frame[np.isin(curve_of[in_frame], curve_of[members[i]])]     # the ring's whole ridge curves
         xy = points_in_plane(view, pts[same], t)
         fit, keep = fit_section(xy, MIN_RING_POINTS)
         if fit is None or _coverage_deg(wall[same][keep]) < MIN_BEST_COVERAGE_DEG:
@@ -476,6 +478,13 @@ def _assign(view: PipeView, pts: np.ndarray, frame_of: np.ndarray, rings: list[t
     return np.where(best < INLIER_PX, first, -1), best
 
 
+def _members(labels: np.ndarray, n: int) -> list[np.ndarray]:
+    """Indices of the points with each label 0 .. n-1, in increasing order (what ``labels == k`` selects)."""
+    order = np.argsort(labels, kind="stable")
+    bounds = np.searchsorted(labels[order], np.arange(n + 1))
+    return [order[a:b] for a, b in zip(bounds[:-1], bounds[1:])]
+
+
 def _thin(ring_of: np.ndarray, stride: int) -> np.ndarray:
     """Indices of every ``stride``-th point of each ring, in their order along it (rings keep their weights)."""
     keep = np.zeros(len(ring_of), bool)
@@ -527,15 +536,15 @@ def _fit(view: PipeView, pts: np.ndarray, ring_of: np.ndarray, depths: list[floa
 def _drop_misfits(view, pts, frame_of, rings, wall):
     """Rings that do not follow the family (a lateral's rim, a deformed section) are dropped."""
     ring_of, res = _assign(view, pts, frame_of, rings, wall)
-    rms = np.array([np.sqrt(np.mean(res[ring_of == i] ** 2)) if np.any(ring_of == i) else np.inf for i in range(len(rings))])
+    rms = np.array([np.sqrt(np.mean(res[m] ** 2)) if len(m) else np.inf for m in _members(ring_of, len(rings))])
     limit = max(MAX_RING_RMS_PX, 2.0 * float(np.median(rms[np.isfinite(rms)]))) if np.isfinite(rms).any() else MAX_RING_RMS_PX
     return [r for r, e in zip(rings, rms) if e <= limit]
 
 
 def _keep_rings(view, pts, frame_of, rings, wall):
     ring_of, _ = _assign(view, pts, frame_of, rings, wall)
-    return [r for i, r in enumerate(rings) if np.sum(ring_of == i) >= MIN_RING_POINTS
-            and _coverage_deg(wall[ring_of == i]) >= MIN_RING_COVERAGE_DEG]
+    return [r for r, m in zip(rings, _members(ring_of, len(rings)))
+            if len(m) >= MIN_RING_POINTS and _coverage_deg(wall[m]) >= MIN_RING_COVERAGE_DEG]
 
 
 @dataclass(frozen=True)

@@ -293,7 +293,8 @@ def _line_consensus(rows: np.ndarray, tol_px: float = 2.0) -> np.ndarray:
     return best
 
 
-def _pose_from_templates(view: PipeView, pts: np.ndarray, curve_of: np.ndarray) -> PipeView | None:
+def _pose_from_templates(view: PipeView, pts: np.ndarray, curve_of: np.ndarray,
+                         fits: dict | None = None) -> PipeView | None:
     """First pose from the header's profile fitted to each long ridge curve.
 
     For a camera that is not tilted much, the ring of pixel height s is the
@@ -301,14 +302,16 @@ def _pose_from_templates(view: PipeView, pts: np.ndarray, curve_of: np.ndarray) 
     curves that are rings lie on a straight line in s whose intercept is
     the vanishing point and whose slope is the camera offset. Curves that
     are not rings (water line, a lateral's rim) fit the profile badly, or
-    fall off that line, and are dropped.
+    fall off that line, and are dropped. ``fits`` : curve label -> its
+    ``_template_fit``, where already known.
     """
     rows = []
-    for cid in np.unique(curve_of):
-        mine = pts[curve_of == cid]
+    ids, inverse = np.unique(curve_of, return_inverse=True)
+    for cid, members in zip(ids, _members(inverse.ravel(), len(ids))):
+        mine = pts[members]
         if len(mine) < MIN_RING_POINTS:
             continue
-        c, scale, keep = _template_fit(mine, view.shape)
+        c, scale, keep = fits[cid] if fits is not None and cid in fits else _template_fit(mine, view.shape)
         if keep.sum() < max(MIN_RING_POINTS, 0.7 * len(mine)) or not 4.0 < scale < 20.0 * max(view.cx, view.cy):
             continue
         if arc_coverage_deg(mine[keep], c) < MIN_RING_COVERAGE_DEG:
@@ -555,6 +558,17 @@ class FrameCandidates:
     centre: np.ndarray
     points: np.ndarray
     curves: np.ndarray
+    template_fits: dict = field(default_factory=dict, compare=False, repr=False)   # shape -> {curve: _template_fit}
+
+    def curve_fits(self, shape: str) -> dict:
+        """The header's profile fitted to each long curve of this frame (``_template_fit``), computed once
+        however many windows share the frame."""
+        if shape not in self.template_fits:
+            ids, inverse = np.unique(self.curves, return_inverse=True)
+            self.template_fits[shape] = {int(cid): _template_fit(self.points[members], shape)
+                                         for cid, members in zip(ids, _members(inverse.ravel(), len(ids)))
+                                         if len(members) >= MIN_RING_POINTS}
+        return self.template_fits[shape]
 
 
 def frame_candidates(gray: np.ndarray, mask: np.ndarray | None = None) -> FrameCandidates:
@@ -613,7 +627,8 @@ def contour_from_candidates(candidates: list[FrameCandidates], camera_matrix: np
         return empty
     steer = np.isin(frame_of, np.unique(np.linspace(0, len(candidates) - 1, SEARCH_FRAMES).round().astype(int)))
     start = _initial_view(view, seed)
-    starts = [v for v in (_pose_from_templates(start, pts, curve_of),
+    fits = {cid + 1_000_000 * j: fit for j, c in enumerate(candidates) for cid, fit in c.curve_fits(shape).items()}
+    starts = [v for v in (_pose_from_templates(start, pts, curve_of, fits),
                           _pose_from_peaks(start, pts, frame_of)) if v is not None]
     if not starts:
         starts = [_search_pose(start, pts[steer], frame_of[steer])]

@@ -98,10 +98,9 @@ class PipeView:
     @cached_property
     def dR_wc(self) -> np.ndarray:
         """Derivatives (3, 3, 3) of R_wc along yaw, pitch and roll."""
-        h = _ANGLE_STEP
-        return np.array([(camera_rotation(*(a + h * (i == k) for i, a in enumerate((self.yaw, self.pitch, self.roll))))
-                          - camera_rotation(*(a - h * (i == k) for i, a in enumerate((self.yaw, self.pitch, self.roll)))))
-                         / (2 * h) for k in range(3)])
+        angles, steps = np.array([self.yaw, self.pitch, self.roll]), np.eye(3) * _ANGLE_STEP
+        return np.array([(camera_rotation(*(angles + e)) - camera_rotation(*(angles - e))) / (2 * _ANGLE_STEP)
+                         for e in steps])
 
     def reproject_jacobian(self, points_px, t) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """``reproject`` (n, 2) [px] with its derivatives along the pose (n, 2, 5) [px per H or rad] and along
@@ -139,9 +138,9 @@ class PipeView:
             along_u = ux * ddx + uy * ddy
             dux, duy = (ddx - ux * along_u) / lateral, (ddy - uy * along_u) / lateral
             db = np.concatenate([u.T, dux * ocx + duy * ocy])
-            dq = np.zeros_like(db)
-            dq[:2] = 2.0 * oc.T
-            ds = -db + (2.0 * b * db - dq) / (2.0 * root)
+            d_oc2 = np.zeros_like(db)                     # change of |o - c|^2: the offsets only
+            d_oc2[:2] = 2.0 * oc.T
+            ds = -db + (2.0 * b * db - d_oc2) / (2.0 * root)
             dpx, dpy = ds * ux, ds * uy                   # the point's change about the camera (its Z stays)
             dpx[2:] += s * dux
             dpy[2:] += s * duy

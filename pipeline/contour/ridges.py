@@ -17,6 +17,14 @@ __all__ = ["dark_centre", "ridge_points", "edge_points", "static_overlay_mask"]
 DARK_FLOOR = 16.0   # grey levels added before the log: compression banding in the dark far pipe is not a ring
 
 
+def _log_grey(gray: np.ndarray) -> np.ndarray:
+    """32 log(grey + DARK_FLOOR) (float32): contrast relative to the light level, above the noise floor."""
+    return np.log(np.asarray(gray).astype(np.float32) + DARK_FLOOR) * 32.0
+
+
+_LOG_LUT = _log_grey(np.arange(256, dtype=np.uint8))     # the same values for 8-bit frames, looked up
+
+
 def dark_centre(gray: np.ndarray, sigma_frac: float = 0.03) -> np.ndarray:
     """(x, y) [px] of the darkest blob of a frame: a first guess of the pipe's vanishing point.
 
@@ -70,7 +78,7 @@ def edge_points(gray: np.ndarray, centre, *, n_angles: int = 720, min_radius: fl
 
 def _log_polar(gray: np.ndarray, centre, n_angles: int) -> tuple[np.ndarray, np.ndarray]:
     """The log image unwrapped about ``centre`` (angle rows x radius columns, one column per px) and where it is inside."""
-    g = np.log(gray.astype(np.float32) + DARK_FLOOR) * 32.0   # contrast relative to the light level, above the noise floor
+    g = _LOG_LUT[gray] if gray.dtype == np.uint8 else _log_grey(gray)
     x0, y0 = float(centre[0]), float(centre[1])
     rows, cols = g.shape
     reach = int(np.ceil(max(np.hypot(x0 - cx, y0 - cy) for cx in (0, cols) for cy in (0, rows))))

@@ -83,8 +83,10 @@ def _log_polar(gray: np.ndarray, centre, n_angles: int) -> tuple[np.ndarray, np.
     rows, cols = g.shape
     reach = int(np.ceil(max(np.hypot(x0 - cx, y0 - cy) for cx in (0, cols) for cy in (0, rows))))
     polar = cv2.warpPolar(g, (reach, n_angles), (x0, y0), reach, cv2.WARP_POLAR_LINEAR + cv2.WARP_FILL_OUTLIERS)
-    inside = cv2.warpPolar(np.ones_like(g), (reach, n_angles), (x0, y0), reach, cv2.WARP_POLAR_LINEAR + cv2.WARP_FILL_OUTLIERS)
-    return polar, inside > 0.999
+    # nearest-neighbour unwrap (no interpolation flag): an 8-bit image of ones marks the inside exactly
+    inside = cv2.warpPolar(np.ones(g.shape, np.uint8), (reach, n_angles), (x0, y0), reach,
+                           cv2.WARP_POLAR_LINEAR + cv2.WARP_FILL_OUTLIERS)
+    return polar, inside > 0
 
 
 def _peaks(ridge: np.ndarray, signed: np.ndarray, valid: np.ndarray, centre, shape, n_angles: int, min_radius: float,

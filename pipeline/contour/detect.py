@@ -29,10 +29,9 @@ from functools import lru_cache
 import numpy as np
 from scipy.optimize import least_squares
 
-
 from ..profiles import ray_to_wall
-from .ridges import dark_centre, ridge_points
 from .pose_lsq import fit_pose_and_depths
+from .ridges import dark_centre, ridge_points
 from .section_shape import (arc_coverage_deg, extents, fit_ellipse, fit_section, points_in_plane, profile_aspect,
                             sector_jackknife)
 from .view import POSE_PARAMETERS, PipeView

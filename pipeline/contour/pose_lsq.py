@@ -24,7 +24,7 @@ import numpy as np
 
 __all__ = ["ArrowFit", "fit_pose_and_depths"]
 
-FTOL = 1e-8
+FTOL = 1e-8         # relative decrease of the cost that ends the fit
 XTOL = 1e-8         # relative step that ends the fit
 MAX_ITERATIONS = 100
 

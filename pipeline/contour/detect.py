@@ -384,7 +384,7 @@ def _deformed_rings(view: PipeView, pts: np.ndarray, frame_of: np.ndarray, curve
         return [False] * len(rings)
     ring_of, _ = _assign(view, pts, frame_of, rings, wall)
     members = _members(ring_of, len(rings))
-    of_frame = _members(frame_of, int(frame_of.max()) + 1)
+    of_frame = _members(frame_of, max(frame for frame, _ in rings) + 1)
     nominal = profile_aspect(view.shape)
     out = []
     for i, (frame, t) in enumerate(rings):
@@ -465,12 +465,9 @@ def _assign(view: PipeView, pts: np.ndarray, frame_of: np.ndarray, rings: list[t
     if xy is None:
         xy, _ = view.wall_hits(pts)      # where each point's ray meets the wall does not depend on the ring
     # every (point, ring of the point's frame) pair at once
-    order = np.arange(len(pts)) if np.all(np.diff(frame_of) >= 0) else np.argsort(frame_of, kind="stable")
-    sorted_frames = frame_of[order]
-    ring_frames = np.array([frame for frame, _ in rings])
-    lo, hi = np.searchsorted(sorted_frames, ring_frames, "left"), np.searchsorted(sorted_frames, ring_frames, "right")
-    point = order[np.concatenate([np.arange(a, b) for a, b in zip(lo, hi)])]
-    ring = np.repeat(np.arange(len(rings)), hi - lo)
+    of_frame = _members(frame_of, max(frame for frame, _ in rings) + 1)
+    point = np.concatenate([of_frame[frame] for frame, _ in rings])
+    ring = np.repeat(np.arange(len(rings)), [len(of_frame[frame]) for frame, _ in rings])
     depth = np.array([t for _, t in rings])[ring]
     r = np.hypot(*(view.project(np.column_stack([xy[point], depth])) - pts[point]).T)
     np.fmin.at(best, point, r)               # nan (a ray off the wall) never wins
@@ -481,7 +478,8 @@ def _assign(view: PipeView, pts: np.ndarray, frame_of: np.ndarray, rings: list[t
 
 
 def _members(labels: np.ndarray, n: int) -> list[np.ndarray]:
-    """Indices of the points with each label 0 .. n-1, in increasing order (what ``labels == k`` selects)."""
+    """Indices of the points with each label 0 .. n-1, in increasing order (what ``labels == k`` selects);
+    other labels belong to no group."""
     order = np.argsort(labels, kind="stable")
     bounds = np.searchsorted(labels[order], np.arange(n + 1))
     return [order[a:b] for a, b in zip(bounds[:-1], bounds[1:])]

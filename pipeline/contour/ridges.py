@@ -95,7 +95,8 @@ def _peaks(ridge: np.ndarray, signed: np.ndarray, valid: np.ndarray, centre, sha
     points, strengths and curve labels."""
     x0, y0 = float(centre[0]), float(centre[1])
     rows, cols = shape[:2]
-    mad = np.median(np.abs(signed[valid] - np.median(signed[valid])))
+    inside = signed[valid]
+    mad = np.median(np.abs(inside - np.median(inside)))
     threshold = max(3.0, k_noise * 1.4826 * mad)
     centre_v, left, right = ridge[:, 1:-1], ridge[:, :-2], ridge[:, 2:]
     peak = (centre_v > left) & (centre_v >= right) & (centre_v > threshold) & valid[:, 1:-1] & valid[:, :-2] & valid[:, 2:]

@@ -59,7 +59,8 @@ def fit_section(xy: np.ndarray, min_points: int, keep: np.ndarray | None = None)
         fit = fit_ellipse(xy[keep])
         if not np.all(np.isfinite(fit[1])) or min(fit[1]) <= 0:
             return None, keep
-        keep = keep & (ellipse_distance(xy, fit) < gate)
+        kept = np.flatnonzero(keep)          # a point dropped stays dropped: measure the others only
+        keep[kept] = ellipse_distance(xy[kept], fit) < gate
     return fit, keep
 
 

@@ -9,7 +9,9 @@ it) are fitted with one pose (``pipeline.contour.detect_contour``).
 from __future__ import annotations
 
 import os
+from collections import deque
 from collections.abc import Iterable, Iterator
+from concurrent.futures import ThreadPoolExecutor
 
 import cv2
 import numpy as np
@@ -26,6 +28,7 @@ __all__ = ["overlay_mask", "overlay_mask_of", "window_frames", "read_ideal_grays
 
 SPAN_M = 2.0       # travel either side of the frame whose rings are used [m]
 STEP_M = 0.1       # chainage step between those frames [m]
+THREADS = min(4, os.cpu_count() or 1)   # frames whose ridge points are found at once (OpenCV and NumPy release the GIL)
 
 
 def _gray(frame: np.ndarray) -> np.ndarray:
@@ -72,6 +75,25 @@ def _read_forward(path: str | os.PathLike, frames: Iterable[int], convert) -> It
             return
 
 
+def _candidates_of(path: str | os.PathLike, frames: Iterable[int], undistorter: Undistorter,
+                   mask: np.ndarray | None) -> dict:
+    """``frame_candidates`` of the given frames: decoded forward in this thread while up to THREADS frames are
+    worked on in others (at most 2 THREADS decoded frames wait, so memory stays bounded)."""
+    def work(frame: np.ndarray):
+        return frame_candidates(_gray(undistorter.frame(frame)), mask)
+
+    out, pending = {}, deque()
+    with ThreadPoolExecutor(max_workers=THREADS) as pool:
+        for index, frame in _read_forward(path, frames, lambda f: f):
+            pending.append((index, pool.submit(work, frame)))
+            while len(pending) > 2 * THREADS:
+                done, future = pending.popleft()
+                out[done] = future.result()
+        for done, future in pending:
+            out[done] = future.result()
+    return out
+
+
 def contours_at_frames(path: str | os.PathLike, frames: Iterable[int], track: ChainageTrack, undistorter: Undistorter,
                        shape: str, *, height_mm: float, tolerance_mm: float,
                        mask: np.ndarray | None = None) -> dict[int, PipeContour]:
@@ -87,8 +109,7 @@ def contours_at_frames(path: str | os.PathLike, frames: Iterable[int], track: Ch
     departure from the nominal profile enters u(p_H)).
     """
     windows = {frame: window_frames(track, frame) for frame in sorted(set(frames))}
-    candidates = dict(_read_forward(path, {i for w in windows.values() for i in w},
-                                    lambda f: frame_candidates(_gray(undistorter.frame(f)), mask)))
+    candidates = _candidates_of(path, {i for w in windows.values() for i in w}, undistorter, mask)
     wall_u = wall_u_from_tolerance(height_mm, tolerance_mm)
     contours = {frame: contour_from_candidates([candidates[i] for i in order if i in candidates], undistorter.K, shape,
                                                wall_u=wall_u)

@@ -11,6 +11,8 @@ that the OCR contradicts drops the templates (they are learned again).
 from __future__ import annotations
 
 import os
+from collections import deque
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from itertools import islice
 
@@ -28,6 +30,7 @@ __all__ = ["ChainageIngest", "ingest_chainage"]
 VERIFY_EVERY = 50        # one template read in this many is read by the OCR too
 LEARN_SCORE = 0.9        # OCR reads at least this sure teach the templates
 MASK_FRAMES = 16         # frames kept, spread over the video, to find the burned-in overlay
+QUEUED = 16              # decoded frames that may wait for the overlay reader
 
 
 @dataclass
@@ -62,30 +65,54 @@ def ingest_chainage(path: str | os.PathLike, reader: OverlayReader | None = None
     overlay_text: list[str] = []
     if box is None:
         box, overlay_text = _locate(path, info, reader)
-    x0, y0, x1, y1 = box
-    glyphs = GlyphTemplates()
-    reads, kept, ocr_reads, disagreements = [], {}, 0, 0
+    overlay = _OverlayPass(reader, box)
+    kept: dict[int, np.ndarray] = {}
     scan = FrameScan(path, lambda i: i % every == 0 or i in spread)
-    for index, frame in scan:
-        if index in spread:
-            kept[index] = frame
-        if index % every:
-            continue
+    # Frames are read in order by one worker thread while this one decodes the next (decoding releases the GIL);
+    # at most QUEUED frames wait.
+    with ThreadPoolExecutor(max_workers=1) as worker:
+        queued: deque = deque()
+        for index, frame in scan:
+            if index in spread:
+                kept[index] = frame
+            if index % every == 0:
+                queued.append(worker.submit(overlay.read, index, frame))
+                while len(queued) > QUEUED:
+                    queued.popleft().result()
+        for future in queued:
+            future.result()
+    track = fit_track(overlay.reads, scan.info.frame_count, scan.info.fps, counter=counter, source=str(path))
+    return ChainageIngest(scan.info, box, overlay.reads, track, overlay_text, kept, overlay.ocr_reads,
+                          overlay.disagreements)
+
+
+@dataclass
+class _OverlayPass:
+    """The chainage reads of one video, frame after frame in order: glyph templates first, the OCR for unclear
+    crops and every VERIFY_EVERY-th read, the templates dropped when the OCR contradicts them."""
+
+    reader: OverlayReader
+    box: tuple[int, int, int, int]
+    glyphs: GlyphTemplates = field(default_factory=GlyphTemplates)
+    reads: list[OverlayRead] = field(default_factory=list)
+    ocr_reads: int = 0
+    disagreements: int = 0
+
+    def read(self, index: int, frame: np.ndarray) -> None:
+        x0, y0, x1, y1 = self.box
         crop = cv2.cvtColor(frame[y0:y1, x0:x1], cv2.COLOR_BGR2GRAY)
-        got = glyphs.read(crop)
-        if got is not None and (len(reads) + 1) % VERIFY_EVERY:
-            reads.append(OverlayRead(index, got[0], parse_chainage(got[0]), got[1]))
-            continue
-        read = reader.read(frame, box, index)
-        ocr_reads += 1
+        got = self.glyphs.read(crop)
+        if got is not None and (len(self.reads) + 1) % VERIFY_EVERY:
+            self.reads.append(OverlayRead(index, got[0], parse_chainage(got[0]), got[1]))
+            return
+        read = self.reader.read(frame, self.box, index)
+        self.ocr_reads += 1
         if got is not None and got[0] != read.text.replace(" ", "") and read.value is not None:
-            disagreements += 1
-            glyphs.forget()
+            self.disagreements += 1
+            self.glyphs.forget()
         if read.value is not None and read.score >= LEARN_SCORE:
-            glyphs.learn(crop, read.text)
-        reads.append(read)
-    track = fit_track(reads, scan.info.frame_count, scan.info.fps, counter=counter, source=str(path))
-    return ChainageIngest(scan.info, box, reads, track, overlay_text, kept, ocr_reads, disagreements)
+            self.glyphs.learn(crop, read.text)
+        self.reads.append(read)
 
 
 def _locate(path, info: VideoInfo, reader: OverlayReader) -> tuple[tuple[int, int, int, int], list[str]]:

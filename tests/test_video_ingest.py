@@ -210,3 +210,34 @@ def test_ingest_refuses_a_truncated_video(reader, tmp_path):
     avi.write_bytes(data[: len(data) // 2])
     with pytest.raises(CorruptVideoError, match=r"cut.avi: truncated or corrupt: .*last good frame \d+"):
         ingest_chainage(avi, reader)
+
+
+def test_work_beside_decoding_keeps_order_bounds_the_queue_and_raises_errors():
+    """``ordered_map``: results in the items' order, at most ``waiting`` items ahead of the results, errors raised."""
+    import time
+
+    from pipeline.video.beside_decoding import ordered_map
+
+    produced, consumed = [], []
+
+    def items():
+        for i in range(40):
+            produced.append(i)
+            yield i
+
+    def slow_square(i):
+        time.sleep(0.002 * (i % 3))            # later items may finish first
+        return i * i
+
+    for value in ordered_map(slow_square, items(), workers=3, waiting=4):
+        consumed.append(value)
+        assert len(produced) - len(consumed) <= 5     # the waiting items and the one being handed over
+    assert consumed == [i * i for i in range(40)]
+
+    def fails_at_7(i):
+        if i == 7:
+            raise ValueError("bad frame 7")
+        return i
+
+    with pytest.raises(ValueError, match="bad frame 7"):
+        list(ordered_map(fails_at_7, range(20), workers=2, waiting=3))

@@ -11,16 +11,14 @@ that the OCR contradicts drops the templates (they are learned again).
 from __future__ import annotations
 
 import os
-from collections import deque
-from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from itertools import islice
 
 import cv2
 import numpy as np
 
-from ..errors import OverlayError
 from .chainage_track import ChainageTrack, CounterModel, fit_track
+from .beside_decoding import ordered_map
 from .glyphs import GlyphTemplates
 from .overlay_ocr import OverlayRead, OverlayReader, parse_chainage
 from .reader import FrameScan, VideoInfo, iter_frames, probe_video
@@ -68,19 +66,17 @@ def ingest_chainage(path: str | os.PathLike, reader: OverlayReader | None = None
     overlay = _OverlayPass(reader, box)
     kept: dict[int, np.ndarray] = {}
     scan = FrameScan(path, lambda i: i % every == 0 or i in spread)
-    # Frames are read in order by one worker thread while this one decodes the next (decoding releases the GIL);
-    # at most QUEUED frames wait.
-    with ThreadPoolExecutor(max_workers=1) as worker:
-        queued: deque = deque()
+
+    def sampled():
         for index, frame in scan:
             if index in spread:
                 kept[index] = frame
             if index % every == 0:
-                queued.append(worker.submit(overlay.read, index, frame))
-                while len(queued) > QUEUED:
-                    queued.popleft().result()
-        for future in queued:
-            future.result()
+                yield index, frame
+
+    # one worker: the overlay is read frame after frame, in order, while this thread decodes the next frames
+    for _ in ordered_map(overlay.read, sampled(), workers=1, waiting=QUEUED):
+        pass
     track = fit_track(overlay.reads, scan.info.frame_count, scan.info.fps, counter=counter, source=str(path))
     return ChainageIngest(scan.info, box, overlay.reads, track, overlay_text, kept, overlay.ocr_reads,
                           overlay.disagreements)
@@ -98,7 +94,9 @@ class _OverlayPass:
     ocr_reads: int = 0
     disagreements: int = 0
 
-    def read(self, index: int, frame: np.ndarray) -> None:
+    def read(self, sample: tuple[int, np.ndarray]) -> None:
+        """Read the chainage of one (frame index, BGR frame)."""
+        index, frame = sample
         x0, y0, x1, y1 = self.box
         crop = cv2.cvtColor(frame[y0:y1, x0:x1], cv2.COLOR_BGR2GRAY)
         got = self.glyphs.read(crop)
@@ -118,10 +116,5 @@ class _OverlayPass:
 def _locate(path, info: VideoInfo, reader: OverlayReader) -> tuple[tuple[int, int, int, int], list[str]]:
     """The chainage box and the other overlay lines, from the first frame, else from frames spread over the video."""
     step = max(1, info.frame_count // 6)
-    for _, frame in islice(iter_frames(path, every=step), 3):
-        found = reader.lines(frame)
-        box = reader.chainage_box(frame, found)
-        if box is not None:
-            return box, [t for t, _, _ in found if parse_chainage(t) is None]
-    raise OverlayError(f"{path}: no chainage reading (like 12.34m) found in the first 3 frames sampled; "
-                       "check that the video has a chainage overlay, or give the overlay box of this contractor")
+    box, found = reader.locate_chainage_and_lines((f for _, f in islice(iter_frames(path, every=step), 3)), str(path))
+    return box, [t for t, _, _ in found if parse_chainage(t) is None]

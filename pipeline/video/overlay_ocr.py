@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import logging
 import re
+from collections.abc import Iterable
 from dataclasses import dataclass
 
 import numpy as np
@@ -62,13 +63,21 @@ class OverlayReader:
             out.append((text, (int(b[:, 0].min()), int(b[:, 1].min()), int(b[:, 0].max()), int(b[:, 1].max())), float(score)))
         return sorted(out, key=lambda t: (t[1][1], t[1][0]))
 
-    def locate_chainage(self, frames: list[np.ndarray], source: str = "the video") -> tuple[int, int, int, int]:
+    def locate_chainage(self, frames: Iterable[np.ndarray], source: str = "the video") -> tuple[int, int, int, int]:
         """Box (x0, y0, x1, y1) [px] of the chainage display, found in the first of ``frames`` that shows one."""
+        return self.locate_chainage_and_lines(frames, source)[0]
+
+    def locate_chainage_and_lines(self, frames: Iterable[np.ndarray], source: str = "the video"):
+        """(chainage box, all text of that frame as ``lines`` gives it), from the first of ``frames`` (read one
+        at a time) that shows a chainage; OverlayError naming ``source`` when none does."""
+        seen = 0
         for frame in frames:
-            box = self.chainage_box(frame, self.lines(frame))
+            seen += 1
+            found = self.lines(frame)
+            box = self.chainage_box(frame, found)
             if box is not None:
-                return box
-        raise OverlayError(f"{source}: no chainage reading (like 12.34m) found in the first {len(frames)} frames; "
+                return box, found
+        raise OverlayError(f"{source}: no chainage reading (like 12.34m) found in the first {seen} frames; "
                            "check that the video has a chainage overlay, or give the overlay box of this contractor")
 
     def chainage_box(self, frame: np.ndarray, found) -> tuple[int, int, int, int] | None:

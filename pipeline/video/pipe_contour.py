@@ -9,9 +9,7 @@ it) are fitted with one pose (``pipeline.contour.detect_contour``).
 from __future__ import annotations
 
 import os
-from collections import deque
 from collections.abc import Iterable, Iterator
-from concurrent.futures import ThreadPoolExecutor
 
 import cv2
 import numpy as np
@@ -20,6 +18,7 @@ from ..contour import PipeContour
 from ..contour.consensus import reconcile_windows
 from ..contour.detect import contour_from_candidates, frame_candidates, wall_u_from_tolerance
 from ..contour.ridges import static_overlay_mask
+from .beside_decoding import ordered_map
 from .chainage_track import ChainageTrack
 from .reader import FrameScan, iter_frames, probe_video
 from .undistort import Undistorter
@@ -77,21 +76,12 @@ def _read_forward(path: str | os.PathLike, frames: Iterable[int], convert) -> It
 
 def _candidates_of(path: str | os.PathLike, frames: Iterable[int], undistorter: Undistorter,
                    mask: np.ndarray | None) -> dict:
-    """``frame_candidates`` of the given frames: decoded forward in this thread while up to THREADS frames are
-    worked on in others (at most 2 THREADS decoded frames wait, so memory stays bounded)."""
-    def work(frame: np.ndarray):
-        return frame_candidates(_gray(undistorter.frame(frame)), mask)
+    """``frame_candidates`` of the given frames, worked on in THREADS threads while the next frames decode."""
+    def work(sample):
+        index, frame = sample
+        return index, frame_candidates(_gray(undistorter.frame(frame)), mask)
 
-    out, pending = {}, deque()
-    with ThreadPoolExecutor(max_workers=THREADS) as pool:
-        for index, frame in _read_forward(path, frames, lambda f: f):
-            pending.append((index, pool.submit(work, frame)))
-            while len(pending) > 2 * THREADS:
-                done, future = pending.popleft()
-                out[done] = future.result()
-        for done, future in pending:
-            out[done] = future.result()
-    return out
+    return dict(ordered_map(work, _read_forward(path, frames, lambda f: f), workers=THREADS, waiting=2 * THREADS))
 
 
 def contours_at_frames(path: str | os.PathLike, frames: Iterable[int], track: ChainageTrack, undistorter: Undistorter,

@@ -56,11 +56,23 @@ class PipeView:
     def R_wc(self) -> np.ndarray:
         return camera_rotation(self.yaw, self.pitch, self.roll)
 
+    def _camera_rays(self, points_px) -> np.ndarray:
+        """Directions (n, 3) of the rays through ideal image points (n, 2) [px] in camera axes (z = 1)."""
+        q = np.asarray(points_px, float).reshape(-1, 2)
+        return np.stack([(q[:, 0] - self.cx) / self.fx, (q[:, 1] - self.cy) / self.fy, np.ones(len(q))], axis=1)
+
     def rays(self, points_px) -> np.ndarray:
         """World directions (n, 3) of the rays through ideal image points (n, 2) [px]."""
-        q = np.asarray(points_px, float).reshape(-1, 2)
-        dc = np.stack([(q[:, 0] - self.cx) / self.fx, (q[:, 1] - self.cy) / self.fy, np.ones(len(q))], axis=1)
-        return dc @ self.R_wc.T
+        return self._camera_rays(points_px) @ self.R_wc.T
+
+    def _lateral_hits(self, d: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """For world rays d (n, 3): their lateral length |(dx, dy)| (n,), unit lateral direction u (n, 2), and
+        the distance [H] from the camera along u to the wall (n,) (inf where none)."""
+        lateral = np.hypot(d[:, 0], d[:, 1])
+        with np.errstate(invalid="ignore", divide="ignore"):
+            u = d[:, :2] / lateral[:, None]
+            reach = ray_to_wall(self.shape, 1.0, (self.ox, self.oy), u)
+        return lateral, u, reach
 
     def wall_hits(self, points_px) -> tuple[np.ndarray, np.ndarray]:
         """Where the rays through ideal points (n, 2) [px] meet the wall: (X, Y) (n, 2) [H] and depth t (n,) [H].
@@ -69,10 +81,8 @@ class PipeView:
         itself, or points behind the camera's plane).
         """
         d = self.rays(points_px)
-        lateral = np.hypot(d[:, 0], d[:, 1])
+        lateral, u, reach = self._lateral_hits(d)
         with np.errstate(invalid="ignore", divide="ignore"):
-            u = d[:, :2] / lateral[:, None]
-            reach = ray_to_wall(self.shape, 1.0, (self.ox, self.oy), u)
             t = reach / lateral * d[:, 2]
         xy = np.array([self.ox, self.oy]) + reach[:, None] * u
         t = np.where(np.isfinite(t) & (t > 0), t, np.nan)
@@ -113,20 +123,17 @@ class PipeView:
         The rotation's own derivatives are central differences of the 3 x 3
         matrix. Rays that miss the wall give nan (as ``reproject``).
         """
-        q = np.asarray(points_px, float).reshape(-1, 2)
         R, o = self.R_wc, np.array([self.ox, self.oy])
-        dc = np.stack([(q[:, 0] - self.cx) / self.fx, (q[:, 1] - self.cy) / self.fy, np.ones(len(q))], axis=1)
-        d = dc @ R.T
-        lateral = np.hypot(d[:, 0], d[:, 1])
+        dc = self._camera_rays(points_px)
+        lateral, u, s = self._lateral_hits(dc @ R.T)
+        n = len(dc)
         with np.errstate(invalid="ignore", divide="ignore"):
-            u = d[:, :2] / lateral[:, None]
-            s = ray_to_wall(self.shape, 1.0, o, u)
             s = np.where(np.isfinite(s), s, np.nan)
             centre, _ = arc_of_hit(self.shape, np.where(np.isfinite(s)[:, None], o + s[:, None] * u, 0.0))
             oc = o - centre
             b = np.sum(u * oc, axis=1)
             root = s + b                                  # +-sqrt(disc), the root the hit took
-            tt = np.broadcast_to(np.asarray(t, float), (len(q),))
+            tt = np.broadcast_to(np.asarray(t, float), (n,))
             p = np.column_stack([s[:, None] * u, tt])     # the point moved to depth t, about the camera [H]
             pc = (p @ R).T                                # (3, n): components first, each a long row
             img = np.column_stack([self.cx + self.fx * pc[0] / pc[2], self.cy + self.fy * pc[1] / pc[2]])

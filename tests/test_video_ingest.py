@@ -103,6 +103,8 @@ def test_video_without_overlay(reader, tmp_path):
     _write_video(video, [plain] * 10)
     with pytest.raises(OverlayError, match=r"plain.mp4: no chainage reading .* found"):
         reader.locate_chainage([f for _, f in iter_frames(video, every=5)], str(video))
+    with pytest.raises(OverlayError, match=r"plain.mp4: no chainage reading .* found in the first 3 frames"):
+        ingest_chainage(video, reader)
 
 
 def test_certificate_of_another_resolution_is_refused():

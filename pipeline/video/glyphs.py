@@ -3,7 +3,8 @@
 An overlay's chainage is drawn in one font at one place for the whole
 video, so once RapidOCR has read a few crops, each character's picture is
 known: later crops are read by cutting them into glyphs and matching each
-glyph against those pictures (about 0.3 ms a crop instead of 20-70 ms).
+glyph against those pictures, far cheaper than an OCR call
+(``benchmarks/ingest.py`` prints both costs against decoding).
 A glyph that matches no picture well, or matches two about as well, makes
 the crop unreadable here; the caller then asks the OCR, and learns from
 its answer.

@@ -13,7 +13,7 @@ from pipeline.camera import load_certificate
 from pipeline.errors import CertificateError, CorruptVideoError, OverlayError
 from pipeline.synth.overlay import Overlay, chainage_text
 from pipeline.video.chainage_track import fit_track
-from pipeline.video.glyphs import GlyphTemplates
+from pipeline.video.glyphs import GlyphTemplates, segment_glyphs
 from pipeline.video.ingest import MASK_FRAMES, ingest_chainage
 from pipeline.video.overlay_ocr import OverlayRead, OverlayReader, parse_chainage
 from pipeline.video.reader import check_integrity, iter_frames, probe_video
@@ -22,6 +22,7 @@ from pipeline.video.undistort import Undistorter
 ROOT = Path(__file__).resolve().parent.parent
 SAMPLES = ROOT / "sample_videos"
 REAL = Path(__file__).resolve().parent / "data" / "real_frames"
+DATA = Path(__file__).resolve().parent / "data"
 PACKAGES = ["S01-circular-clean", "S02-circular-water-offset", "S03-egg-concrete"]
 
 
@@ -198,6 +199,17 @@ def test_glyph_templates_read_what_they_learned_and_refuse_the_rest():
     assert not templates.learn(_overlay_crop(1.23, 8), "1.2m")     # text and glyphs disagree: nothing learned
     templates.forget()
     assert templates.read(_overlay_crop(3.21, 9)) is None
+
+
+def test_glyph_templates_refuse_a_speck_of_compression_noise():
+    """A chainage box from S02 re-encoded as H.264 (benchmarks/delivery_codec.py) with a 2 px speck at its left
+    edge: refused (the OCR reads it then), not cut into two glyphs of which one is empty (which raised)."""
+    crop = cv2.imread(str(DATA / "h264-chainage-crop.png"), cv2.IMREAD_GRAYSCALE)
+    assert segment_glyphs(crop)[1][0] == (0, 2)
+    templates = GlyphTemplates()
+    for k, value in enumerate([10.23, 5.67, 8.90, 11.11, 4.32]):
+        assert templates.learn(_overlay_crop(value, k), chainage_text(value))
+    assert templates.read(crop) is None
 
 
 def test_ingest_refuses_a_truncated_video(reader, tmp_path):

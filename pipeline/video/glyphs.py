@@ -70,8 +70,8 @@ def _split_at_valley(hat: np.ndarray, cols: tuple[int, int], rows: tuple[int, in
     c0, c1 = cols
     ink = hat[rows[0]:rows[1], c0:c1].sum(axis=0)
     lo, hi = (c1 - c0) // 4, 3 * (c1 - c0) // 4
-    if hi - lo < 1:
-        return [cols]
+    if lo < 1 or hi - lo < 1:
+        return [cols]       # narrower than 4 columns (a speck of compression noise): no two glyphs in it
     cut = c0 + lo + int(np.argmin(ink[lo:hi]))
     return [(c0, cut), (cut, c1)]
 

@@ -4,7 +4,8 @@ The chainage box and the overlay's header lines are found on the first
 frame by RapidOCR (detection and recognition). Every ``every``-th frame's
 box is then read by glyph templates learned from the OCR's own reads of
 this video (``glyphs``); a crop the templates cannot read clearly, and
-every ``VERIFY_EVERY``-th crop as a check, goes to the OCR. A template read
+every ``VERIFY_EVERY``-th crop as a check, goes to the OCR; so does a template
+read that is no chainage (a speck of compression noise read as a glyph). A template read
 that the OCR contradicts drops the templates (they are learned again).
 """
 
@@ -100,8 +101,9 @@ class _OverlayPass:
         x0, y0, x1, y1 = self.box
         crop = cv2.cvtColor(frame[y0:y1, x0:x1], cv2.COLOR_BGR2GRAY)
         got = self.glyphs.read(crop)
-        if got is not None and (len(self.reads) + 1) % VERIFY_EVERY:
-            self.reads.append(OverlayRead(index, got[0], parse_chainage(got[0]), got[1]))
+        value = parse_chainage(got[0]) if got is not None else None
+        if value is not None and (len(self.reads) + 1) % VERIFY_EVERY:
+            self.reads.append(OverlayRead(index, got[0], value, got[1]))
             return
         read = self.reader.read(frame, self.box, index)
         self.ocr_reads += 1

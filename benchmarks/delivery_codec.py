@@ -1,0 +1,48 @@
+"""The sample videos re-encoded as contractors deliver them (H.264 or MPEG-2), for the benchmarks' ``--codec``.
+
+The samples are written with OpenCV's MPEG-4 Part 2 encoder (the wheel
+cannot write H.264), which decodes two to three times faster than the
+H.264 most deliveries use: a ratio to decode-only time measured on the
+samples as written says little about a delivery. PyAV (FFmpeg with
+libx264 in its wheel; ``pip install -e .[bench]``) re-encodes every frame,
+same size, rate and count, so the ground truth's frame indices still hold;
+the re-encoding's own loss is part of what the benchmark then measures.
+
+    from delivery_codec import CODECS, delivered
+    video = delivered(folder / "video.mp4", "h264", tmp)
+"""
+
+from __future__ import annotations
+
+from fractions import Fraction
+from pathlib import Path
+
+# codec name -> (FFmpeg encoder, file suffix, encoder options): the settings of a typical delivery
+CODECS = {
+    "h264": ("libx264", ".mp4", {"crf": "23", "preset": "medium"}),
+    "mpeg2": ("mpeg2video", ".mpg", {"b": "6M"}),
+}
+
+
+def delivered(video: Path, codec: str | None, folder: Path) -> Path:
+    """``video`` re-encoded with ``codec`` (a key of CODECS) into ``folder``, or ``video`` itself when codec is None."""
+    if codec is None:
+        return video
+    try:
+        import av
+    except ImportError:
+        raise SystemExit("--codec needs PyAV: pip install -e '.[bench]'") from None
+    encoder, suffix, options = CODECS[codec]
+    out_path = folder / f"{video.parent.name}-{codec}{suffix}"
+    with av.open(str(video)) as source, av.open(str(out_path), "w") as out:
+        inp = source.streams.video[0]
+        rate = Fraction(inp.average_rate).limit_denominator(1001)
+        stream = out.add_stream(encoder, rate=rate, options=options)
+        stream.width, stream.height, stream.pix_fmt = inp.codec_context.width, inp.codec_context.height, "yuv420p"
+        stream.codec_context.time_base = 1 / rate
+        for index, frame in enumerate(source.decode(inp)):
+            frame = frame.reformat(format="yuv420p")
+            frame.pts, frame.time_base = index, 1 / rate    # frame i stays frame i: the truth is indexed by frame
+            out.mux(stream.encode(frame))
+        out.mux(stream.encode())
+    return out_path

@@ -15,19 +15,24 @@ beforehand from the ingest's own reads), and what one OCR read of the box
 costs (the ingest sends one crop in ``VERIFY_EVERY`` to the OCR as a check,
 and the first crops, until the templates know every character).
 
-    python benchmarks/ingest.py [--every 4 12]
+``--codec h264`` (or ``mpeg2``) re-encodes the samples first, as contractors
+deliver them (``delivery_codec.py``; ``pip install -e '.[bench]'``).
+
+    python benchmarks/ingest.py [--every 4 12] [--codec h264|mpeg2]
 """
 
 from __future__ import annotations
 
 import argparse
 import csv
+import tempfile
 import time
 from pathlib import Path
 
 import cv2
 import numpy as np
 
+from delivery_codec import CODECS, delivered
 from pipeline.video.glyphs import GlyphTemplates
 from pipeline.video.ingest import VERIFY_EVERY, ingest_chainage
 from pipeline.video.overlay_ocr import OverlayReader
@@ -91,13 +96,19 @@ def ladder(path: Path, result, reader: OverlayReader, every: int, repeats: int =
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--every", type=int, nargs="+", default=[4, 12])
+    parser.add_argument("--codec", choices=sorted(CODECS), help="re-encode the videos first (default: as written)")
     args = parser.parse_args()
+    with tempfile.TemporaryDirectory(prefix="pipegauge-codec-") as tmp:
+        run(args, Path(tmp))
+
+
+def run(args, tmp: Path) -> None:
     reader = OverlayReader()
     for folder in sorted(p for p in SAMPLES.iterdir() if (p / "video.mp4").exists()):
-        video = folder / "video.mp4"
+        video = delivered(folder / "video.mp4", args.codec, tmp)
         truth = np.array([float(r["counter_m"]) for r in csv.DictReader(open(folder / "truth" / "frames.csv"))])
         t_decode = decode_only(video)
-        print(f"{folder.name}: decode only (grab loop) {t_decode:.2f} s")
+        print(f"{folder.name} ({args.codec or 'as written'}): decode only (grab loop) {t_decode:.2f} s")
         for every in args.every:
             t0 = time.perf_counter()
             result = ingest_chainage(video, reader, every=every)

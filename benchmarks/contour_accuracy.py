@@ -15,7 +15,7 @@ parts; also per minute of video (decode, track) and per observation frame
 which a night's batch of longer videos scales with.
 
 ``--codec h264`` (or ``mpeg2``) first re-encodes each sample as contractors
-deliver it (``delivery_codec.py``; needs ``pip install -e '.[bench]'``): the
+deliver it (``pipeline/synth/delivery.py``; needs ``pip install -e '.[bench]'``): the
 samples' MPEG-4 Part 2 decodes two to three times faster than H.264, which
 moves the ratio, and the re-encoding's loss tests the accuracy.
 
@@ -37,12 +37,12 @@ from pipeline.camera import load_certificate
 from pipeline.coding import read_log
 from pipeline.contour import PipeView
 from pipeline.measurement.wall import contour_under
+from pipeline.synth.delivery import CODECS, delivered
 from pipeline.video.ingest import ingest_chainage
 from pipeline.video.overlay_ocr import OverlayReader
 from pipeline.video.pipe_contour import contours_at_frames, overlay_mask_of
 from pipeline.video.undistort import Undistorter
 
-from delivery_codec import CODECS, delivered
 from ingest import decode_only   # benchmarks/ingest.py, the same grab loop
 
 SAMPLES = Path(__file__).resolve().parent.parent / "sample_videos"

@@ -16,7 +16,7 @@ costs (the ingest sends one crop in ``VERIFY_EVERY`` to the OCR as a check,
 and the first crops, until the templates know every character).
 
 ``--codec h264`` (or ``mpeg2``) re-encodes the samples first, as contractors
-deliver them (``delivery_codec.py``; ``pip install -e '.[bench]'``).
+deliver them (``pipeline/synth/delivery.py``; ``pip install -e '.[bench]'``).
 
     python benchmarks/ingest.py [--every 4 12] [--codec h264|mpeg2]
 """
@@ -32,7 +32,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from delivery_codec import CODECS, delivered
+from pipeline.synth.delivery import CODECS, delivered
 from pipeline.video.glyphs import GlyphTemplates
 from pipeline.video.ingest import VERIFY_EVERY, ingest_chainage
 from pipeline.video.overlay_ocr import OverlayReader

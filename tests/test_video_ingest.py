@@ -11,6 +11,7 @@ import pytest
 from flows.cli import main
 from pipeline.camera import load_certificate
 from pipeline.errors import CertificateError, CorruptVideoError, OverlayError
+from pipeline.synth.delivery import delivered
 from pipeline.synth.overlay import Overlay, chainage_text
 from pipeline.video.chainage_track import fit_track
 from pipeline.video.glyphs import GlyphTemplates, segment_glyphs
@@ -202,7 +203,7 @@ def test_glyph_templates_read_what_they_learned_and_refuse_the_rest():
 
 
 def test_glyph_templates_refuse_a_speck_of_compression_noise():
-    """A chainage box from S02 re-encoded as H.264 (benchmarks/delivery_codec.py) with a 2 px speck at its left
+    """A chainage box from S02 re-encoded as H.264 (pipeline/synth/delivery.py) with a 2 px speck at its left
     edge: refused (the OCR reads it then), not cut into two glyphs of which one is empty (which raised)."""
     crop = cv2.imread(str(DATA / "h264-chainage-crop.png"), cv2.IMREAD_GRAYSCALE)
     assert segment_glyphs(crop)[1][0] == (0, 2)
@@ -210,6 +211,19 @@ def test_glyph_templates_refuse_a_speck_of_compression_noise():
     for k, value in enumerate([10.23, 5.67, 8.90, 11.11, 4.32]):
         assert templates.learn(_overlay_crop(value, k), chainage_text(value))
     assert templates.read(crop) is None
+
+
+def test_ingest_of_a_sample_delivered_as_h264(reader, tmp_path):
+    """S02 re-encoded with libx264 as contractors deliver (compression blurs the glyphs and leaves specks in the
+    box): the same reading and track targets as the sample as written."""
+    video = delivered(SAMPLES / "S02-circular-water-offset" / "video.mp4", "h264", tmp_path)
+    truth = list(csv.DictReader(open(SAMPLES / "S02-circular-water-offset" / "truth" / "frames.csv")))
+    ingest = ingest_chainage(video, reader, every=4)
+    assert ingest.info.frame_count == len(truth)
+    correct = sum(r.text == truth[r.frame]["displayed"] for r in ingest.reads)
+    assert correct >= 0.99 * len(ingest.reads), f"{correct}/{len(ingest.reads)} read correctly"
+    error = np.abs(ingest.track.values - np.array([float(t["counter_m"]) for t in truth]))
+    assert error.max() < 0.02, f"largest track error {error.max():.4f} m"
 
 
 def test_ingest_refuses_a_truncated_video(reader, tmp_path):

@@ -1,14 +1,14 @@
-"""The sample videos re-encoded as contractors deliver them (H.264 or MPEG-2), for the benchmarks' ``--codec``.
+"""A sample video re-encoded as contractors deliver theirs (H.264 or MPEG-2).
 
 The samples are written with OpenCV's MPEG-4 Part 2 encoder (the wheel
 cannot write H.264), which decodes two to three times faster than the
-H.264 most deliveries use: a ratio to decode-only time measured on the
-samples as written says little about a delivery. PyAV (FFmpeg with
-libx264 in its wheel; ``pip install -e .[bench]``) re-encodes every frame,
-same size, rate and count, so the ground truth's frame indices still hold;
-the re-encoding's own loss is part of what the benchmark then measures.
+H.264 most deliveries use, and compresses differently. PyAV (FFmpeg with
+libx264 in its wheel; the ``test`` and ``bench`` extras) re-encodes every
+frame at the same size, rate and count, so the ground truth's frame indices
+still hold; the re-encoding's own loss is part of what a test or benchmark
+on the result measures.
 
-    from delivery_codec import CODECS, delivered
+    from pipeline.synth.delivery import delivered
     video = delivered(folder / "video.mp4", "h264", tmp)
 """
 
@@ -16,6 +16,8 @@ from __future__ import annotations
 
 from fractions import Fraction
 from pathlib import Path
+
+__all__ = ["CODECS", "delivered"]
 
 # codec name -> (FFmpeg encoder, file suffix, encoder options): the settings of a typical delivery
 CODECS = {
@@ -31,7 +33,7 @@ def delivered(video: Path, codec: str | None, folder: Path) -> Path:
     try:
         import av
     except ImportError:
-        raise SystemExit("--codec needs PyAV: pip install -e '.[bench]'") from None
+        raise ImportError("re-encoding needs PyAV: pip install -e '.[bench]'") from None
     encoder, suffix, options = CODECS[codec]
     out_path = folder / f"{video.parent.name}-{codec}{suffix}"
     with av.open(str(video)) as source, av.open(str(out_path), "w") as out:

@@ -16,7 +16,11 @@ Prints per model: the share of true values inside [low, high] (target
 orthographic model's bias on features that are not in a cross-section
 plane (widths along the pipe, axial gaps).
 
-    python benchmarks/measurement_coverage.py [--per-frame 17] [--seed 7]
+``--codec h264`` (or ``mpeg2``) measures the samples re-encoded as
+contractors deliver them (``pipeline/synth/delivery.py``; PyAV, in the
+``bench`` extra).
+
+    python benchmarks/measurement_coverage.py [--per-frame 17] [--seed 7] [--codec h264|mpeg2]
 """
 
 from __future__ import annotations
@@ -26,6 +30,7 @@ import csv
 import json
 import math
 import sys
+import tempfile
 import time
 from pathlib import Path
 
@@ -36,6 +41,7 @@ from pipeline.coding import load_header, load_manifest, read_log, read_marks
 from pipeline.measurement import MarkedQuantity, marked_quantity, measure_quantity
 from pipeline.measurement.inspection import ideal_point_and_u
 from pipeline.profiles import level_tables
+from pipeline.synth.delivery import CODECS, delivered
 from pipeline.synth.package import _wall
 from pipeline.synth.rig import CameraPose, project_points
 from pipeline.synth.samples import sample_specs
@@ -114,7 +120,9 @@ def main() -> None:
     parser.add_argument("--per-frame", type=int, default=17,
                         help="generated quantities per observation frame (17: 204 generated, 221 in all)")
     parser.add_argument("--seed", type=int, default=7)
+    parser.add_argument("--codec", choices=sorted(CODECS), help="re-encode the videos first (default: as written)")
     args = parser.parse_args()
+    scratch = tempfile.TemporaryDirectory(prefix="pipegauge-codec-")     # removed when the run ends
     rng = np.random.default_rng(args.seed)
     specs = {spec.package_id: spec for spec, _ in sample_specs()}
     reader = OverlayReader()
@@ -129,14 +137,15 @@ def main() -> None:
         cert = load_certificate(SAMPLES / "certificates" / f"{manifest.certificate_id}.json")
         W, Hh = cert.image_width_px, cert.image_height_px
         und = Undistorter(cert, W, Hh)
-        ingest = ingest_chainage(manifest.video, reader)
+        video = delivered(manifest.video, args.codec, Path(scratch.name))
+        ingest = ingest_chainage(video, reader)
         track = ingest.track
         mask = overlay_mask_of(ingest.spread_frames.values(), und)
         obs = read_log(manifest.observations, header.section_length_m)
         marks, _ = read_marks(manifest.marks, obs)
         by_row = {o.row: o for o in obs}
         true_of = {(o["row"], q["quantity"]): q["true_value"] for o in truth["observations"] for q in o["quantities"]}
-        contours = contours_at_frames(manifest.video, {m.frame for m in marks}, track, und, header.shape,
+        contours = contours_at_frames(video, {m.frame for m in marks}, track, und, header.shape,
                                       height_mm=header.height_mm, tolerance_mm=header.height_tolerance_mm, mask=mask)
         for m in marks:
             o = by_row[m.row]

@@ -213,6 +213,27 @@ def test_glyph_templates_refuse_a_speck_of_compression_noise():
     assert templates.read(crop) is None
 
 
+def test_a_template_read_that_is_no_chainage_goes_to_the_ocr_and_keeps_the_templates():
+    """A 1 px speck right of the "m" is taken for a "." by the templates ("3.21m."): the OCR reads that crop, and
+    this is no contradiction of the templates (they are kept)."""
+    from pipeline.video.ingest import _OverlayPass
+
+    class StubOCR:
+        def read(self, frame, box, index=0):
+            return OverlayRead(index, "3.21m", 3.21, 0.99)
+
+    crop = _overlay_crop(3.21, 21)
+    _, glyphs, (r0, r1) = segment_glyphs(crop)
+    crop[r0:r1, glyphs[-1][1] + 4] = 255
+    overlay = _OverlayPass(StubOCR(), (0, 0, crop.shape[1], crop.shape[0]))
+    for k, value in enumerate([10.23, 5.67, 8.90, 11.11, 4.32]):
+        assert overlay.glyphs.learn(_overlay_crop(value, k), chainage_text(value))
+    assert overlay.glyphs.read(crop)[0] == "3.21m."
+    overlay.read((7, cv2.cvtColor(crop, cv2.COLOR_GRAY2BGR)))
+    assert [(r.frame, r.value) for r in overlay.reads] == [(7, 3.21)]
+    assert (overlay.ocr_reads, overlay.disagreements) == (1, 0) and overlay.glyphs.sums
+
+
 def test_ingest_of_a_sample_delivered_as_h264(reader, tmp_path):
     """S02 re-encoded with libx264 as contractors deliver (compression blurs the glyphs and leaves specks in the
     box): the same reading and track targets as the sample as written."""

@@ -27,7 +27,13 @@ CODECS = {
 
 
 def delivered(video: Path, codec: str | None, folder: Path) -> Path:
-    """``video`` re-encoded with ``codec`` (a key of CODECS) into ``folder``, or ``video`` itself when codec is None."""
+    """``video`` re-encoded with ``codec`` into ``folder``, or ``video`` itself when codec is None.
+
+    video : a video file OpenCV or FFmpeg reads; codec : a key of CODECS, or
+    None; folder : an existing folder, where ``<package>-<codec>.<suffix>``
+    is written (named after the video's folder, a sample package).
+    Raises ImportError when PyAV is not installed.
+    """
     if codec is None:
         return video
     try:

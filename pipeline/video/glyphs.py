@@ -68,10 +68,10 @@ def _patches(hat: np.ndarray, glyphs: list[tuple[int, int]], rows: tuple[int, in
 def _split_at_valley(hat: np.ndarray, cols: tuple[int, int], rows: tuple[int, int]) -> list[tuple[int, int]]:
     """Two touching glyphs cut at the column of least ink in the middle half of their run."""
     c0, c1 = cols
+    if c1 - c0 < 4:
+        return [cols]       # a speck (compression noise): no two glyphs in it, and no cut leaves both halves columns
     ink = hat[rows[0]:rows[1], c0:c1].sum(axis=0)
     lo, hi = (c1 - c0) // 4, 3 * (c1 - c0) // 4
-    if lo < 1 or hi - lo < 1:
-        return [cols]       # narrower than 4 columns (a speck of compression noise): no two glyphs in it
     cut = c0 + lo + int(np.argmin(ink[lo:hi]))
     return [(c0, cut), (cut, c1)]
 

@@ -3,10 +3,10 @@
 The chainage box and the overlay's header lines are found on the first
 frame by RapidOCR (detection and recognition). Every ``every``-th frame's
 box is then read by glyph templates learned from the OCR's own reads of
-this video (``glyphs``); a crop the templates cannot read clearly, and
-every ``VERIFY_EVERY``-th crop as a check, goes to the OCR; so does a template
-read that is no chainage (a speck of compression noise read as a glyph). A template read
-that the OCR contradicts drops the templates (they are learned again).
+this video (``glyphs``); a crop the templates cannot read clearly or read
+as no chainage (a speck of compression noise taken for a glyph), and every
+``VERIFY_EVERY``-th crop as a check, goes to the OCR. A chainage read by the
+templates that the OCR contradicts drops them (they are learned again).
 """
 
 from __future__ import annotations
@@ -107,7 +107,7 @@ class _OverlayPass:
             return
         read = self.reader.read(frame, self.box, index)
         self.ocr_reads += 1
-        if got is not None and got[0] != read.text.replace(" ", "") and read.value is not None:
+        if value is not None and got[0] != read.text.replace(" ", "") and read.value is not None:
             self.disagreements += 1
             self.glyphs.forget()
         if read.value is not None and read.score >= LEARN_SCORE:

@@ -163,23 +163,34 @@ def cmd_probe(args: argparse.Namespace) -> int:
     is_image = path.suffix.lower() in {".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff"}
     reader = OverlayReader()
     report: dict = {"source": str(path)}
+    box = None
     if is_image:
+        if args.chainage is not None:
+            _say(f"pipegauge probe: error: --chainage needs a video ({path} is an image)")
+            return EXIT_USAGE
         frame = cv2.imread(str(path), cv2.IMREAD_COLOR)
         if frame is None:
             _say(f"pipegauge probe: error: {path}: not a readable image")
             return EXIT_FAILED
         index, first = 0, [frame]
     else:
-        info = check_integrity(path)
+        if args.chainage is not None:
+            found = _probe_track(path, reader, args.chainage)
+            if found is None:
+                return EXIT_USAGE
+            info, index, box, mapping = found
+        else:
+            info, mapping = check_integrity(path), {}
+            index = int(round(args.time * info.fps)) if args.time is not None else (args.frame or 0)
         report["video"] = {"width": info.width, "height": info.height, "fps": info.fps,
                            "frames": info.frame_count, "duration_s": round(info.duration_s, 3), "codec": info.codec}
-        index = int(round(args.time * info.fps)) if args.time is not None else (args.frame or 0)
+        report.update(mapping)
         if not 0 <= index < info.frame_count:
             _say(f"pipegauge probe: error: frame {index} is outside the video (0-{info.frame_count - 1})")
             return EXIT_USAGE
-        first = [f for _, f in iter_frames(path, every=max(1, info.frame_count // 4))][:3]
+        first = [f for _, f in iter_frames(path, every=max(1, info.frame_count // 4))][:3] if box is None else []
         frame = read_frame(path, index)
-    box = reader.locate_chainage(first, str(path))
+    box = box or reader.locate_chainage(first, str(path))
     read = reader.read(frame, box, index)
     report["frame"] = index
     report["chainage"] = {"text": read.text, "m": read.value, "score": round(read.score, 4), "box_px": list(box)}
@@ -215,6 +226,32 @@ def cmd_probe(args: argparse.Namespace) -> int:
         for key, value in report.items():
             print(f"{key}: {value}")
     return EXIT_OK
+
+
+def _probe_track(path: Path, reader, chainage_m: float):
+    """Fit the video's chainage track (one decoding pass) and find the first frame at ``chainage_m`` [m]:
+    (video info, frame, chainage box, {"track": ..., "at_chainage": ...} for the report), or None (said why)
+    when the camera never gets there."""
+    from pipeline.video.ingest import ingest_chainage
+
+    ingest = ingest_chainage(path, reader)
+    track = ingest.track
+    try:
+        index, u_frames = track.frame_at(chainage_m)
+    except ValueError:
+        _say(f"pipegauge probe: error: {path}: the camera never reaches {chainage_m:g} m; its track runs from "
+             f"{track.values.min():.2f} m to {track.values.max():.2f} m")
+        return None
+    segment = next((kind for first, last, kind in track.segments if first <= index <= last), "moving")
+    mapping = {
+        "track": {"from_m": round(float(track.values.min()), 3), "to_m": round(float(track.values.max()), 3),
+                  "reads_used": track.reads_used, "reads_rejected": len(track.rejected),
+                  "segments": [{"first_frame": first, "last_frame": last, "camera": kind}
+                               for first, last, kind in track.segments]},
+        "at_chainage": {"m": chainage_m, "u_m": round(float(track.counter.u(chainage_m)), 4), "frame": index,
+                        "u_frames": round(u_frames, 2) if np.isfinite(u_frames) else None,
+                        "time_s": round(index / ingest.info.fps, 3), "camera": segment}}
+    return ingest.info, index, ingest.box, mapping
 
 
 def _probe_contour(grays, und, shape: str, mask) -> dict:
@@ -471,6 +508,9 @@ def build_parser() -> argparse.ArgumentParser:
     where = pr.add_mutually_exclusive_group()
     where.add_argument("--time", type=float, help="time in the video [s]")
     where.add_argument("--frame", type=int, help="frame index in the video")
+    where.add_argument("--chainage", type=float, metavar="C",
+                       help="chainage [m]: the first frame where the camera reaches it, from the overlay's track "
+                            "(reads the whole video)")
     pr.add_argument("--certificate", type=Path, help="calibration certificate to check against the video")
     pr.add_argument("--json", action="store_true", help="print JSON")
     pr.add_argument("--debug-image", type=Path, metavar="OUT.png", help="write the (undistorted) frame here")

@@ -132,6 +132,31 @@ def test_probe_command_on_a_real_frame(capsys):
     assert any("Vitrified Clay" in line for line in report["overlay_lines"])
 
 
+def test_probe_at_a_chainage_finds_the_first_frame_there(capsys):
+    """``probe VIDEO --chainage C``: the track maps C to the first frame whose counter shows it, with u."""
+    video = SAMPLES / "S02-circular-water-offset" / "video.mp4"
+    truth = [float(r["counter_m"]) for r in csv.DictReader(open(SAMPLES / "S02-circular-water-offset" / "truth" / "frames.csv"))]
+    assert main(["probe", str(video), "--chainage", "1.5", "--json"]) == 0
+    report = json.loads(capsys.readouterr().out)
+    at = report["at_chainage"]
+    frame = at["frame"]
+    assert report["frame"] == frame and abs(truth[frame] - 1.5) < 0.02
+    first = next(k for k, c in enumerate(truth) if c >= 1.5)
+    assert abs(frame - first) <= 2 * at["u_frames"]
+    assert report["chainage"]["m"] == pytest.approx(1.5, abs=0.02)
+    assert 0.02 <= at["u_m"] < 0.05 and 0 < at["u_frames"] < 25
+    assert report["track"]["from_m"] < 1.5 < report["track"]["to_m"]
+    assert {s["camera"] for s in report["track"]["segments"]} == {"moving", "stopped"}
+
+
+def test_probe_at_a_chainage_the_camera_never_reaches_is_a_usage_error(capsys):
+    video = SAMPLES / "S02-circular-water-offset" / "video.mp4"
+    assert main(["probe", str(video), "--chainage", "99"]) == 2
+    assert "never reaches 99 m; its track runs from 0.17 m to 2.98 m" in capsys.readouterr().err
+    assert main(["probe", str(REAL / "1.045-1.040_0004.jpg"), "--chainage", "20"]) == 2
+    assert "--chainage needs a video" in capsys.readouterr().err
+
+
 @pytest.mark.parametrize("name", ["1.045-1.040_0002.jpg", "1.045-1.040_0003.jpg"])
 def test_probe_finds_the_joint_ring_on_real_frames(capsys, tmp_path, name):
     debug = tmp_path / "debug.png"

@@ -390,6 +390,9 @@ def _deformed_rings(view: PipeView, pts: np.ndarray, frame_of: np.ndarray, curve
     for i, (frame, t) in enumerate(rings):
         in_frame = of_frame[frame]
         same = in_frame[np.isin(curve_of[in_frame], curve_of[members[i]])]     # the ring's whole ridge curves
+        if _coverage_deg(wall[same]) < MIN_BEST_COVERAGE_DEG:
+            out.append(False)       # too little of the ring to judge, whichever points the fit below would keep
+            continue
         xy = points_in_plane(view, pts[same], t)
         fit, keep = fit_section(xy, MIN_RING_POINTS)
         if fit is None or _coverage_deg(wall[same][keep]) < MIN_BEST_COVERAGE_DEG:

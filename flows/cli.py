@@ -188,9 +188,11 @@ def cmd_probe(args: argparse.Namespace) -> int:
         if not 0 <= index < info.frame_count:
             _say(f"pipegauge probe: error: frame {index} is outside the video (0-{info.frame_count - 1})")
             return EXIT_USAGE
-        first = [f for _, f in iter_frames(path, every=max(1, info.frame_count // 4))][:3] if box is None else []
+        if box is None:
+            first = [f for _, f in iter_frames(path, every=max(1, info.frame_count // 4))][:3]
         frame = read_frame(path, index)
-    box = box or reader.locate_chainage(first, str(path))
+    if box is None:
+        box = reader.locate_chainage(first, str(path))
     read = reader.read(frame, box, index)
     report["frame"] = index
     report["chainage"] = {"text": read.text, "m": read.value, "score": round(read.score, 4), "box_px": list(box)}

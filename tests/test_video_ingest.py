@@ -22,8 +22,8 @@ from pipeline.video.undistort import Undistorter
 
 ROOT = Path(__file__).resolve().parent.parent
 SAMPLES = ROOT / "sample_videos"
-REAL = Path(__file__).resolve().parent / "data" / "real_frames"
 DATA = Path(__file__).resolve().parent / "data"
+REAL = DATA / "real_frames"
 PACKAGES = ["S01-circular-clean", "S02-circular-water-offset", "S03-egg-concrete"]
 
 
@@ -227,15 +227,20 @@ def test_glyph_templates_read_what_they_learned_and_refuse_the_rest():
     assert templates.read(_overlay_crop(3.21, 9)) is None
 
 
+def _taught_templates() -> GlyphTemplates:
+    """Glyph templates that know every character of a chainage (taught on synthetic boxes)."""
+    templates = GlyphTemplates()
+    for k, value in enumerate([10.23, 5.67, 8.90, 11.11, 4.32]):
+        assert templates.learn(_overlay_crop(value, k), chainage_text(value))
+    return templates
+
+
 def test_glyph_templates_refuse_a_speck_of_compression_noise():
     """A chainage box from S02 re-encoded as H.264 (pipeline/synth/delivery.py) with a 2 px speck at its left
     edge: refused (the OCR reads it then), not cut into two glyphs of which one is empty (which raised)."""
     crop = cv2.imread(str(DATA / "h264-chainage-crop.png"), cv2.IMREAD_GRAYSCALE)
     assert segment_glyphs(crop)[1][0] == (0, 2)
-    templates = GlyphTemplates()
-    for k, value in enumerate([10.23, 5.67, 8.90, 11.11, 4.32]):
-        assert templates.learn(_overlay_crop(value, k), chainage_text(value))
-    assert templates.read(crop) is None
+    assert _taught_templates().read(crop) is None
 
 
 def test_a_template_read_that_is_no_chainage_goes_to_the_ocr_and_keeps_the_templates():
@@ -250,9 +255,7 @@ def test_a_template_read_that_is_no_chainage_goes_to_the_ocr_and_keeps_the_templ
     crop = _overlay_crop(3.21, 21)
     _, glyphs, (r0, r1) = segment_glyphs(crop)
     crop[r0:r1, glyphs[-1][1] + 4] = 255
-    overlay = _OverlayPass(StubOCR(), (0, 0, crop.shape[1], crop.shape[0]))
-    for k, value in enumerate([10.23, 5.67, 8.90, 11.11, 4.32]):
-        assert overlay.glyphs.learn(_overlay_crop(value, k), chainage_text(value))
+    overlay = _OverlayPass(StubOCR(), (0, 0, crop.shape[1], crop.shape[0]), _taught_templates())
     assert overlay.glyphs.read(crop)[0] == "3.21m."
     overlay.read((7, cv2.cvtColor(crop, cv2.COLOR_GRAY2BGR)))
     assert [(r.frame, r.value) for r in overlay.reads] == [(7, 3.21)]

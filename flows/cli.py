@@ -163,7 +163,7 @@ def cmd_probe(args: argparse.Namespace) -> int:
     is_image = path.suffix.lower() in {".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff"}
     reader = OverlayReader()
     report: dict = {"source": str(path)}
-    box = None
+    box, spread = None, {}       # spread: frames over the video kept by the track's pass (for the overlay mask)
     if is_image:
         if args.chainage is not None:
             _say(f"pipegauge probe: error: --chainage needs a video ({path} is an image)")
@@ -178,7 +178,8 @@ def cmd_probe(args: argparse.Namespace) -> int:
             found = _probe_track(path, reader, args.chainage)
             if found is None:
                 return EXIT_USAGE
-            info, index, box, mapping = found
+            ingest, index, mapping = found
+            info, box, spread = ingest.info, ingest.box, ingest.spread_frames
         else:
             info, mapping = check_integrity(path), {}
             index = int(round(args.time * info.fps)) if args.time is not None else (args.frame or 0)
@@ -205,13 +206,13 @@ def cmd_probe(args: argparse.Namespace) -> int:
         grays = [cv2.cvtColor(und.frame(frame), cv2.COLOR_BGR2GRAY)]
         mask = None
         if not is_image:
-            from pipeline.video.pipe_contour import overlay_mask, read_ideal_grays
+            from pipeline.video.pipe_contour import overlay_mask, overlay_mask_of, read_ideal_grays
 
             around = [k for k in range(index - 3 * int(info.fps), index + 3 * int(info.fps) + 1, 6)
                       if 0 <= k < info.frame_count and k != index]
             more = read_ideal_grays(path, around, und)
             grays += [more[k] for k in around if k in more]
-            mask = overlay_mask(path, und)
+            mask = overlay_mask_of(spread.values(), und) if spread else overlay_mask(path, und)
         report["contour"] = _probe_contour(grays, und, args.shape, mask)
         if is_image:
             report["still_ring"] = _probe_still_ring(grays[0], args.shape, [b for _, b, _ in text_lines] + [box])
@@ -232,8 +233,8 @@ def cmd_probe(args: argparse.Namespace) -> int:
 
 def _probe_track(path: Path, reader, chainage_m: float):
     """Fit the video's chainage track (one decoding pass) and find the first frame at ``chainage_m`` [m]:
-    (video info, frame, chainage box, {"track": ..., "at_chainage": ...} for the report), or None (said why)
-    when the camera never gets there."""
+    (the ingest, frame, {"track": ..., "at_chainage": ...} for the report), or None (said why) when the camera
+    never gets there."""
     from pipeline.video.ingest import ingest_chainage
 
     ingest = ingest_chainage(path, reader)
@@ -253,7 +254,7 @@ def _probe_track(path: Path, reader, chainage_m: float):
         "at_chainage": {"m": chainage_m, "u_m": round(float(track.counter.u(chainage_m)), 4), "frame": index,
                         "u_frames": round(u_frames, 2) if np.isfinite(u_frames) else None,
                         "time_s": round(index / ingest.info.fps, 3), "camera": segment}}
-    return ingest.info, index, ingest.box, mapping
+    return ingest, index, mapping
 
 
 def _probe_contour(grays, und, shape: str, mask) -> dict:

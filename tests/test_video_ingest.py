@@ -133,11 +133,14 @@ def test_probe_command_on_a_real_frame(capsys):
 
 
 def test_probe_at_a_chainage_finds_the_first_frame_there(capsys):
-    """``probe VIDEO --chainage C``: the track maps C to the first frame whose counter shows it, with u."""
+    """``probe VIDEO --chainage C``: the track maps C to the first frame whose counter shows it, with u; the
+    contour there is found."""
     video = SAMPLES / "S02-circular-water-offset" / "video.mp4"
     truth = [float(r["counter_m"]) for r in csv.DictReader(open(SAMPLES / "S02-circular-water-offset" / "truth" / "frames.csv"))]
-    assert main(["probe", str(video), "--chainage", "1.5", "--json"]) == 0
+    cert = SAMPLES / "certificates" / "SYN-720x576.json"
+    assert main(["probe", str(video), "--chainage", "1.5", "--certificate", str(cert), "--json"]) == 0
     report = json.loads(capsys.readouterr().out)
+    assert report["contour"]["rings"] >= 3      # the overlay masked from the frames the track's pass kept
     at = report["at_chainage"]
     frame = at["frame"]
     assert report["frame"] == frame and abs(truth[frame] - 1.5) < 0.02

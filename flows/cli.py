@@ -156,7 +156,7 @@ def cmd_probe(args: argparse.Namespace) -> int:
 
     from pipeline.camera import load_certificate
     from pipeline.video.overlay_ocr import OverlayReader, parse_chainage
-    from pipeline.video.reader import check_integrity, iter_frames, read_frame
+    from pipeline.video.reader import check_integrity, iter_frames, read_frame, read_image
     from pipeline.video.undistort import Undistorter
 
     path = Path(args.source)
@@ -168,10 +168,7 @@ def cmd_probe(args: argparse.Namespace) -> int:
         if args.chainage is not None:
             _say(f"pipegauge probe: error: --chainage needs a video ({path} is an image)")
             return EXIT_USAGE
-        frame = cv2.imread(str(path), cv2.IMREAD_COLOR)
-        if frame is None:
-            _say(f"pipegauge probe: error: {path}: not a readable image")
-            return EXIT_FAILED
+        frame = read_image(path)
         index, first = 0, [frame]
     else:
         if args.chainage is not None:
@@ -222,7 +219,7 @@ def cmd_probe(args: argparse.Namespace) -> int:
         report["contour"].pop("_polygons", None)
         report["contour"].pop("_vp", None)
     elif args.debug_image:
-        cv2.imwrite(str(args.debug_image), frame)
+        _write_image(args.debug_image, frame)
     if args.json:
         print(json.dumps(report, indent=2))
     else:
@@ -309,7 +306,24 @@ def _draw_contour(image, contour: dict, out_path, still_ring: dict | None = None
     vp = contour.pop("_vp", None)
     if vp is not None:
         cv2.drawMarker(image, (int(round(vp[0])), int(round(vp[1]))), (0, 0, 255), cv2.MARKER_CROSS, 15, 2)
-    cv2.imwrite(str(out_path), image)
+    _write_image(out_path, image)
+
+
+def _write_image(out_path, image) -> None:
+    """Write an image atomically; an unwritable path or an unknown extension raises OSError naming the path."""
+    import cv2
+
+    from pipeline.atomic import atomic_path
+
+    out_path = Path(out_path)
+    try:
+        ok, data = cv2.imencode(out_path.suffix or ".png", image)
+    except cv2.error:
+        ok = False
+    if not ok:
+        raise OSError(22, f"cannot encode an image as {out_path.suffix!r}; use .png or .jpg", str(out_path))
+    with atomic_path(out_path) as tmp:
+        tmp.write_bytes(data.tobytes())
 
 
 # -- parser --------------------------------------------------------------------

@@ -29,14 +29,29 @@ def atomic_path(path: str | os.PathLike) -> Iterator[Path]:
     ``path`` is untouched.
     """
     path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.stem}.tmp-", suffix=path.suffix, dir=path.parent)
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        fd, tmp = tempfile.mkstemp(prefix=f".{path.stem[:64]}.tmp-", suffix=path.suffix[:16], dir=path.parent)
+    except OSError as exc:
+        raise _naming(exc, path) from exc
     os.close(fd)
     tmp_path = Path(tmp)
     try:
         yield tmp_path
         os.chmod(tmp_path, 0o666 & ~_umask())
         os.replace(tmp_path, path)
+    except OSError as exc:
+        tmp_path.unlink(missing_ok=True)
+        raise _naming(exc, path, tmp_path) from exc
     except BaseException:
         tmp_path.unlink(missing_ok=True)
         raise
+
+
+def _naming(exc: OSError, path: Path, tmp: Path | None = None) -> OSError:
+    """The same error naming the file the user asked for, not the temporary it was written under."""
+    message = exc.strerror or str(exc)
+    if tmp is not None:
+        message = message.replace(str(tmp), str(path))
+    named = OSError(exc.errno, message, str(path))
+    return named

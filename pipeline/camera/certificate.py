@@ -28,6 +28,7 @@ import numpy as np
 
 from ..atomic import atomic_path
 from ..errors import CertificateError, CertificateExpiredError
+from ..limits import MAX_JSON_BYTES
 from ..metrology import InputSet, JointNormal, Normal
 
 __all__ = ["FORMAT_NAME", "FORMAT_VERSION", "Parameter", "Certificate", "load_certificate", "certificate_from_dict"]
@@ -481,6 +482,10 @@ def load_certificate(
     """
     source = str(path)
     try:
+        size = Path(path).stat().st_size
+        if size > MAX_JSON_BYTES:
+            raise CertificateError(f"{source}: {size:,} bytes; a certificate is a JSON file of at most "
+                                   f"{MAX_JSON_BYTES:,} bytes (docs/operations.md, input limits); check the file")
         text = Path(path).read_text(encoding="utf-8")
     except FileNotFoundError:
         raise CertificateError(f"{source}: no such certificate file; check the path or the certificate id") from None

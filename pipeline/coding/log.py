@@ -15,6 +15,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from ..errors import ObservationLogError
+from ..limits import (MAX_CSV_BYTES, MAX_DISTANCE_M, MAX_FRAME_INDEX, MAX_LOG_ROWS, MAX_MARK_LINES, MAX_REMARK_CHARS,
+                      MAX_ROW_NUMBER, MAX_TEXT_FIELD_CHARS)
 from .codes import CODES, UNITS, Quantification
 
 __all__ = ["Observation", "Mark", "RowProblem", "read_log", "read_marks", "check_marks_in_frame",
@@ -83,12 +85,23 @@ class Mark:
     lines: tuple[int, int]
 
 
-def _read_table(path: Path, required: tuple[str, ...], what: str) -> list[dict[str, str]]:
+def _read_table(path: Path, required: tuple[str, ...], what: str, max_rows: int) -> list[dict[str, str]]:
+    """The rows of a delivered CSV file, refused whole when it is larger than the limits (pipeline.limits)."""
     try:
+        size = path.stat().st_size
+        if size > MAX_CSV_BYTES:
+            raise ObservationLogError(f"{path}: {size:,} bytes; pipegauge reads a {what} of at most "
+                                      f"{MAX_CSV_BYTES:,} bytes (docs/operations.md, input limits); check the file")
         with path.open(newline="", encoding="utf-8-sig") as fh:
             reader = csv.DictReader(fh)
             columns = reader.fieldnames or []
-            rows = list(reader)
+            rows = []
+            for raw in reader:
+                if len(rows) == max_rows:
+                    raise ObservationLogError(
+                        f"{path}: more than {max_rows:,} rows; pipegauge reads a {what} of at most {max_rows:,} "
+                        "rows (docs/operations.md, input limits); deliver one file per pipe section")
+                rows.append(raw)
     except FileNotFoundError:
         raise ObservationLogError(f"{path}: the {what} is missing; the package must hold it (docs/formats.md)") from None
     except (UnicodeDecodeError, csv.Error) as exc:
@@ -113,6 +126,11 @@ def _int(text: str) -> int | None:
     return int(value) if value is not None and value == int(value) else None
 
 
+def _clip(text: str, limit: int = MAX_REMARK_CHARS) -> str:
+    """Delivered text as quoted back in a message or kept as delivered: at most ``limit`` characters."""
+    return text if len(text) <= limit else text[:limit] + "..."
+
+
 def read_log(path: str | os.PathLike, section_length_m: float) -> list[Observation]:
     """Parse and validate observations.csv; each Observation carries its own problems.
 
@@ -122,24 +140,29 @@ def read_log(path: str | os.PathLike, section_length_m: float) -> list[Observati
     name = path.name
     observations: list[Observation] = []
     seen: dict[int, int] = {}
-    for line, raw in enumerate(_read_table(path, LOG_COLUMNS, "observation log"), start=2):
+    for line, raw in enumerate(_read_table(path, LOG_COLUMNS, "observation log", MAX_LOG_ROWS), start=2):
         f = {k: (raw.get(k) or "").strip() for k in LOG_COLUMNS}
         problems: list[RowProblem] = []
-        label = f"row {f['row']}" if f["row"] else f"line {line}"
+        label = f"row {_clip(f['row'], 20)}" if f["row"] else f"line {line}"
 
         def bad(column: str, message: str) -> None:
             problems.append(RowProblem(name, label, column, message))
 
+        for column in LOG_COLUMNS:
+            limit = MAX_REMARK_CHARS if column == "remark" else MAX_TEXT_FIELD_CHARS
+            if len(f[column]) > limit:
+                bad(column, f"{len(f[column]):,} characters; at most {limit} are read; shorten it")
+                f[column] = f[column][:limit]
         row = _int(f["row"])
-        if row is None or row < 0:
-            bad("row", f"{f['row']!r} is not a row number (a whole number >= 0)")
+        if row is None or not 0 <= row <= MAX_ROW_NUMBER:
+            bad("row", f"{_clip(f['row'])!r} is not a row number (a whole number 0-{MAX_ROW_NUMBER})")
             row = -line
         elif row in seen:
             bad("row", f"row number {row} is used twice (lines {seen[row]} and {line}); number the rows uniquely")
         seen.setdefault(row, line)
         distance = _float(f["distance_m"])
-        if distance is None or distance < 0:
-            bad("distance_m", f"{f['distance_m']!r} is not a distance in m (a number >= 0)")
+        if distance is None or not 0 <= distance <= MAX_DISTANCE_M:
+            bad("distance_m", f"{_clip(f['distance_m'])!r} is not a distance in m (a number 0-{MAX_DISTANCE_M:g})")
             distance = math.nan
         elif distance > section_length_m + DISTANCE_SLACK_M:
             bad("distance_m", f"{distance} m lies beyond the section's length {section_length_m} m (header); "
@@ -197,7 +220,7 @@ def read_log(path: str | os.PathLike, section_length_m: float) -> list[Observati
         observations.append(Observation(
             row, distance, code, f["char1"].upper(), f["char2"].upper(), values["q1"], f["q1_unit"],
             values["q2"], f["q2_unit"], clocks["clock_from"], clocks["clock_to"], f["at_joint"].upper() == "Y",
-            f["continuous"].upper(), video_time, f["photo"], f["remark"], {k: raw.get(k) or "" for k in LOG_COLUMNS},
+            f["continuous"].upper(), video_time, f["photo"], f["remark"], {k: _clip(raw.get(k) or "") for k in LOG_COLUMNS},
             problems))
     _check_continuous(observations, name)
     return observations
@@ -238,7 +261,7 @@ def read_marks(path: str | os.PathLike, observations: list[Observation]) -> tupl
     by_row = {o.row: o for o in observations}
     problems: list[RowProblem] = []
     groups: dict[tuple[int, str], dict[str, tuple]] = {}
-    for line, raw in enumerate(_read_table(path, MARK_COLUMNS, "marks file"), start=2):
+    for line, raw in enumerate(_read_table(path, MARK_COLUMNS, "marks file", MAX_MARK_LINES), start=2):
         f = {k: (raw.get(k) or "").strip() for k in (*MARK_COLUMNS, "u_px")}
         where = f"line {line}"
 
@@ -250,7 +273,7 @@ def read_marks(path: str | os.PathLike, observations: list[Observation]) -> tupl
         quantity, point = f["quantity"].upper(), f["point"].lower()
         u = _float(f["u_px"]) if f["u_px"] else DEFAULT_MARK_U_PX
         if row not in by_row:
-            bad("row", f"{f['row']!r} is not a row of the observation log")
+            bad("row", f"{_clip(f['row'], 20)!r} is not a row of the observation log")
             continue
         obs = by_row[row]
         q = obs.quantification(quantity) if quantity in ("Q1", "Q2") else None
@@ -260,8 +283,8 @@ def read_marks(path: str | os.PathLike, observations: list[Observation]) -> tupl
             bad("quantity", f"row {row} is {(obs.code + ' ' + obs.char1).strip()}: its {quantity} is not measured in the image")
         if point not in ("a", "b"):
             bad("point", f"{f['point']!r}: use a or b")
-        if frame is None or frame < 0:
-            bad("frame", f"{f['frame']!r} is not a frame index (a whole number >= 0)")
+        if frame is None or not 0 <= frame <= MAX_FRAME_INDEX:
+            bad("frame", f"{_clip(f['frame'])!r} is not a frame index (a whole number 0-{MAX_FRAME_INDEX})")
         if x is None or y is None:
             bad("x_px/y_px", f"({f['x_px']!r}, {f['y_px']!r}) is not an image point in px")
         if u is None or not 0 < u < 20:

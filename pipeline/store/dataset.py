@@ -2,20 +2,32 @@
 
 Layout (docs/dataset.md)::
 
-    <root>/<table>/inspection_date=YYYY-MM-DD/<inspection_id>.parquet
+    <root>/inspections/inspection_date=YYYY-MM-DD/<stem>.parquet
+    <root>/<table>/inspection_date=YYYY-MM-DD/<stem>~<write_id>.parquet
 
-for the tables ``inspections``, ``observations``, ``measurements`` and
-``thumbnails``. Re-processing a package replaces its files, so rows are never
-duplicated; each file is written to a temporary name and renamed, and the
-inspection's row is written last, so a crash leaves the old result or the
-new one. Any Parquet engine reads the folder as a hive-partitioned dataset.
+for the detail tables ``observations``, ``measurements`` and ``thumbnails``.
+``<stem>`` is the inspection id with every character outside [A-Za-z0-9._-]
+(and a leading '.' or '_') percent-encoded, so two ids never share a file and
+no stored file is hidden from a reader.
+
+Storing is a commit: every row carries the ``write_id`` of the store that
+wrote it; the detail files of a new store are written under new names
+beside the old ones, then the inspection's row is replaced atomically (the
+commit), then the files of older stores are removed. Readers keep only the
+detail rows whose ``write_id`` is the one their inspection's row names, so a
+store that fails or is killed part-way leaves the previous result whole and
+visible, and nothing of the failed attempt. Schema-2 files (no ``write_id``)
+read as a store whose id is empty. Any Parquet engine reads each table's
+folder as a hive-partitioned dataset (without the commit filter).
 """
 
 from __future__ import annotations
 
 import datetime as dt
+import hashlib
 import os
 import re
+import secrets
 from pathlib import Path
 
 import pandas as pd
@@ -27,23 +39,30 @@ from ..atomic import atomic_path
 from ..errors import StoreError
 from .schema import SCHEMA_VERSION, SCHEMAS, TABLES
 
-__all__ = ["write_inspection", "read_table", "inspection_files", "stored_input_keys"]
+__all__ = ["write_inspection", "read_table", "inspection_files", "stored_input_key", "file_stem"]
 
-_SAFE_ID = re.compile(r"[^A-Za-z0-9._-]")
+_UNSAFE = re.compile(r"[^A-Za-z0-9._-]|^[._]")
+DETAIL_TABLES = ("thumbnails", "measurements", "observations")
+_NO_WRITE = ""          # the write id of schema-2 rows, stored before write ids existed
 
 
 def file_stem(inspection_id: str) -> str:
-    """An inspection id as a file name stem: characters outside [A-Za-z0-9._-] become '_'."""
-    return _SAFE_ID.sub("_", inspection_id)
+    """An inspection id as a file name stem, one-to-one: unsafe characters become %XX (UTF-8 bytes).
 
-
-def _file_name(inspection_id: str) -> str:
-    return file_stem(inspection_id) + ".parquet"
+    Ids made of [A-Za-z0-9._-] and not starting with '.' or '_' are their own
+    stem, as in schema 2.
+    """
+    stem = _UNSAFE.sub(lambda m: "".join(f"%{b:02X}" for b in m[0].encode()), inspection_id)
+    if len(stem) > 200:     # file names are limited to 255 bytes: a long id keeps its start and a digest
+        stem = stem[:150] + "%" + hashlib.sha256(inspection_id.encode()).hexdigest()[:32]
+    return stem
 
 
 def inspection_files(root: str | os.PathLike, table: str, inspection_id: str) -> list[Path]:
-    """The stored files of one inspection in one table (normally one)."""
-    return sorted((Path(root) / table).glob(f"inspection_date=*/{_file_name(inspection_id)}"))
+    """The stored files of one inspection in one table, of every store not yet cleaned up (normally one)."""
+    stem = file_stem(inspection_id)
+    folder = Path(root) / table
+    return sorted([*folder.glob(f"inspection_date=*/{stem}.parquet"), *folder.glob(f"inspection_date=*/{stem}~*.parquet")])
 
 
 def _arrow_table(table: str, records: list[dict]) -> pa.Table:
@@ -51,45 +70,83 @@ def _arrow_table(table: str, records: list[dict]) -> pa.Table:
     rows = [{k: r.get(k) for k in schema.names} for r in records]
     try:
         t = pa.Table.from_pylist(rows, schema=schema)
-    except (pa.ArrowInvalid, pa.ArrowTypeError) as exc:
+    except (pa.ArrowInvalid, pa.ArrowTypeError, OverflowError) as exc:
         raise StoreError(f"{table}: a record does not fit the schema ({exc})") from exc
     return t.replace_schema_metadata({"pipegauge_schema_version": SCHEMA_VERSION, "table": table})
 
 
 def write_inspection(root: str | os.PathLike, inspection: dict, observations: list[dict],
                      measurements: list[dict], thumbnails: list[dict] | None = None) -> dict[str, Path]:
-    """Store one inspection's records, replacing whatever was stored for its id; returns the files written.
+    """Store one inspection's records as one commit, replacing what was stored for its id; returns the files.
 
-    The inspections row is written last: it is the commit mark a run checks before skipping a package.
+    Every table is converted first, so a record that does not fit the schema
+    raises StoreError before anything is written; the inspection's row is
+    written last and is the commit (see the module's docstring).
     """
     root = Path(root)
     iid = inspection["inspection_id"]
     date = inspection.get("inspection_date") or inspection["processed_at"].date()
     if isinstance(date, str):
         date = dt.date.fromisoformat(date)
-    written = {}
-    for table, records in (("thumbnails", thumbnails or []), ("measurements", measurements),
-                           ("observations", observations), ("inspections", [inspection])):
-        keyed = [{**r, "inspection_id": iid} for r in records]
-        target = root / table / f"inspection_date={date.isoformat()}" / _file_name(iid)
-        old = [p for p in inspection_files(root, table, iid) if p != target]
-        with atomic_path(target) as tmp:
-            pq.write_table(_arrow_table(table, keyed), tmp)
-        for p in old:                       # the same package stored under another date before
-            p.unlink(missing_ok=True)
-        written[table] = target
+    write_id = secrets.token_hex(8)
+    stem, partition = file_stem(iid), f"inspection_date={date.isoformat()}"
+    records = {"thumbnails": thumbnails or [], "measurements": measurements, "observations": observations,
+               "inspections": [inspection]}
+    tables = {t: _arrow_table(t, [{**r, "inspection_id": iid, "write_id": write_id} for r in rs])
+              for t, rs in records.items()}
+    written: dict[str, Path] = {}
+    try:
+        for table in DETAIL_TABLES:
+            target = root / table / partition / f"{stem}~{write_id}.parquet"
+            with atomic_path(target) as tmp:
+                pq.write_table(tables[table], tmp)
+            written[table] = target
+    except BaseException:
+        for path in written.values():       # nothing of an attempt that did not commit is left behind
+            path.unlink(missing_ok=True)
+        raise
+    target = root / "inspections" / partition / f"{stem}.parquet"
+    with atomic_path(target) as tmp:
+        pq.write_table(tables["inspections"], tmp)
+    written["inspections"] = target
+    for table in TABLES:                    # older stores' files, also under another date
+        for path in inspection_files(root, table, iid):
+            if path != written[table]:
+                path.unlink(missing_ok=True)
     return written
 
 
 def read_table(root: str | os.PathLike, table: str, *, start: dt.date | None = None, end: dt.date | None = None,
-               inspection_ids: list[str] | None = None) -> pd.DataFrame:
-    """One table of the dataset as a DataFrame, optionally for inspection dates start..end (inclusive) and ids."""
+               inspection_ids: list[str] | None = None, committed: bool = True) -> pd.DataFrame:
+    """One table of the dataset as a DataFrame, optionally for inspection dates start..end (inclusive) and ids.
+
+    committed : keep only what the inspections' commits name (module docstring): one
+    inspections row per id (the latest store), and the detail rows of that store.
+    False reads every row of every file, for diagnosis.
+    """
     if table not in TABLES:
         raise StoreError(f"unknown table {table!r}; one of {', '.join(TABLES)}")
+    frame = _read_files(root, table, start, end, inspection_ids)
+    if not committed:
+        return frame
+    commits = frame if table == "inspections" else _read_files(root, "inspections", start, end, inspection_ids,
+                                                                columns=["inspection_id", "write_id", "processed_at"])
+    commits = (commits.sort_values("processed_at", kind="stable", na_position="first")
+               .drop_duplicates("inspection_id", keep="last"))
+    if table == "inspections":
+        return commits.reset_index(drop=True)
+    keep = pd.MultiIndex.from_frame(commits[["inspection_id", "write_id"]].fillna(_NO_WRITE))
+    mine = pd.MultiIndex.from_frame(frame[["inspection_id", "write_id"]].fillna(_NO_WRITE))
+    return frame[mine.isin(keep)].reset_index(drop=True)
+
+
+def _read_files(root: str | os.PathLike, table: str, start: dt.date | None, end: dt.date | None,
+                inspection_ids: list[str] | None, columns: list[str] | None = None) -> pd.DataFrame:
     folder = Path(root) / table
     schema = SCHEMAS[table]
     if not folder.is_dir():
-        return schema.empty_table().to_pandas()
+        empty = schema.empty_table().to_pandas()
+        return empty[columns] if columns else empty
     partitioning = ds.partitioning(pa.schema([schema.field("inspection_date")]), flavor="hive")
     try:
         dataset = ds.dataset(folder, format="parquet", partitioning=partitioning, schema=schema,
@@ -100,18 +157,23 @@ def read_table(root: str | os.PathLike, table: str, *, start: dt.date | None = N
                      ds.field("inspection_id").isin(inspection_ids) if inspection_ids else None):
             if cond is not None:
                 expr = cond if expr is None else expr & cond
-        return dataset.to_table(filter=expr).to_pandas()
+        return dataset.to_table(filter=expr, columns=columns).to_pandas()
     except (pa.ArrowInvalid, OSError) as exc:
         raise StoreError(f"{folder}: cannot be read as a Parquet dataset ({exc})") from exc
 
 
 def stored_input_key(root: str | os.PathLike, inspection_id: str) -> dict | None:
-    """What is stored of an inspection for a run to skip it: input_sha256, status, error, n_measurements; or None."""
-    files = inspection_files(root, "inspections", inspection_id)
-    if not files:
-        return None
-    try:
-        rows = pq.read_table(files[-1], columns=["input_sha256", "status", "error", "n_measurements"]).to_pylist()
-    except (pa.ArrowInvalid, OSError, KeyError):
-        return None                     # unreadable or from an older schema: process the package again
-    return rows[0] if rows else None
+    """What is stored of an inspection for a run to skip it: input_sha256, status, error, n_measurements,
+    package_folder; or None."""
+    rows = []
+    for path in inspection_files(root, "inspections", inspection_id):
+        try:
+            names = pq.read_schema(path).names
+            columns = [c for c in ("input_sha256", "status", "error", "n_measurements", "package_folder",
+                                   "processed_at") if c in names]
+            rows += pq.read_table(path, columns=columns).to_pylist()
+        except (pa.ArrowInvalid, OSError):
+            continue                    # unreadable: process the package again
+    if not rows or any("input_sha256" not in r for r in rows):
+        return None                     # none, or from a schema without the key: process the package again
+    return max(rows, key=lambda r: r.get("processed_at") or dt.datetime.min.replace(tzinfo=dt.timezone.utc))

@@ -12,7 +12,7 @@ import pyarrow as pa
 
 __all__ = ["TABLES", "SCHEMAS", "BUDGET_TYPE", "SCHEMA_VERSION"]
 
-SCHEMA_VERSION = "2"
+SCHEMA_VERSION = "3"
 
 
 def _f(name: str, type_: pa.DataType, unit: str = "", doc: str = "") -> pa.Field:
@@ -24,6 +24,8 @@ def _f(name: str, type_: pa.DataType, unit: str = "", doc: str = "") -> pa.Field
 
 _KEY = [_f("inspection_id", pa.string(), doc="package id of the delivery"),
         _f("inspection_date", pa.date32(), doc="ABF inspection date; the partition key")]
+# Schema 3: the store that wrote a row; a detail row counts only when its inspection's row names the same store.
+_WRITE = [_f("write_id", pa.string(), doc="the store (commit) that wrote this row; null in schema-2 files")]
 
 BUDGET_TYPE = pa.list_(pa.struct([
     _f("label", pa.string()), _f("description", pa.string()), _f("estimate", pa.float64(), "input unit"),
@@ -56,7 +58,7 @@ INSPECTIONS = pa.schema(_KEY + [
     _f("n_problems", pa.int32()), _f("processed_at", pa.timestamp("us", tz="UTC")),
     _f("time_total_s", pa.float64(), "s"), _f("time_track_s", pa.float64(), "s"),
     _f("time_contour_s", pa.float64(), "s"), _f("time_measure_s", pa.float64(), "s"),
-])
+] + _WRITE)
 
 OBSERVATIONS = pa.schema(_KEY + [
     _f("row", pa.int32()), _f("distance_m", pa.float64(), "m"), _f("code", pa.string()),
@@ -65,7 +67,7 @@ OBSERVATIONS = pa.schema(_KEY + [
     _f("q2_unit", pa.string()), _f("clock_from", pa.int8(), "clock hour"), _f("clock_to", pa.int8(), "clock hour"),
     _f("at_joint", pa.bool_()), _f("continuous", pa.string()), _f("video_time_s", pa.float64(), "s"),
     _f("photo", pa.string()), _f("remark", pa.string()), _f("valid", pa.bool_()), _f("problems", pa.string()),
-])
+] + _WRITE)
 
 MEASUREMENTS = pa.schema(_KEY + [
     _f("row", pa.int32()), _f("quantity", pa.string(), doc="Q1 | Q2"),
@@ -86,14 +88,14 @@ MEASUREMENTS = pa.schema(_KEY + [
     _f("b_y_px", pa.float64(), "px"), _f("u_mark_px", pa.float64(), "px"),
     _f("confident", pa.bool_()), _f("warnings", pa.string()), _f("status", pa.string(), doc="ok | error"),
     _f("error", pa.string()), _f("budget", BUDGET_TYPE),
-])
+] + _WRITE)
 
 THUMBNAILS = pa.schema(_KEY + [
     _f("row", pa.int32()), _f("quantity", pa.string(), doc="Q1 | Q2"), _f("source", pa.string(), doc="marks | contour"),
     _f("frame", pa.int64()),
     _f("width_px", pa.int32(), "px"), _f("height_px", pa.int32(), "px"),
     _f("image_jpeg", pa.binary(), doc="the ideal frame scaled, with the cross-section contour and the marks drawn"),
-])
+] + _WRITE)
 
 SCHEMAS = {"inspections": INSPECTIONS, "observations": OBSERVATIONS, "measurements": MEASUREMENTS,
            "thumbnails": THUMBNAILS}

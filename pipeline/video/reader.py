@@ -7,12 +7,17 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable, Iterator
 
-import cv2
-import numpy as np
-
 from ..errors import CorruptVideoError
+from ..limits import MAX_IMAGE_PIXELS, MAX_IMAGE_SIDE_PX, MAX_VIDEO_BYTES, MAX_VIDEO_SECONDS
 
-__all__ = ["VideoInfo", "FrameScan", "probe_video", "check_integrity", "iter_frames", "read_frame"]
+# OpenCV refuses to decode a still larger than this (its own default is 2^30 px); read once, at the first imread.
+os.environ.setdefault("OPENCV_IO_MAX_IMAGE_PIXELS", str(MAX_IMAGE_PIXELS))
+
+import cv2  # noqa: E402
+import numpy as np  # noqa: E402
+
+__all__ = ["VideoInfo", "FrameScan", "probe_video", "check_integrity", "check_image_size", "iter_frames", "read_frame",
+           "read_image"]
 
 
 @dataclass(frozen=True)
@@ -37,6 +42,9 @@ def _open(path: str | os.PathLike) -> cv2.VideoCapture:
         raise CorruptVideoError(f"{p}: no such video file; check the package's file list")
     if p.stat().st_size == 0:
         raise CorruptVideoError(f"{p}: the video file is empty; ask the contractor to deliver it again")
+    if p.stat().st_size > MAX_VIDEO_BYTES:
+        raise CorruptVideoError(f"{p}: {p.stat().st_size:,} bytes; pipegauge reads a video of at most "
+                                f"{MAX_VIDEO_BYTES:,} bytes (docs/operations.md, input limits); deliver one video per section")
     cap = cv2.VideoCapture(str(p))
     if not cap.isOpened():
         raise CorruptVideoError(f"{p}: OpenCV cannot open this video (unknown container or damaged header); "
@@ -56,7 +64,20 @@ def probe_video(path: str | os.PathLike) -> VideoInfo:
         cap.release()
     if info.width <= 0 or info.height <= 0 or not info.fps > 0:
         raise CorruptVideoError(f"{path}: the video reports no image size or frame rate; the file is damaged")
+    check_image_size(info.width, info.height, path)
+    if info.duration_s > MAX_VIDEO_SECONDS:
+        raise CorruptVideoError(f"{path}: {info.duration_s / 3600:.1f} h of video ({info.frame_count:,} frames at "
+                                f"{info.fps:g} fps); pipegauge reads at most {MAX_VIDEO_SECONDS / 3600:g} h "
+                                "(docs/operations.md, input limits); deliver one video per section")
     return info
+
+
+def check_image_size(width: int, height: int, path: str | os.PathLike) -> None:
+    """Refuse a frame or still larger than the input limits (pipeline.limits) before it is decoded."""
+    if max(width, height) > MAX_IMAGE_SIDE_PX or width * height > MAX_IMAGE_PIXELS:
+        raise CorruptVideoError(f"{path}: {width}x{height} px; pipegauge reads images of at most "
+                                f"{MAX_IMAGE_SIDE_PX} px a side and {MAX_IMAGE_PIXELS:,} px in all "
+                                "(docs/operations.md, input limits)")
 
 
 def check_integrity(path: str | os.PathLike) -> VideoInfo:
@@ -129,6 +150,16 @@ def iter_frames(path: str | os.PathLike, every: int = 1, grab_only_between: bool
             index += 1
     finally:
         cap.release()
+
+
+def read_image(path: str | os.PathLike) -> np.ndarray:
+    """A still image as BGR; raises CorruptVideoError naming the file when unreadable or over the size limits."""
+    image = cv2.imread(str(path), cv2.IMREAD_COLOR)
+    if image is None:
+        raise CorruptVideoError(f"{path}: not a readable image (or larger than {MAX_IMAGE_PIXELS:,} px); "
+                                "supply a PNG or JPEG file")
+    check_image_size(image.shape[1], image.shape[0], path)
+    return image
 
 
 def read_frame(path: str | os.PathLike, index: int) -> np.ndarray:

@@ -331,34 +331,47 @@ def _write_image(out_path, image) -> None:
 # -- measure / export -----------------------------------------------------------
 
 def cmd_measure(args: argparse.Namespace) -> int:
-    from pipeline.measurement import measure_package
-    from pipeline.store import write_inspection
+    from pipeline.inbox import duplicate_claims
+    from pipeline.store.lock import dataset_lock
     from pipeline.video.overlay_ocr import OverlayReader
 
-    reader = OverlayReader()
     failed = 0
-    for folder in args.packages:
-        result = measure_package(folder, certificates=args.certificates, model=args.model, reader=reader,
-                                 progress=_say if args.verbose else None)
-        write_inspection(args.data, result.inspection, result.observations, result.measurements, result.thumbnails)
-        rec = result.inspection
-        _say(f"{rec['inspection_id']}: {rec['status']}" + (f" ({rec['error']})" if rec["error"] else "")
-             + f"; stored in {args.data}")
-        for problem in rec.get("problems") or []:
-            _say(f"  {problem}")
-        failed += rec["status"] != "ok"
-        if args.json:
-            print(json.dumps({"inspection": rec, "measurements": result.measurements}, default=str))
-            continue
-        for m in result.measurements:
-            what = m["quantity"] + (" from the image" if m.get("source") == "contour" else "")
-            if m["status"] == "ok":
-                print(f"{rec['inspection_id']} row {m['row']:3d} {m['code']} {m['char1'] or '-'} {what}: "
-                      f"{m['value']:9.2f} +- {m['U95']:.2f} {m['unit']:2s} (U95, {m['interval']})"
-                      + ("" if m["confident"] else "  LOW CONFIDENCE: " + (m["warnings"] or "")))
-            else:
-                print(f"{rec['inspection_id']} row {m['row']:3d} {m['code']} {what}: not measured: {m['error']}")
+    duplicates = duplicate_claims([Path(p) for p in args.packages])
+    for folder, error in duplicates.items():
+        _say(f"{folder}: failed ({error})")
+        failed += 1
+    with dataset_lock(args.data):           # not while a run (or another measure) writes the same dataset
+        reader = OverlayReader()
+        for folder in (p for p in args.packages if Path(p) not in duplicates):
+            failed += _measure_one(folder, args, reader)
     return EXIT_FAILED if failed else EXIT_OK
+
+
+def _measure_one(folder, args: argparse.Namespace, reader) -> int:
+    """Measure and store one package, print its quantities; returns 1 when it is not ok."""
+    from pipeline.measurement import measure_package
+    from pipeline.store import write_inspection
+
+    result = measure_package(folder, certificates=args.certificates, model=args.model, reader=reader,
+                             progress=_say if args.verbose else None)
+    write_inspection(args.data, result.inspection, result.observations, result.measurements, result.thumbnails)
+    rec = result.inspection
+    _say(f"{rec['inspection_id']}: {rec['status']}" + (f" ({rec['error']})" if rec["error"] else "")
+         + f"; stored in {args.data}")
+    for problem in rec.get("problems") or []:
+        _say(f"  {problem}")
+    if args.json:
+        print(json.dumps({"inspection": rec, "measurements": result.measurements}, default=str))
+        return int(rec["status"] != "ok")
+    for m in result.measurements:
+        what = m["quantity"] + (" from the image" if m.get("source") == "contour" else "")
+        if m["status"] == "ok":
+            print(f"{rec['inspection_id']} row {m['row']:3d} {m['code']} {m['char1'] or '-'} {what}: "
+                  f"{m['value']:9.2f} +- {m['U95']:.2f} {m['unit']:2s} (U95, {m['interval']})"
+                  + ("" if m["confident"] else "  LOW CONFIDENCE: " + (m["warnings"] or "")))
+        else:
+            print(f"{rec['inspection_id']} row {m['row']:3d} {m['code']} {what}: not measured: {m['error']}")
+    return int(rec["status"] != "ok")
 
 
 # -- run / serve -----------------------------------------------------------------
@@ -401,25 +414,31 @@ def cmd_run(args: argparse.Namespace) -> int:
     if (code := _check_inbox(args)) is not None:
         return code
     _quiet_prefect()
+    from flows.embedded_server import embedded_prefect_server
     from flows.nightly import dataset_folder, nightly, task_runner_for
+    from pipeline.store.lock import dataset_lock
 
     if args.dask and (problem := _dask_unreachable(args.dask)):
         _say(f"pipegauge run: error: cannot reach the Dask scheduler at {args.dask} ({problem}); check that "
              "`dask scheduler` runs there and that this machine may connect to it")
         return EXIT_FAILED
     runner = task_runner_for(args.workers, args.dask)
-    _say(f"pipegauge run: {args.inbox} -> {args.out} ({args.model} model, "
-         + (f"Dask cluster {args.dask})" if args.dask else f"{args.workers} worker(s))"))
-    state = nightly.with_options(task_runner=runner)(
-        str(args.inbox), str(args.out), args.model, str(args.certificates) if args.certificates else None,
-        return_state=True)
-    rows = state.result(raise_on_failure=False)        # every package's row, also when the run failed
+    # The lock first: a second run is refused before Prefect starts anything.
+    with dataset_lock(dataset_folder(args.out)), embedded_prefect_server(args.out, _say):
+        _say(f"pipegauge run: {args.inbox} -> {args.out} ({args.model} model, "
+             + (f"Dask cluster {args.dask})" if args.dask else f"{args.workers} worker(s))"))
+        state = nightly.with_options(task_runner=runner)(
+            str(args.inbox), str(args.out), args.model, str(args.certificates) if args.certificates else None,
+            return_state=True)
+        rows = state.result(raise_on_failure=False)        # every package's row, also when the run failed
     if isinstance(rows, BaseException):
         raise rows
     counts = {s: sum(r["status"] == s for r in rows) for s in ("ok", "partial", "failed")}
     new = sum(r["processed"] for r in rows)
+    refused = sum(r["refused"] for r in rows)
     _say(f"pipegauge run: {len(rows)} package(s): " + ", ".join(f"{n} {s}" for s, n in counts.items())
-         + f"; {new} processed, {len(rows) - new} unchanged since the last run; dataset in {dataset_folder(args.out)}")
+         + f"; {new} processed, {len(rows) - new - refused} unchanged since the last run"
+         + (f", {refused} refused unread" if refused else "") + f"; dataset in {dataset_folder(args.out)}")
     return EXIT_FAILED if counts["failed"] else EXIT_OK
 
 

@@ -4,7 +4,8 @@ Layout of OUT (docs/operations.md)::
 
     OUT/dataset/   the Parquet dataset (docs/dataset.md)
     OUT/reports/   one PDF condition report per inspection, and summary-YYYY-MM-DD.pdf per night
-    OUT/.pipegauge.lock
+    OUT/dataset/.pipegauge.lock   held by the one process writing the dataset
+    OUT/.prefect-server.pid       the embedded Prefect server of the run in progress (pipegauge run)
 
 Each package is its own task run; tasks pass folder paths and plain
 records, never frames. Failure isolation: a bad package is a completed task
@@ -18,6 +19,7 @@ leaving its summary table as an artifact.
 from __future__ import annotations
 
 import datetime as dt
+import itertools
 import os
 import threading
 from pathlib import Path
@@ -30,8 +32,9 @@ from prefect.states import Failed
 from prefect.task_runners import ProcessPoolTaskRunner, TaskRunner, ThreadPoolTaskRunner
 
 from flows.console import say
-from pipeline.inbox import PackageOutcome, discover_packages, process_package
+from pipeline.inbox import PackageOutcome, discover_packages, duplicate_claims, process_package, refused_outcome
 from pipeline.report import render_night_summary
+from pipeline.store import remove_uncommitted
 from pipeline.store.lock import dataset_lock, remove_stale_temporaries
 
 __all__ = ["nightly", "measure_package_task", "task_runner_for", "dataset_folder", "reports_folder"]
@@ -88,6 +91,12 @@ def task_runner_for(workers: int = 1, dask_address: str | None = None) -> TaskRu
     return ProcessPoolTaskRunner(max_workers=workers)
 
 
+def _row(future, futures: dict) -> dict:
+    """A finished task's summary row; a task that raised (after its retries) becomes a failed row."""
+    result = future.result(raise_on_failure=False)
+    return _failed_row(futures[future], result) if isinstance(result, BaseException) else result
+
+
 def _failed_row(folder: str, exc: BaseException) -> dict:
     hint = ("after retries; check the disk and rerun" if isinstance(exc, TRANSIENT)
             else "an unexpected error in pipegauge: please report it with this message")
@@ -100,23 +109,29 @@ def nightly(inbox: str, out: str, model: str = "perspective", certificates: str 
     packages = discover_packages(inbox)
     certificates = certificates or str(Path(inbox) / "certificates")
     rows: list[dict] = []
-    with dataset_lock(out):
-        stale = remove_stale_temporaries(out)
+    with dataset_lock(dataset_folder(out)):
+        stale = remove_stale_temporaries(out) + remove_uncommitted(dataset_folder(out))
         if stale:
-            say(f"removed {len(stale)} temporary file(s) left by an interrupted run")
+            say(f"removed {len(stale)} file(s) left by an interrupted run")
         say(f"{len(packages)} package(s) in {inbox}")
-        futures = {measure_package_task.submit(str(p), str(out), model, certificates): str(p) for p in packages}
-        for k, future in enumerate(as_completed(list(futures)), 1):
-            result = future.result(raise_on_failure=False)
-            row = _failed_row(futures[future], result) if isinstance(result, BaseException) else result
+        duplicates = duplicate_claims(packages)
+        futures = {measure_package_task.submit(str(p), str(out), model, certificates): str(p)
+                   for p in packages if p not in duplicates}
+        refused = [refused_outcome(p, error).as_row() for p, error in duplicates.items()]
+        finished = (_row(future, futures) for future in as_completed(list(futures)))
+        for k, row in enumerate(itertools.chain(refused, finished), 1):
             rows.append(row)
-            detail = (f"{row['quantities']} quantities, {row['seconds']} s" if row["processed"]
-                      else "unchanged since the last run")
+            detail = ("refused" if row["refused"] else f"{row['quantities']} quantities, {row['seconds']} s"
+                      if row["processed"] else "unchanged since the last run")
             say(f"[{k}/{len(packages)}] {row['package']}: {row['status']} ({detail})"
                 + (f": {row['error']}" if row["error"] else "") + f" on {row['worker']}")
-    rows.sort(key=lambda r: r["package"])
-    summary = render_night_summary(rows, dataset_folder(out), reports_folder(out) / f"summary-{dt.date.today().isoformat()}.pdf")
-    say(f"nightly summary: {summary}")
+        rows.sort(key=lambda r: r["package"])
+        summary_path = reports_folder(out) / f"summary-{dt.date.today().isoformat()}.pdf"
+        if any(r["processed"] for r in rows) or not summary_path.is_file():
+            summary = render_night_summary(rows, dataset_folder(out), summary_path)
+            say(f"nightly summary: {summary}")
+        else:
+            say(f"nightly summary: {summary_path} (nothing new tonight: kept as it was)")
     create_table_artifact(rows, key="pipegauge-nightly-summary",
                           description=f"Packages of {inbox} measured into {out} ({model} model)")
     failed = [r for r in rows if r["status"] == "failed"]

@@ -17,7 +17,7 @@ from .jsonfile import read_json
 __all__ = ["PackageManifest", "load_manifest", "certificate_path", "PACKAGE_FORMAT"]
 
 PACKAGE_FORMAT = "pipegauge-inspection-package"
-_ID = re.compile(r"^[A-Za-z0-9][A-Za-z0-9._-]{0,127}$")
+_ID = re.compile(r"[A-Za-z0-9][A-Za-z0-9._-]{0,127}")
 
 
 @dataclass(frozen=True)
@@ -46,7 +46,7 @@ def load_manifest(folder: str | os.PathLike) -> PackageManifest:
     ids = {}
     for key in ("package_id", "certificate_id"):
         value = data.get(key)
-        if not isinstance(value, str) or not _ID.match(value):
+        if not isinstance(value, str) or not _ID.fullmatch(value):
             problems.append(f"field {key!r}: {value!r} is not an id (letters, digits, '.', '_', '-'; at most 128)")
         ids[key] = value if isinstance(value, str) else ""
     files = {}

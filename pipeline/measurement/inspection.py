@@ -27,7 +27,7 @@ from .. import __version__
 from ..camera import load_certificate
 from ..coding import (CODES, Mark, Observation, SectionHeader, certificate_path, check_marks_in_frame,
                       load_header, load_manifest, read_log, read_marks)
-from ..errors import MeasurementError, PipegaugeError
+from ..errors import MeasurementError, PackageError, PipegaugeError
 from ..video.ingest import ingest_chainage
 from ..video.overlay_check import overlay_header_mismatches
 from ..video.overlay_ocr import OverlayReader
@@ -70,10 +70,18 @@ def file_sha256(path: str | os.PathLike) -> str:
 
 
 def file_digests(folder: str | os.PathLike) -> dict[str, str]:
-    """SHA-256 of each file of a package (truth/ excluded), by path relative to the folder."""
+    """SHA-256 of each file of a package (truth/ excluded), by path relative to the folder.
+
+    A link that leads outside the package raises PackageError before anything is read.
+    """
     folder = Path(folder)
-    return {path.relative_to(folder).as_posix(): file_sha256(path)
-            for path in sorted(p for p in folder.rglob("*") if p.is_file() and "truth" not in p.relative_to(folder).parts)}
+    inside = folder.resolve()
+    paths = sorted(p for p in folder.rglob("*") if "truth" not in p.relative_to(folder).parts)
+    for p in paths:
+        if p.is_symlink() and inside not in p.resolve().parents:
+            raise PackageError(f"{p}: a link to {p.resolve()}, outside the package; nothing of the package was read: "
+                               "deliver the file itself")
+    return {p.relative_to(folder).as_posix(): file_sha256(p) for p in paths if p.is_file()}
 
 
 def package_digest(digests: dict[str, str]) -> str:

@@ -29,14 +29,19 @@ def pipe_strip(observations: Sequence[dict], section_length_m: float, measured_r
 
     Each observation is a mark at its distance and clock position (a bar from
     its first to its second clock reference, or round the wall when it has
-    none), labelled with its code; measured observations in red.
+    none), labelled with its code; measured observations in red. The axis
+    spans the section; an observation logged beyond it (a problem of its row)
+    stands at the axis' end, one without a usable distance is left out.
     """
     styles()                                 # registers the fonts
     d = Drawing(width, height)
     left, right, bottom, top = 14 * mm, width - 2 * mm, 7 * mm, height - 6 * mm
     band = top - bottom
-    length = max(float(section_length_m or 0.0), max((o.get("distance_m") or 0.0 for o in observations), default=1.0), 1e-6)
-    x_of = lambda m: left + (right - left) * m / length  # noqa: E731
+    placed = [o for o in observations if _finite(o.get("distance_m"))]
+    length = float(section_length_m) if _finite(section_length_m) and section_length_m > 0 else 0.0
+    if length == 0.0:
+        length = max([float(o["distance_m"]) for o in placed] + [1.0])
+    x_of = lambda m: left + (right - left) * min(max(m, 0.0), length) / length  # noqa: E731
     d.add(Rect(left, bottom, right - left, band, fillColor=colors.HexColor("#f4f1ea"), strokeColor=colors.grey,
                strokeWidth=0.5))
     for clock in (3, 6, 9):
@@ -51,8 +56,8 @@ def pipe_strip(observations: Sequence[dict], section_length_m: float, measured_r
         d.add(Line(x, bottom, x, bottom - 1.5 * mm, strokeColor=colors.grey, strokeWidth=0.4))
         d.add(String(x, bottom - 5 * mm, f"{k * step:g}", fontName=FONT, fontSize=6, textAnchor="middle"))
     d.add(String(right, bottom - 5 * mm, "chainage [m]", fontName=FONT, fontSize=6, textAnchor="end"))
-    for k, o in enumerate(sorted(observations, key=lambda o: (o.get("distance_m") or 0.0, o.get("row") or 0))):
-        x = x_of(o.get("distance_m") or 0.0)
+    for k, o in enumerate(sorted(placed, key=lambda o: (o["distance_m"], o.get("row") or 0))):
+        x = x_of(float(o["distance_m"]))
         colour = _MEASURED if o.get("row") in measured_rows else _LOGGED
         c1, c2 = o.get("clock_from"), o.get("clock_to")
         if c1 is None or (isinstance(c1, float) and math.isnan(c1)):
@@ -68,11 +73,15 @@ def pipe_strip(observations: Sequence[dict], section_length_m: float, measured_r
     return d
 
 
-def _tick_step(length: float) -> float:
-    for step in (0.5, 1, 2, 5, 10, 20, 50, 100, 200, 500):
-        if length / step <= 12:
-            return float(step)
-    return 1000.0
+def _finite(v) -> bool:
+    return isinstance(v, (int, float)) and math.isfinite(v)
+
+
+def _tick_step(length: float, most: int = 12) -> float:
+    """The smallest step of 1, 2 or 5 times a power of ten (at least 0.5 m) giving at most ``most`` ticks [m]."""
+    decade = 10.0 ** math.floor(math.log10(max(length, 1e-9) / most))
+    step = next(b * decade for b in (1, 2, 5, 10) if length / (b * decade) <= most)
+    return max(step, 0.5)
 
 
 def budget_bars(budget: Sequence[dict], u_c: float, unit: str, width: float = 80 * mm) -> Drawing:

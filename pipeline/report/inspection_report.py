@@ -23,6 +23,7 @@ from reportlab.platypus import (Image, KeepTogether, Paragraph, Spacer, Table, T
 from .. import __version__
 from ..coding.codes import plain_description
 from ..errors import StoreError
+from ..limits import MAX_REPORT_OBSERVATIONS, MAX_REPORT_QUANTITIES, MAX_REPORT_WARNINGS
 from ..store import file_stem, read_table
 from .graphics import budget_bars, pipe_strip
 from .method import method_statement
@@ -200,6 +201,14 @@ def _records(frame: pd.DataFrame) -> list[dict]:
             for r in frame.to_dict("records")]
 
 
+def _more(n: int, what: str, where: str) -> list[Paragraph]:
+    """A line saying how many items a bounded report leaves out (pipeline.limits), and where they are."""
+    if n <= 0:
+        return []
+    return [Paragraph(f"… and {n:,} more {what}, left out of this report to keep it readable; all of them are in "
+                      f"{where} (pipegauge export).", styles()["small"])]
+
+
 def render_inspection_report(data: str | os.PathLike, inspection_id: str, path: str | os.PathLike, *,
                              today: dt.date | None = None) -> Path:
     """Render the condition report of ``inspection_id`` from the dataset at ``data`` into the PDF ``path`` (atomic)."""
@@ -223,18 +232,23 @@ def render_inspection_report(data: str | os.PathLike, inspection_id: str, path: 
              _header_block(inspection)]
     warnings = inspection_warnings(inspection, measurements, today)
     story += [Paragraph("Warnings", st["h2"])]
-    story += [Paragraph("• " + safe_text(w, 600), st["warning"]) for w in warnings] or [Paragraph("None.", st["body"])]
+    story += [Paragraph("• " + safe_text(w, 600), st["warning"]) for w in warnings[:MAX_REPORT_WARNINGS]] or [
+        Paragraph("None.", st["body"])]
+    story += _more(len(warnings) - MAX_REPORT_WARNINGS, "warnings", "the inspection's problems in the dataset")
     story += [Paragraph("Observations along the section", st["h2"]),
               pipe_strip(observations, inspection.get("section_length_m") or 0.0, set(by_row)),
               Paragraph("Unrolled wall: clock position 12 (crown) at the top, 6 (invert) in the middle; measured "
                         "observations in red.", st["small"]),
               Spacer(1, 2 * mm),
-              _observation_table(observations, by_row),
+              _observation_table(observations[:MAX_REPORT_OBSERVATIONS], by_row),
+              *_more(len(observations) - MAX_REPORT_OBSERVATIONS, "observations", "the export"),
               Paragraph("Every measured value is given as value ± U95 (expanded uncertainty, 95 % coverage) with its "
                         "unit; ⚠ marks a low-confidence measurement (see Warnings).", st["small"])]
     if measurements:
         story.append(Paragraph("Measured quantities and their uncertainty budgets", st["h2"]))
-        story += [_quantity_block(m, thumbs.get((m["row"], m["quantity"], _source(m)))) for m in measurements]
+        story += [_quantity_block(m, thumbs.get((m["row"], m["quantity"], _source(m))))
+                  for m in measurements[:MAX_REPORT_QUANTITIES]]
+        story += _more(len(measurements) - MAX_REPORT_QUANTITIES, "measured quantities", "the export")
     story += [Paragraph("Method", st["h2"])] + [Paragraph(p, st["small"]) for p in method_statement(inspection.get("model"))]
 
     return build_pdf(story, path, title=f"Condition report {inspection_id}",

@@ -49,17 +49,20 @@ def render_night_summary(rows: Sequence[dict], data: str | os.PathLike, path: st
     measurements = read_table(data, "measurements", inspection_ids=ids) if ids else pd.DataFrame()
     counts = {s: sum(r["status"] == s for r in rows) for s in ("ok", "partial", "failed")}
     processed = sum(bool(r.get("processed", True)) for r in rows)
+    refused = sum(bool(r.get("refused")) for r in rows)
     n_quantities = int((measurements.status == "ok").sum()) if len(measurements) else 0
     story = [Paragraph(f"Nightly summary {night.isoformat()}", st["title"]),
              Paragraph(f"{len(rows)} package(s): {counts['ok']} ok, {counts['partial']} partial, {counts['failed']} "
-                       f"failed; {processed} processed in this run, {len(rows) - processed} unchanged since an earlier "
-                       f"run. {n_quantities} quantities measured, each with its U95.", st["body"]),
+                       f"failed; {processed} processed in this run, {len(rows) - processed - refused} unchanged since an "
+                       f"earlier run" + (f", {refused} refused unread" if refused else "")
+                       + f". {n_quantities} quantities measured, each with its U95.", st["body"]),
              Paragraph("Packages", st["h2"])]
     table = [[Paragraph(h, st["cell"]) for h in ("Package", "Inspection", "Status", "Quantities", "Processed", "Reason")]]
     for r in sorted(rows, key=lambda r: (r["status"] != "failed", r["package"])):
         table.append([Paragraph(safe_text(r["package"], 80), st["cell"]), Paragraph(safe_text(r["inspection_id"], 80), st["cell"]),
                       Paragraph(r["status"], st["cell"]), Paragraph(str(r.get("quantities", "")), st["cell"]),
-                      Paragraph("now" if r.get("processed", True) else "earlier", st["cell"]),
+                      Paragraph("refused" if r.get("refused") else "now" if r.get("processed", True) else "earlier",
+                                st["cell"]),
                       Paragraph(safe_text(r.get("error") or "", 500), st["cell"])])
     t = Table(table, colWidths=[32 * mm, 32 * mm, 14 * mm, 16 * mm, 14 * mm, 72 * mm], repeatRows=1)
     t.setStyle(TableStyle(TABLE_STYLE))

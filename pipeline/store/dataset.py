@@ -39,7 +39,8 @@ from ..atomic import atomic_path
 from ..errors import StoreError
 from .schema import SCHEMA_VERSION, SCHEMAS, TABLES
 
-__all__ = ["write_inspection", "read_table", "inspection_files", "stored_input_key", "file_stem"]
+__all__ = ["write_inspection", "read_table", "inspection_files", "stored_input_key", "file_stem",
+           "remove_uncommitted"]
 
 _UNSAFE = re.compile(r"[^A-Za-z0-9._-]|^[._]")
 DETAIL_TABLES = ("thumbnails", "measurements", "observations")
@@ -177,3 +178,19 @@ def stored_input_key(root: str | os.PathLike, inspection_id: str) -> dict | None
     if not rows or any("input_sha256" not in r for r in rows):
         return None                     # none, or from a schema without the key: process the package again
     return max(rows, key=lambda r: r.get("processed_at") or dt.datetime.min.replace(tzinfo=dt.timezone.utc))
+
+
+def remove_uncommitted(root: str | os.PathLike) -> list[Path]:
+    """Delete the detail files no inspection's commit names (a store killed before or after its commit).
+
+    Call it only while holding the dataset lock, when no store can be in progress.
+    """
+    commits = read_table(root, "inspections")
+    named = {f"{file_stem(i)}~{w}" for i, w in zip(commits.inspection_id, commits.write_id) if isinstance(w, str)}
+    stale = []
+    for table in DETAIL_TABLES:
+        for path in (Path(root) / table).glob("inspection_date=*/*~*.parquet"):
+            if path.stem not in named:
+                path.unlink(missing_ok=True)
+                stale.append(path)
+    return stale

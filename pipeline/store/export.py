@@ -17,6 +17,7 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 
 from ..atomic import atomic_path
+from ..errors import StoreError
 from .dataset import read_table
 
 __all__ = ["export_frame", "export_csv", "export_parquet", "spreadsheet_safe", "EXPORT_COLUMNS"]
@@ -37,12 +38,22 @@ def spreadsheet_safe(value):
 
 
 def export_frame(root: str | os.PathLike, start: dt.date | None = None, end: dt.date | None = None) -> pd.DataFrame:
-    """Measurements joined with their observation and section, for inspection dates start..end."""
+    """Measurements joined with their observation and section, for inspection dates start..end.
+
+    Committed inspections only (pipeline.store.dataset). A log that repeats a
+    row number (flagged as a problem) joins each measurement with the first
+    row of that number, so no measurement is exported twice.
+    """
+    if not (Path(root) / "inspections").is_dir():
+        raise StoreError(f"{root}: no pipegauge dataset here (no inspections/ folder); pass the folder a run wrote "
+                         "(OUT or OUT/dataset) with --data")
     m = read_table(root, "measurements", start=start, end=end).drop(columns=["distance_m"])
     o = read_table(root, "observations", start=start, end=end)[
         ["inspection_id", "row", "distance_m", "code_meaning", "clock_from", "clock_to", "remark"]]
+    o = o.drop_duplicates(["inspection_id", "row"], keep="first")
     i = read_table(root, "inspections", start=start, end=end)[["inspection_id", "section_id", "start_node", "finish_node"]]
-    out = m.merge(o, on=["inspection_id", "row"], how="left").merge(i, on="inspection_id", how="left")
+    out = (m.merge(o, on=["inspection_id", "row"], how="left", validate="many_to_one")
+           .merge(i, on="inspection_id", how="left", validate="many_to_one"))
     return out.reindex(columns=EXPORT_COLUMNS).sort_values(["inspection_date", "inspection_id", "row", "quantity", "source"],
                                                            ignore_index=True)
 

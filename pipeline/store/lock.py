@@ -5,6 +5,7 @@ from __future__ import annotations
 import contextlib
 import fcntl
 import os
+import threading
 from pathlib import Path
 from typing import Iterator
 
@@ -13,17 +14,47 @@ from ..errors import StoreError
 __all__ = ["dataset_lock", "remove_stale_temporaries"]
 
 LOCK_NAME = ".pipegauge.lock"
+_held: dict[Path, int] = {}         # locks this process holds, by folder: how many times entered
+_held_guard = threading.Lock()
 
 
 @contextlib.contextmanager
 def dataset_lock(root: str | os.PathLike) -> Iterator[Path]:
-    """Hold an exclusive lock on ``root`` for a run; a second run on the same folder fails at once.
+    """Hold an exclusive lock on the dataset folder ``root``; a second writer (a run, ``measure``) fails at once.
 
     The operating system releases the lock when the process ends, however it
-    ends, so a killed run never leaves the dataset locked.
+    ends, so a killed run never leaves the dataset locked. Re-entrant within
+    one process: the command line takes the lock before Prefect starts, and
+    the flow it then runs takes it again.
     """
     root = Path(root)
     root.mkdir(parents=True, exist_ok=True)
+    key = root.resolve()
+    with _held_guard:
+        if key in _held:
+            _held[key] += 1
+            reentered = True
+        else:
+            reentered = False
+    if reentered:
+        try:
+            yield root
+        finally:
+            with _held_guard:
+                _held[key] -= 1
+        return
+    with _locked(root):
+        with _held_guard:
+            _held[key] = 1
+        try:
+            yield root
+        finally:
+            with _held_guard:
+                del _held[key]
+
+
+@contextlib.contextmanager
+def _locked(root: Path) -> Iterator[None]:
     path = root / LOCK_NAME
     with path.open("a+") as fh:
         try:
@@ -32,13 +63,13 @@ def dataset_lock(root: str | os.PathLike) -> Iterator[Path]:
             fh.seek(0)
             holder = fh.read().strip() or "another process"
             raise StoreError(f"{root}: another pipegauge run is writing here ({holder}); wait for it to finish "
-                             "or choose another --out") from None
+                             "or write to another folder") from None
         fh.seek(0)
         fh.truncate()
         fh.write(f"pid {os.getpid()}\n")
         fh.flush()
         try:
-            yield root
+            yield
         finally:
             fh.seek(0)
             fh.truncate()

@@ -122,6 +122,88 @@ def test_good_and_bad_packages_in_one_night_then_nothing_new(tmp_path, env):
     assert third.returncode == 1 and "no-certificate: ok" in third.stderr and "1 processed, 5 unchanged" in third.stderr
 
 
+def test_a_hostile_inbox_ends_bounded_keeps_the_good_package_and_names_every_fault(tmp_path, env):
+    """Issue 18's hostile delivery: one good package among packages built from its defects."""
+    inbox = _inbox(tmp_path, good=("S01-circular-clean",))
+    rows = _bad_copy(inbox, "bad-rows", "BAD-ROWS")            # a distance of 1e308, a row number over int32, a long remark
+    log = (rows / "observations.csv").read_text().splitlines()
+    head, first, second = log[0].split(","), log[1].split(","), log[2].split(",")
+    first[head.index("distance_m")] = "1e308"
+    second[head.index("row")] = "3000000000"
+    second[head.index("remark")] = "x" * 5000
+    (rows / "observations.csv").write_text("\n".join([log[0], ",".join(first), ",".join(second), *log[3:]]) + "\n")
+    huge = _bad_copy(inbox, "huge-log", "HUGE-LOG")             # over the row limit
+    with (huge / "observations.csv").open("a") as fh:
+        fh.write("".join(f"{1000 + r},1.0,BDB,,,,,,,,,,,,,\n" for r in range(5001)))
+    _bad_copy(inbox, "twin-a", "TWIN")                          # two folders, one id
+    _bad_copy(inbox, "twin-b", "TWIN")
+    _bad_copy(inbox, "newline-id", "NEWLINE\n")
+    for name in ("é-accent", "#hash", "x y", "x_y"):            # names a file system allows, no manifest
+        (inbox / name).mkdir()
+    outside = tmp_path / "elsewhere"
+    _bad_copy(tmp_path, "elsewhere", "LINKED")
+    (inbox / "linked").symlink_to(outside)
+    out = tmp_path / "out"
+
+    first_run = _pipegauge("run", str(inbox), "--out", str(out), env=env)
+    assert first_run.returncode == 1, first_run.stderr
+    for text in ("unexpected error", "Traceback"):
+        assert text not in first_run.stderr
+    stored = read_table(out / "dataset", "inspections").set_index("inspection_id")
+    assert stored.loc["S01-circular-clean", "status"] == "ok"
+    good = read_table(out / "dataset", "measurements", inspection_ids=["S01-circular-clean"])
+    assert len(good) == stored.loc["S01-circular-clean", "n_measurements"] > 0 and (good.status == "ok").all()
+    assert stored.loc["BAD-ROWS", "status"] == "partial"
+    problems = " ".join(stored.loc["BAD-ROWS", "problems"])
+    assert "'1e308' is not a distance in m" in problems and "'3000000000' is not a row number" in problems
+    assert "5,000 characters; at most 500" in problems
+    assert "more than 5,000 rows" in stored.loc["HUGE-LOG", "error"]
+    assert "field 'package_id': 'NEWLINE\\n' is not an id" in stored.loc["newline-id", "error"]
+    for name in ("é-accent", "#hash", "x y", "x_y"):
+        assert f"{name}/package.json: missing" in stored.loc[name, "error"]
+    assert "TWIN" not in stored.index and "LINKED" not in stored.index and "linked" not in stored.index
+    assert "package id 'TWIN' is claimed by 2 folders (twin-a, twin-b)" in first_run.stderr
+    assert "linked: failed (refused): " in first_run.stderr and "outside the inbox" in first_run.stderr
+    assert "3 refused unread" in first_run.stderr
+    _assert_dataset_sound(out / "dataset")
+    reports = {p.name for p in (out / "reports").glob("*.pdf")}
+    assert {"S01-circular-clean.pdf", "BAD-ROWS.pdf", "%C3%A9-accent.pdf", "%23hash.pdf", "x%20y.pdf",
+            "x_y.pdf"} <= reports
+
+    before = _snapshot(out)
+    rerun = _pipegauge("run", str(inbox), "--out", str(out), env=env)
+    assert rerun.returncode == 1 and "Traceback" not in rerun.stderr
+    assert "0 processed" in rerun.stderr and "kept as it was" in rerun.stderr
+    after = _snapshot(out)
+    stored = lambda snapshot: {k: v for k, v in snapshot.items() if not Path(k).name.startswith(".")}  # noqa: E731
+    assert stored(after) == stored(before), "a rerun with nothing new rewrote a file"
+
+
+def test_an_embedded_server_left_by_a_killed_run_is_stopped_by_the_next_run(tmp_path, env):
+    inbox = _inbox(tmp_path, good=("S01-circular-clean",))
+    out = tmp_path / "out"
+    proc = subprocess.Popen([sys.executable, "-m", "flows.cli", "run", str(inbox), "--out", str(out)], cwd=ROOT,
+                            env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    pid_file = out / ".prefect-server.pid"
+    _wait_for(lambda: pid_file.is_file() and pid_file.read_text().strip(), "the embedded server's pid file", 300)
+    server = int(pid_file.read_text())
+    proc.kill()                                           # the run alone, as kill -9 would: its server lives on
+    proc.wait()
+    assert Path(f"/proc/{server}").exists(), "the server died with the run: nothing to recover"
+    rerun = _pipegauge("run", str(inbox), "--out", str(out), env=env)
+    assert rerun.returncode == 0, rerun.stderr
+    assert f"stopped the embedded Prefect server (pid {server}) left running by an interrupted run" in rerun.stderr
+    _wait_for(lambda: not _alive(server), "the left-over server to end", 30)
+    assert not pid_file.exists()
+
+
+def _alive(pid: int) -> bool:
+    try:
+        return b"create_app" in Path(f"/proc/{pid}/cmdline").read_bytes()
+    except OSError:
+        return False
+
+
 def test_usage_errors_exit_2(tmp_path, env):
     assert _pipegauge("run", str(tmp_path / "nowhere"), "--out", str(tmp_path / "out"), env=env).returncode == 2
     inbox = _inbox(tmp_path, good=())
@@ -158,18 +240,6 @@ def test_a_run_killed_mid_way_then_rerun(tmp_path, env):
     inspections = read_table(out / "dataset", "inspections")
     assert sorted(inspections.inspection_id) == ["S01-circular-clean", "S02-circular-water-offset"]
     assert (inspections.status == "ok").all()
-
-
-def test_two_runs_on_one_output_folder_are_refused(tmp_path):
-    from pipeline.errors import StoreError
-    from pipeline.store.lock import dataset_lock
-
-    with dataset_lock(tmp_path):
-        with pytest.raises(StoreError, match="another pipegauge run is writing here"):
-            with dataset_lock(tmp_path):
-                pass
-    with dataset_lock(tmp_path):            # released when the first run ends
-        pass
 
 
 def test_run_on_a_local_dask_cluster_with_two_workers(tmp_path, env):

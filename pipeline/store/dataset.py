@@ -102,13 +102,13 @@ def write_inspection(root: str | os.PathLike, inspection: dict, observations: li
             with atomic_path(target) as tmp:
                 pq.write_table(tables[table], tmp)
             written[table] = target
+        target = root / "inspections" / partition / f"{stem}.parquet"
+        with atomic_path(target) as tmp:
+            pq.write_table(tables["inspections"], tmp)      # the commit
     except BaseException:
         for path in written.values():       # nothing of an attempt that did not commit is left behind
             path.unlink(missing_ok=True)
         raise
-    target = root / "inspections" / partition / f"{stem}.parquet"
-    with atomic_path(target) as tmp:
-        pq.write_table(tables["inspections"], tmp)
     written["inspections"] = target
     for table in TABLES:                    # older stores' files, also under another date
         for path in inspection_files(root, table, iid):

@@ -137,7 +137,6 @@ def process_package(folder: str | os.PathLike, out: str | os.PathLike, *, model:
     """
     t0 = time.perf_counter()
     folder = Path(folder)
-
     if (why := _link_out(folder)) is not None:
         return refused_outcome(folder, why)
     try:
@@ -152,8 +151,9 @@ def process_package(folder: str | os.PathLike, out: str | os.PathLike, *, model:
     package_id = manifest.package_id if manifest else folder.name
     stored = stored_input_key(out, package_id) if skip_known else None
     if stored and (other := _other_claimant(stored, folder, package_id)):
-        return refused_outcome(folder, package_id=package_id, error=f"package id {package_id!r} is stored from {other}, which still holds it; "
-                                   "nothing of this folder was read or stored: give each package its own package_id")
+        return refused_outcome(folder, f"package id {package_id!r} is stored from {other}, which still holds it; nothing "
+                                       "of this folder was read or stored: give each package its own package_id",
+                               package_id)
     if stored and stored["input_sha256"] == key:
         error = _render(out, package_id, reports, missing_only=True)
         return PackageOutcome(str(folder), package_id, stored["status"], _joined(stored["error"], error),

@@ -17,14 +17,15 @@ from pathlib import Path
 from ..errors import ObservationLogError
 from .codes import CODES, UNITS, Quantification
 
-__all__ = ["Observation", "Mark", "RowProblem", "read_log", "read_marks", "check_marks_in_frame",
-           "LOG_COLUMNS", "MARK_COLUMNS", "DEFAULT_MARK_U_PX"]
+__all__ = ["Observation", "Mark", "RowProblem", "read_log", "parse_log_rows", "read_marks", "check_marks_in_frame",
+           "LOG_COLUMNS", "MARK_COLUMNS", "DEFAULT_MARK_U_PX", "MAX_LOG_ROWS"]
 
 LOG_COLUMNS = ("row", "distance_m", "code", "char1", "char2", "q1", "q1_unit", "q2", "q2_unit",
                "clock_from", "clock_to", "at_joint", "continuous", "video_time", "photo", "remark")
 MARK_COLUMNS = ("row", "quantity", "frame", "point", "x_px", "y_px")
 DEFAULT_MARK_U_PX = 1.0      # standard uncertainty of a marked coordinate when marks.csv gives none [px]
 DISTANCE_SLACK_M = 0.05      # a distance may pass the section length by the counter's rounding [m]
+MAX_LOG_ROWS = 10_000        # one section's log; more is a wrong file, refused before it fills the memory
 _VIDEO_TIME = re.compile(r"^(\d{1,2}):([0-5]\d):([0-5]\d(?:\.\d+)?)$")
 _CONTINUOUS = re.compile(r"^([SF])(\d{2})$")
 
@@ -64,6 +65,8 @@ class Observation:
     remark: str
     fields: dict[str, str]
     problems: list[RowProblem] = field(default_factory=list)
+    ref: str = ""         # the delivered record's own id when its format has one (a VSA-KEK Kanalschaden TID)
+    grade: str = ""       # the contractor's condition grade when delivered (VSA-KEK Einzelschadenklasse)
 
     def quantification(self, which: str) -> Quantification | None:
         spec = CODES.get(self.code)
@@ -119,13 +122,31 @@ def read_log(path: str | os.PathLike, section_length_m: float) -> list[Observati
     section_length_m : the header's section length [m]; a distance beyond it is an error
     """
     path = Path(path)
-    name = path.name
+    rows = _read_table(path, LOG_COLUMNS, "observation log")
+    if len(rows) > MAX_LOG_ROWS:
+        raise ObservationLogError(f"{path}: {len(rows)} rows; a section's log holds at most {MAX_LOG_ROWS}; "
+                                  "split the delivery into one log per section")
+    return parse_log_rows(((f"line {line}", raw) for line, raw in enumerate(rows, start=2)), path.name, section_length_m)
+
+
+def parse_log_rows(rows, file: str, section_length_m: float) -> list[Observation]:
+    """Validate delivered log records given as text fields (the columns of observations.csv).
+
+    rows : (where, fields) pairs; ``where`` names the record when its row number is unusable ("line 5",
+    "Kanalschaden TID ch20zzshw70lrfne"); fields maps LOG_COLUMNS, plus optional ``ref`` and ``grade``, to text.
+    Every format's reader comes here, so a value is judged the same whichever file brought it.
+    section_length_m : the header's section length [m]; a distance beyond it is an error
+    """
+    name = file
     observations: list[Observation] = []
-    seen: dict[int, int] = {}
-    for line, raw in enumerate(_read_table(path, LOG_COLUMNS, "observation log"), start=2):
+    seen: dict[int, str] = {}
+    for where, raw in rows:
+        if len(observations) >= MAX_LOG_ROWS:
+            raise ObservationLogError(f"{file}: more than {MAX_LOG_ROWS} records; a section's log holds at most "
+                                      f"{MAX_LOG_ROWS}; split the delivery into one log per section")
         f = {k: (raw.get(k) or "").strip() for k in LOG_COLUMNS}
         problems: list[RowProblem] = []
-        label = f"row {f['row']}" if f["row"] else f"line {line}"
+        label = f"row {f['row']}" if f["row"] and not raw.get("ref") else where
 
         def bad(column: str, message: str) -> None:
             problems.append(RowProblem(name, label, column, message))
@@ -133,10 +154,10 @@ def read_log(path: str | os.PathLike, section_length_m: float) -> list[Observati
         row = _int(f["row"])
         if row is None or row < 0:
             bad("row", f"{f['row']!r} is not a row number (a whole number >= 0)")
-            row = -line
+            row = -1 - len(observations)
         elif row in seen:
-            bad("row", f"row number {row} is used twice (lines {seen[row]} and {line}); number the rows uniquely")
-        seen.setdefault(row, line)
+            bad("row", f"row number {row} is used twice ({seen[row]} and {where}); number the rows uniquely")
+        seen.setdefault(row, where)
         distance = _float(f["distance_m"])
         if distance is None or distance < 0:
             bad("distance_m", f"{f['distance_m']!r} is not a distance in m (a number >= 0)")
@@ -154,7 +175,7 @@ def read_log(path: str | os.PathLike, section_length_m: float) -> list[Observati
                 value = f[column].upper()
                 if allowed and value and value not in allowed:
                     bad(column, f"{value!r} is not a characterisation of {code}; use one of {', '.join(allowed)}")
-                elif allowed and not value and column == "char1":
+                elif allowed and not value and column == "char1" and not spec.char1_optional:
                     bad(column, f"{code} needs a characterisation 1 ({', '.join(allowed)})")
                 elif not allowed and value:
                     bad(column, f"{code} takes no characterisation {column[-1]}, got {value!r}")
@@ -198,7 +219,7 @@ def read_log(path: str | os.PathLike, section_length_m: float) -> list[Observati
             row, distance, code, f["char1"].upper(), f["char2"].upper(), values["q1"], f["q1_unit"],
             values["q2"], f["q2_unit"], clocks["clock_from"], clocks["clock_to"], f["at_joint"].upper() == "Y",
             f["continuous"].upper(), video_time, f["photo"], f["remark"], {k: raw.get(k) or "" for k in LOG_COLUMNS},
-            problems))
+            problems, ref=(raw.get("ref") or "").strip(), grade=(raw.get("grade") or "").strip()))
     _check_continuous(observations, name)
     return observations
 

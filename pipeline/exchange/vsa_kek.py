@@ -26,12 +26,11 @@ from defusedxml import DefusedXmlException
 from defusedxml.ElementTree import DefusedXMLParser
 
 from .. import __version__
-from ..coding import Observation, SectionHeader, header_from_dict, quantification
-from ..coding.header import HEADER_FORMAT
+from ..coding import Observation, quantification
 from ..coding.log import parse_log_rows
 from ..errors import TransferError
 
-__all__ = ["Transfer", "TransferObject", "TransferLog", "read_transfer", "read_transfer_log", "transfer_header",
+__all__ = ["Transfer", "TransferObject", "TransferLog", "read_transfer", "read_transfer_log", "read_log",
            "write_transfer", "transfer_text", "MODELS", "MAX_TRANSFER_BYTES", "MAX_OBJECTS", "MAX_ELEMENTS",
            "vsa_code", "split_code", "FPS"]
 
@@ -300,23 +299,13 @@ def _clock(text: str) -> str:
     return "" if text.strip() in ("", "0") else text.strip()
 
 
-def transfer_header(log: TransferLog, section: dict | None, source: str) -> SectionHeader:
-    """The section header: the transfer's fields with the manifest's ``section`` (shape, size, material...).
+def read_log(path: str | os.PathLike):
+    """The ``pipeline.exchange`` reader: a transfer as a ``LogReading`` (its Transfer kept as ``source``)."""
+    from . import LogReading
 
-    A field both give must agree; the problems are reported together (HeaderError) naming both files.
-    """
-    data = {"format": HEADER_FORMAT, "format_version": 1, **(section or {})}
-    for key, value in log.header_fields.items():
-        if key in data and data[key] != value:
-            data.setdefault("_conflicts", []).append(key)
-        data[key] = value
-    conflicts = data.pop("_conflicts", [])
-    header = header_from_dict(data, source=source)
-    if conflicts:
-        from ..errors import HeaderError
-        raise HeaderError(f"{source}: package.json 'section' repeats {', '.join(conflicts)} with another value than "
-                          "the transfer; leave them to the transfer")
-    return header
+    t = read_transfer_log(path)
+    return LogReading(t.transfer.path, "vsa-kek", t.header_fields, {"model": t.transfer.model, "TID": t.inspection.tid,
+                      **t.details}, t.observations, t.video, t.transfer)
 
 
 # -- writing -------------------------------------------------------------------
@@ -353,7 +342,7 @@ _ORDER = {
 _ROLES_AFTER = {"Untersuchung": ("AbwasserbauwerkRef", "Ausfuehrende_FirmaRef", "HaltungspunktRef")}
 
 
-def _object_xml(model: str, version: str, o: TransferObject, last_change: str) -> str:
+def _object_xml(model: str, version: str, o: TransferObject, last_change: str, supplier: str) -> str:
     """One object in the model's attribute order; empty attributes are left out."""
     a = dict(o.attrs)
     if o.cls == "Untersuchung":
@@ -367,7 +356,7 @@ def _object_xml(model: str, version: str, o: TransferObject, last_change: str) -
     changed = a.pop("Letzte_Aenderung", "") or o.meta.get("Letzte_Aenderung", "") or last_change
     if version == "2019":
         owner = o.meta.get("Datenherr") or (o.refs.get("DatenherrRef") or ("unbekannt",))[0]
-        supplier = o.meta.get("Datenlieferant") or (o.refs.get("DatenlieferantRef") or ("unbekannt",))[0]
+        supplier = o.meta.get("Datenlieferant") or (o.refs.get("DatenlieferantRef") or (supplier,))[0]
         lines.append(f"<Metaattribute><SIA405_Base_LV95.Metaattribute><Datenherr>{escape(owner)}</Datenherr>"
                      f"<Datenlieferant>{escape(supplier)}</Datenlieferant><Letzte_Aenderung>{changed}</Letzte_Aenderung>"
                      "</SIA405_Base_LV95.Metaattribute></Metaattribute>")
@@ -430,8 +419,6 @@ def transfer_text(inspection: dict, observations: list[dict], version: str, *, m
     u.attrs.setdefault("Erfassungsart", "Kanalfernsehen")
     if inspection.get("contractor") and not u.attrs.get("Ausfuehrender"):
         u.attrs["Ausfuehrender"] = _text(inspection["contractor"], 50)
-    if not u_src:
-        u.meta["Datenlieferant"] = _text(inspection.get("contractor"), 80) or "unbekannt"
     objects = [u]
     src_rows = {o.tid: o for o in (source.of("Kanalschaden") if source else [])}
     for obs in sorted(observations, key=lambda r: r["row"]):
@@ -481,7 +468,8 @@ def transfer_text(inspection: dict, observations: list[dict], version: str, *, m
                                               {"Art": "Foto", "Bezeichnung": photo[:60], "Klasse": "Kanalschaden",
                                                "Objekt": k.tid}, {"DatentraegerRef": (medium.tid, None)}))
     bid = source.bid if source and source.bid else _tid(key, "basket")
-    body = "\n".join(_object_xml(model, version, o, last_change) for o in objects)
+    supplier = _text(inspection.get("contractor"), 80) or "unbekannt"    # 2019's mandatory Datenlieferant
+    body = "\n".join(_object_xml(model, version, o, last_change, supplier) for o in objects)
     return ('<?xml version="1.0" encoding="UTF-8"?>\n'
             f'<TRANSFER xmlns="{ILI_NS}">\n'
             f'<HEADERSECTION VERSION="2.3" SENDER={quoteattr("pipegauge " + __version__)}>\n'
@@ -503,3 +491,92 @@ def write_transfer(path: str | os.PathLike, inspection: dict, observations: list
     with atomic_path(path) as tmp:
         Path(tmp).write_text(transfer_text(inspection, observations, version, **kwargs), encoding="utf-8")
     return path
+
+
+# -- from a package or from the dataset ----------------------------------------
+
+def observation_fields(o: Observation) -> dict:
+    """An Observation as the writer takes it (the dataset's observation columns, plus ref and grade)."""
+    return {"row": o.row, "distance_m": o.distance_m, "code": o.code, "char1": o.char1, "char2": o.char2, "q1": o.q1,
+            "q2": o.q2, "clock_from": o.clock_from, "clock_to": o.clock_to, "at_joint": o.at_joint,
+            "continuous": o.continuous, "video_time_s": o.video_time_s, "photo": o.photo, "remark": o.remark,
+            "ref": o.ref, "grade": o.grade}
+
+
+def package_transfer(folder: str | os.PathLike, path: str | os.PathLike, version: str = "2019") -> Path:
+    """Write a package's header and log (as pipegauge reads them) as a transfer; the package's own transfer is
+    kept (objects and TIDs) when it came as one."""
+    from ..coding import load_manifest
+    from . import load_package_log, read_log_file
+
+    manifest = load_manifest(folder)
+    header, observations = load_package_log(manifest)
+    source = read_log_file(manifest.transfer).source if manifest.transfer else None
+    inspection = {**header.as_record(), "inspection_id": manifest.package_id, "inspection_date": header.inspection_date}
+    return write_transfer(path, inspection, [observation_fields(o) for o in observations], version, source=source,
+                          video_file=manifest.video.name)
+
+
+def _source_of(package_folder) -> tuple[Transfer | None, dict[int, str]]:
+    """The contractor's transfer of a stored inspection (re-read from its package) and its row -> TID."""
+    from ..coding import load_manifest
+
+    if not package_folder:
+        return None, {}
+    try:
+        manifest = load_manifest(package_folder)
+    except Exception:          # the package moved or changed since it was measured: write fresh objects
+        return None, {}
+    if manifest.transfer is None:
+        return None, {}
+    log = read_transfer_log(manifest.transfer)
+    return log.transfer, {o.row: o.ref for o in log.observations}
+
+
+def export_transfers(root: str | os.PathLike, out: str | os.PathLike, version: str, start: dt.date | None = None,
+                     end: dt.date | None = None) -> list[tuple[Path, int]]:
+    """One transfer per stored inspection (not the failed ones) into the folder ``out``: ``<inspection_id>.xtf``.
+
+    Returns [(path, Kanalschaden written)]. Policy (docs/formats.md): a quantity pipegauge measured with a confident
+    contour goes into Quantifizierung with its U95 in Anmerkung; the contractor's value stays otherwise.
+    """
+    import pandas as pd
+
+    from ..store import read_table
+
+    def records(frame) -> list[dict]:
+        return [{k: (None if v is pd.NA or (isinstance(v, float) and math.isnan(v)) else v) for k, v in r.items()}
+                for r in frame.to_dict("records")]
+
+    inspections = read_table(root, "inspections", start=start, end=end)
+    observations = read_table(root, "observations", start=start, end=end)
+    measurements = read_table(root, "measurements", start=start, end=end)
+    written = []
+    for ins in records(inspections):
+        if ins["status"] == "failed":
+            continue
+        iid = ins["inspection_id"]
+        ins["inspection_date"] = pd.Timestamp(ins["inspection_date"]).date()
+        rows = records(observations[observations["inspection_id"] == iid])
+        source, refs = _source_of(ins.get("package_folder"))
+        for r in rows:
+            r["ref"] = refs.get(r["row"], "")
+        measured: dict = {}
+        ok = measurements[(measurements["inspection_id"] == iid) & (measurements["status"] == "ok")
+                          & (measurements["confident"] == True)]       # noqa: E712 (a nullable column)
+        for m in sorted(records(ok), key=lambda m: m["source"] != "marks"):   # marks before contour
+            measured.setdefault((m["row"], m["quantity"]), m)
+        path = write_transfer(Path(out) / f"{iid}.xtf", ins, rows, version, measured=measured, source=source,
+                              video_file=ins.get("video_file") or "")
+        written.append((path, len(rows)))
+    return written
+
+
+def export_2019(root, out, start=None, end=None) -> list[tuple[Path, int]]:
+    """``export_transfers`` in model VSA_KEK_2019_LV95."""
+    return export_transfers(root, out, "2019", start, end)
+
+
+def export_2020(root, out, start=None, end=None) -> list[tuple[Path, int]]:
+    """``export_transfers`` in model VSA_KEK_2020_1_LV95."""
+    return export_transfers(root, out, "2020", start, end)

@@ -14,7 +14,7 @@ from typing import Callable
 
 from ..errors import PipegaugeError
 
-__all__ = ["LogReading", "Reader", "Writer", "READERS", "WRITERS", "reader_for", "read_log_file", "load_package_log", "writer"]
+__all__ = ["LogReading", "observation_record", "Reader", "Writer", "READERS", "WRITERS", "reader_for", "read_log_file", "load_package_log", "writer"]
 
 
 @dataclass
@@ -49,6 +49,20 @@ class LogReading:
 
     def problems(self) -> list[str]:
         return [str(p) for o in self.observations for p in o.problems]
+
+    def as_dict(self) -> dict:
+        """Plain data for JSON: header fields, details, video, observations (with their problems), problems."""
+        return {"file": str(self.file), "format": self.format, "header": self.header_fields, "details": self.details,
+                "video": self.video, "observations": [observation_record(o) for o in self.observations],
+                "problems": self.problems()}
+
+
+def observation_record(o) -> dict:
+    """An Observation as plain fields (distance_m [m], video_time_s [s]), its problems as text."""
+    return {"row": o.row, "distance_m": o.distance_m, "code": o.code, "char1": o.char1, "char2": o.char2, "q1": o.q1,
+            "q1_unit": o.q1_unit, "q2": o.q2, "q2_unit": o.q2_unit, "clock_from": o.clock_from, "clock_to": o.clock_to,
+            "at_joint": o.at_joint, "continuous": o.continuous, "video_time_s": o.video_time_s, "photo": o.photo,
+            "remark": o.remark, "ref": o.ref, "grade": o.grade, "problems": [str(p) for p in o.problems]}
 
 
 @dataclass(frozen=True)

@@ -495,25 +495,17 @@ def write_transfer(path: str | os.PathLike, inspection: dict, observations: list
 
 # -- from a package or from the dataset ----------------------------------------
 
-def observation_fields(o: Observation) -> dict:
-    """An Observation as the writer takes it (the dataset's observation columns, plus ref and grade)."""
-    return {"row": o.row, "distance_m": o.distance_m, "code": o.code, "char1": o.char1, "char2": o.char2, "q1": o.q1,
-            "q2": o.q2, "clock_from": o.clock_from, "clock_to": o.clock_to, "at_joint": o.at_joint,
-            "continuous": o.continuous, "video_time_s": o.video_time_s, "photo": o.photo, "remark": o.remark,
-            "ref": o.ref, "grade": o.grade}
-
-
 def package_transfer(folder: str | os.PathLike, path: str | os.PathLike, version: str = "2019") -> Path:
     """Write a package's header and log (as pipegauge reads them) as a transfer; the package's own transfer is
     kept (objects and TIDs) when it came as one."""
     from ..coding import load_manifest
-    from . import load_package_log, read_log_file
+    from . import load_package_log, observation_record, read_log_file
 
     manifest = load_manifest(folder)
     header, observations = load_package_log(manifest)
     source = read_log_file(manifest.transfer).source if manifest.transfer else None
     inspection = {**header.as_record(), "inspection_id": manifest.package_id, "inspection_date": header.inspection_date}
-    return write_transfer(path, inspection, [observation_fields(o) for o in observations], version, source=source,
+    return write_transfer(path, inspection, [observation_record(o) for o in observations], version, source=source,
                           video_file=manifest.video.name)
 
 

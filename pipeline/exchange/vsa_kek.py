@@ -32,7 +32,7 @@ from ..errors import TransferError
 
 __all__ = ["Transfer", "TransferObject", "TransferLog", "read_transfer", "read_transfer_log", "read_log",
            "write_transfer", "transfer_text", "MODELS", "MAX_TRANSFER_BYTES", "MAX_OBJECTS", "MAX_ELEMENTS",
-           "vsa_code", "split_code", "FPS"]
+           "vsa_code", "split_code", "FPS", "SECTION_FIELDS", "package_transfer", "export_transfers"]
 
 ILI_NS = "http://www.interlis.ch/INTERLIS2.3"
 MODELS = {"2019": ("VSA_KEK_2019_LV95", "20.01.2021"), "2020": ("VSA_KEK_2020_1_LV95", "30.10.2023")}
@@ -49,7 +49,9 @@ TEXT_LIMITS = {"Anmerkung": 100, "Bezeichnung": 20, "vonPunktBezeichnung": 20, "
 _VSA_ALIASES = {"BAGA": ("BAG", "", "")}
 _EN_ALIASES = {v: k for k, v in _VSA_ALIASES.items()}
 _COUNTER = re.compile(r"^(\d{2}):(\d{2}):(\d{2}):(\d{2})$")
-_KNOWN = ("Untersuchung", "Kanalschaden", "Datentraeger", "Datei")
+# header.json's fields a transfer does not hold: package.json's "section" gives them (docs/formats.md)
+SECTION_FIELDS = ("direction", "shape", "height_mm", "width_mm", "height_tolerance_mm", "material",
+                  "pipe_unit_length_m", "site", "longitudinal_reference")
 
 
 @dataclass

@@ -126,7 +126,7 @@ def test_log_verb_reports_bad_records_and_exits_1(tmp_path, capsys):
     bad = tmp_path / "bad.xtf"
     bad.write_text(text, encoding="utf-8")
     assert main(["log", str(bad)]) == 1
-    assert ("bad.xtf Kanalschaden TID ch20zzshw70lp75d (line 156), field 'distance_m': 15.29 m lies beyond the "
+    assert ("bad.xtf Kanalschaden TID ch20zzshw70lp75d (line 156), field 'Distanz': 15.29 m lies beyond the "
             "section's length 11.5 m") in capsys.readouterr().out
 
 
@@ -342,3 +342,23 @@ def test_a_sample_delivered_as_a_transfer_measures_bit_for_bit_as_its_csv_packag
         o = exported.observations[m["row"]]
         assert (o.q1 if m["quantity"] == "Q1" else o.q2) == round(m["value"])
         assert f"measured {m['quantity']} {m['value']:.1f} {m['unit']} U95 {m['U95']:.1f} {m['unit']}" in o.remark
+
+
+def test_the_real_transfer_exported_as_2019_passes_the_validator(tmp_path, ili_models):
+    """The contractor's 2020.1 objects written through the 2020.1 -> 2019 mapping: every object kept, the TID the
+    TEKSI sample uses twice given to its Datei alone, and the validator accepts the result."""
+    reading = read_log_file(REAL_XTF)
+    header = reading.section_header({"direction": "downstream", "shape": "circular", "height_mm": 150, "width_mm": 150,
+                                     "height_tolerance_mm": 2, "material": "vitrified clay", "pipe_unit_length_m": 2.0},
+                                    "real")
+    inspection = {**header.as_record(), "inspection_id": "real", "inspection_date": header.inspection_date}
+    path = write_transfer(tmp_path / "real-2019.xtf", inspection, [observation_record(o) for o in reading.observations],
+                          "2019", source=reading.source)
+    valid, errors = validate(path, ili_models)
+    assert valid, errors
+    t = read_transfer(path)
+    assert len({o.tid for o in t.objects}) == len(t.objects) == len(reading.source.objects)
+    assert t.of("Datentraeger")[2].attrs["Art"] == "Server"          # 2020.1's Webserver
+    assert t.of("Untersuchung")[0].attrs["Art"] == "Untersuchung"     # mandatory in 2019
+    assert t.of("Kanalschaden")[0].meta == {"Datenherr": "ch080qwzAV000007", "Datenlieferant": "ch20p3q400001729",
+                                            "Letzte_Aenderung": "20210120"}

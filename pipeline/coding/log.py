@@ -129,15 +129,17 @@ def read_log(path: str | os.PathLike, section_length_m: float) -> list[Observati
     return parse_log_rows(((f"line {line}", raw) for line, raw in enumerate(rows, start=2)), path.name, section_length_m)
 
 
-def parse_log_rows(rows, file: str, section_length_m: float) -> list[Observation]:
+def parse_log_rows(rows, file: str, section_length_m: float, field_names: dict[str, str] | None = None) -> list[Observation]:
     """Validate delivered log records given as text fields (the columns of observations.csv).
 
     rows : (where, fields) pairs; ``where`` names the record when its row number is unusable ("line 5",
     "Kanalschaden TID ch20zzshw70lrfne"); fields maps LOG_COLUMNS, plus optional ``ref`` and ``grade``, to text.
     Every format's reader comes here, so a value is judged the same whichever file brought it.
     section_length_m : the header's section length [m]; a distance beyond it is an error
+    field_names : the delivered format's name of a column, for the messages ({"distance_m": "Distanz"...})
     """
     name = file
+    field_names = field_names or {}
     observations: list[Observation] = []
     seen: dict[int, str] = {}
     for where, raw in rows:
@@ -149,7 +151,7 @@ def parse_log_rows(rows, file: str, section_length_m: float) -> list[Observation
         label = f"row {f['row']}" if f["row"] and not raw.get("ref") else where
 
         def bad(column: str, message: str) -> None:
-            problems.append(RowProblem(name, label, column, message))
+            problems.append(RowProblem(name, label, field_names.get(column, column), message))
 
         row = _int(f["row"])
         if row is None or row < 0:

@@ -28,7 +28,7 @@ from defusedxml.ElementTree import DefusedXMLParser
 from .. import __version__
 from ..coding import Observation, quantification
 from ..coding.log import parse_log_rows
-from ..errors import TransferError
+from ..errors import PipegaugeError, TransferError
 
 __all__ = ["Transfer", "TransferObject", "TransferLog", "read_transfer", "read_transfer_log", "read_log",
            "write_transfer", "transfer_text", "MODELS", "MAX_TRANSFER_BYTES", "MAX_OBJECTS", "MAX_ELEMENTS",
@@ -49,6 +49,12 @@ TEXT_LIMITS = {"Anmerkung": 100, "Bezeichnung": 20, "vonPunktBezeichnung": 20, "
 _VSA_ALIASES = {"BAGA": ("BAG", "", "")}
 _EN_ALIASES = {v: k for k, v in _VSA_ALIASES.items()}
 _COUNTER = re.compile(r"^(\d{2}):(\d{2}):(\d{2}):(\d{2})$")
+# the Kanalschaden attribute behind each log column, for the messages
+_FIELD_NAMES = {"distance_m": "Distanz", "code": "KanalSchadencode", "char1": "KanalSchadencode (characterisation 1)",
+                "char2": "KanalSchadencode (characterisation 2)", "q1": "Quantifizierung1", "q2": "Quantifizierung2",
+                "q1_unit": "Quantifizierung1", "q2_unit": "Quantifizierung2", "clock_from": "SchadenlageAnfang",
+                "clock_to": "SchadenlageEnde", "at_joint": "Verbindung", "continuous": "Streckenschaden",
+                "video_time": "Videozaehlerstand", "remark": "Anmerkung"}
 # header.json's fields a transfer does not hold: package.json's "section" gives them (docs/formats.md)
 SECTION_FIELDS = ("direction", "shape", "height_mm", "width_mm", "height_tolerance_mm", "material",
                   "pipe_unit_length_m", "site", "longitudinal_reference")
@@ -284,7 +290,7 @@ def read_transfer_log(path: str | os.PathLike) -> TransferLog:
             spec = quantification(code, f"Q{q}", char1)
             raw[f"q{q}"], raw[f"q{q}_unit"] = text, (spec.unit if spec and text else "")
         rows.append((f"Kanalschaden TID {k.tid} (line {k.line})", raw))
-    observations = parse_log_rows(rows, t.path.name, length)
+    observations = parse_log_rows(rows, t.path.name, length, _FIELD_NAMES)
     return TransferLog(t, u, fields, details, observations, video)
 
 
@@ -454,7 +460,15 @@ def transfer_text(inspection: dict, observations: list[dict], version: str, *, m
             a.pop("Einzelschadenklasse", None)   # pipegauge grades nothing yet: only a contractor's class is passed on
         objects.append(k)
     if source:
-        objects += [o for o in source.objects if o.cls in ("Datentraeger", "Datei")]
+        used = {o.tid for o in objects} | {o.tid for o in source.of("Datentraeger")}
+        objects += source.of("Datentraeger")
+        for d in source.of("Datei"):
+            if d.tid in used:
+                # a TID used twice (the TEKSI sample's Datei and Datentraeger): no role refers to a Datei, so it is
+                # the Datei that gets a stable TID of its own, and the transfer stays valid
+                d = TransferObject(d.cls, _tid(key, "Datei", d.tid), d.line, d.attrs, d.refs, d.meta)
+            used.add(d.tid)
+            objects.append(d)
     else:
         medium = TransferObject("Datentraeger", _tid(key, "Datentraeger"), 0,
                                 {"Art": "andere", "Bezeichnung": _text(key, 60), "Bemerkung": "pipegauge package"})
@@ -519,11 +533,11 @@ def _source_of(package_folder) -> tuple[Transfer | None, dict[int, str]]:
         return None, {}
     try:
         manifest = load_manifest(package_folder)
-    except Exception:          # the package moved or changed since it was measured: write fresh objects
+        if manifest.transfer is None:
+            return None, {}
+        log = read_transfer_log(manifest.transfer)
+    except PipegaugeError:     # the package moved or changed since it was measured: write fresh objects
         return None, {}
-    if manifest.transfer is None:
-        return None, {}
-    log = read_transfer_log(manifest.transfer)
     return log.transfer, {o.row: o.ref for o in log.observations}
 
 

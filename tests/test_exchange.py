@@ -25,7 +25,7 @@ from flows.cli import main
 from pipeline.coding import load_manifest
 from pipeline.errors import PackageError, TransferError
 from pipeline.exchange import READERS, WRITERS, load_package_log, observation_record, read_log_file
-from pipeline.exchange.vsa_kek import (MAX_OBJECTS, MAX_TRANSFER_BYTES, SECTION_FIELDS, package_transfer, read_transfer,
+from pipeline.exchange.vsa_kek import (MAX_ELEMENTS, MAX_OBJECTS, MAX_TRANSFER_BYTES, SECTION_FIELDS, package_transfer, read_transfer,
                                        transfer_text, write_transfer)
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -252,6 +252,8 @@ HOSTILE = {
     "external-entity": (lambda: _EXTERNAL, "refused: the file declares a DTD or entities"),
     "million-objects": (lambda: _HEAD + '<k TID="t"/>' * 10 ** 6 + _TAIL,
                         f"more than {MAX_OBJECTS} objects (the next is k TID 't')"),
+    "million-elements": (lambda: _HEAD + '<k TID="t">' + "<a/>" * 10 ** 6 + "</k>" + _TAIL,
+                         f"more than {MAX_ELEMENTS} XML elements (at element a in k TID t)"),
     "wrong-model": (lambda: _HEAD.replace("VSA_KEK_2019_LV95", "DM01AVCH24LV95D") + _TAIL.replace("VSA_KEK_2019_LV95", "DM01AVCH24LV95D"),
                     "basket of model 'DM01AVCH24LV95D'; pipegauge reads VSA-KEK transfers of VSA_KEK_2019_LV95 or VSA_KEK_2020_1_LV95"),
     "malformed": (lambda: _HEAD + '<VSA_KEK_2019_LV95.KEK.Untersuchung TID="u1"><Bezeichnung>S1</Untersuchung>',

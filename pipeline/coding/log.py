@@ -103,12 +103,16 @@ def _read_table(path: Path, required: tuple[str, ...], what: str) -> list[dict[s
     return rows
 
 
-def _float(text: str) -> float | None:
+def finite_number(text: str) -> float | None:
+    """A delivered number as a finite float, or None when the text is none."""
     try:
         value = float(text)
     except ValueError:
         return None
     return value if math.isfinite(value) else None
+
+
+_float = finite_number
 
 
 def _int(text: str) -> int | None:

@@ -27,7 +27,7 @@ from defusedxml.ElementTree import DefusedXMLParser
 
 from .. import __version__
 from ..coding import Observation, quantification
-from ..coding.log import parse_log_rows
+from ..coding.log import finite_number, parse_log_rows
 from ..errors import PipegaugeError, TransferError
 
 __all__ = ["Transfer", "TransferObject", "TransferLog", "read_transfer", "read_transfer_log", "read_log",
@@ -255,7 +255,7 @@ def read_transfer_log(path: str | os.PathLike) -> TransferLog:
         fields["inspection_date"] = dt.datetime.strptime(date, "%Y%m%d").date().isoformat()
     except ValueError:
         problems.append(f"attribute Zeitpunkt {date!r} is not a date YYYYMMDD")
-    length = _number(a.get("Inspizierte_Laenge", ""))
+    length = finite_number(a.get("Inspizierte_Laenge", ""))
     if length is None:
         problems.append(f"attribute Inspizierte_Laenge {a.get('Inspizierte_Laenge')!r} is not a length in m")
     else:
@@ -292,14 +292,6 @@ def read_transfer_log(path: str | os.PathLike) -> TransferLog:
         rows.append((f"Kanalschaden TID {k.tid} (line {k.line})", raw))
     observations = parse_log_rows(rows, t.path.name, length, _FIELD_NAMES)
     return TransferLog(t, u, fields, details, observations, video)
-
-
-def _number(text: str) -> float | None:
-    try:
-        value = float(text)
-    except ValueError:
-        return None
-    return value if math.isfinite(value) else None
 
 
 def _clock(text: str) -> str:

@@ -364,3 +364,30 @@ def test_the_real_transfer_exported_as_2019_passes_the_validator(tmp_path, ili_m
     assert t.of("Untersuchung")[0].attrs["Art"] == "Untersuchung"     # mandatory in 2019
     assert t.of("Kanalschaden")[0].meta == {"Datenherr": "ch080qwzAV000007", "Datenlieferant": "ch20p3q400001729",
                                             "Letzte_Aenderung": "20210120"}
+
+
+def test_export_verb_writes_csv_through_the_registry_and_one_transfer_per_inspection(tmp_path, capsys):
+    import datetime as dt
+
+    from pipeline.store import write_inspection
+
+    data = tmp_path / "dataset"
+    for iid, status in (("P1", "ok"), ("P2", "failed")):
+        inspection = {"inspection_id": iid, "inspection_date": dt.date(2026, 11, 20), "section_id": "S9",
+                      "start_node": "MH1", "finish_node": "MH2", "section_length_m": 12.0, "status": status,
+                      "package_folder": str(tmp_path / "gone"), "video_file": "video.mp4", "problems": []}
+        observations = [{"row": 0, "distance_m": 0.0, "code": "BCD", "valid": True},
+                        {"row": 1, "distance_m": 2.5, "code": "BAB", "char1": "B", "char2": "B", "q1": 4.0,
+                         "q1_unit": "mm", "clock_from": 9, "clock_to": 3, "video_time_s": 12.4, "remark": "=1+1",
+                         "valid": True}]
+        measurements = [{"row": 1, "quantity": "Q1", "source": "marks", "code": "BAB", "unit": "mm", "value": 5.26,
+                         "U95": 0.81, "status": "ok", "confident": True}]
+        write_inspection(data, inspection, observations if status == "ok" else [], measurements if status == "ok" else [], [])
+    assert main(["export", "--data", str(data), "--out", str(tmp_path / "q.csv")]) == 0
+    assert "1 quantities written to" in capsys.readouterr().err
+    assert main(["export", "--data", str(data), "--format", "vsa-kek-2020", "--out", str(tmp_path / "x")]) == 0
+    assert capsys.readouterr().out.split() == [str(tmp_path / "x" / "P1.xtf")]      # not the failed one
+    crack = read_log_file(tmp_path / "x" / "P1.xtf").observations[1]
+    assert (crack.code, crack.char1, crack.char2, crack.q1, crack.clock_from, crack.clock_to, crack.video_time_s) == (
+        "BAB", "B", "B", 5.0, 9, 3, 12.4)
+    assert crack.remark == "measured Q1 5.3 mm U95 0.8 mm (pipegauge 0.1.0, perspective); =1+1"

@@ -391,3 +391,35 @@ def test_export_verb_writes_csv_through_the_registry_and_one_transfer_per_inspec
     assert (crack.code, crack.char1, crack.char2, crack.q1, crack.clock_from, crack.clock_to, crack.video_time_s) == (
         "BAB", "B", "B", 5.0, 9, 3, 12.4)
     assert crack.remark == "measured Q1 5.3 mm U95 0.8 mm (pipegauge 0.1.0, perspective); =1+1"
+
+
+def test_a_transfer_package_takes_the_rest_of_its_header_from_package_json(tmp_path):
+    from pipeline.errors import HeaderError
+
+    pkg = tmp_path / "real"
+    pkg.mkdir()
+    shutil.copy2(REAL_XTF, pkg / "section.xtf")
+    (pkg / "video.mp4").write_bytes(b"")
+    (pkg / "marks.csv").write_text("row,quantity,frame,point,x_px,y_px\n")
+    section = {"direction": "downstream", "shape": "circular", "height_mm": 150, "width_mm": 150,
+               "height_tolerance_mm": 2, "material": "vitrified clay", "pipe_unit_length_m": 2.0}
+
+    def manifest(**changes) -> None:
+        data = {"format": "pipegauge-inspection-package", "format_version": 1, "package_id": "real",
+                "certificate_id": "none", "transfer": "section.xtf", "section": section, **changes}
+        (pkg / "package.json").write_text(json.dumps(data))
+
+    manifest()
+    header, log = load_package_log(load_manifest(pkg))
+    assert (header.section_id, header.height_mm, header.section_length_m, header.inspection_date.isoformat()) == (
+        "1.045-1.040", 150, 11.5, "2021-01-20")
+    assert len(log) == 8
+    manifest(section={k: v for k, v in section.items() if k != "shape"})
+    with pytest.raises(HeaderError, match="section.xtf with .*package.json: field 'shape': expected non-empty text"):
+        load_package_log(load_manifest(pkg))
+    manifest(section={**section, "section_length_m": 12.0})
+    with pytest.raises(HeaderError, match="'section' gives section_length_m with another value than section.xtf"):
+        load_package_log(load_manifest(pkg))
+    manifest(observations="observations.csv")
+    with pytest.raises(PackageError, match="field 'observations': a package with a 'transfer' takes its observations from it"):
+        load_manifest(pkg)

@@ -484,6 +484,7 @@ def cmd_log(args: argparse.Namespace) -> int:
 
 def build_parser() -> argparse.ArgumentParser:
     from pipeline.calibration.pattern import PATTERN_SYNTAX
+    from pipeline.exchange import WRITERS        # the registry only: each format's module loads when used
 
     parser = argparse.ArgumentParser(
         prog="pipegauge",
@@ -597,7 +598,7 @@ def build_parser() -> argparse.ArgumentParser:
     ex.add_argument("--data", type=Path, default=Path("reports/dataset"), help="dataset folder (default: %(default)s)")
     ex.add_argument("--out", type=Path, required=True,
                     help="file to write (.csv or .parquet); for a transfer format, the folder for one file per inspection")
-    ex.add_argument("--format", choices=("csv", "parquet", "vsa-kek-2019", "vsa-kek-2020"),
+    ex.add_argument("--format", choices=tuple(WRITERS),
                     help="default: from the file's extension; vsa-kek-*: VSA-KEK INTERLIS transfers (docs/formats.md)")
     ex.add_argument("--from", dest="start", type=_date, help="first inspection date YYYY-MM-DD")
     ex.add_argument("--to", dest="end", type=_date, help="last inspection date YYYY-MM-DD")

@@ -22,6 +22,7 @@ from pathlib import Path
 import pytest
 
 from flows.cli import main
+from pipeline import __version__
 from pipeline.coding import load_manifest
 from pipeline.errors import PackageError, TransferError
 from pipeline.exchange import READERS, WRITERS, load_package_log, observation_record, read_log_file
@@ -221,7 +222,7 @@ def test_writer_keeps_the_contractors_objects_and_grade():
     assert [o.grade for o in written.observations] == ["unbekannt"] * 8
     bag = written.observations[6]
     assert bag.q1 == 30.0
-    assert bag.remark == "measured Q1 30.1 % U95 1.0 % (pipegauge 0.1.0, perspective)"
+    assert bag.remark == f"measured Q1 30.1 % U95 1.0 % (pipegauge {__version__}, perspective)"
     assert written.source.of("Untersuchung")[0].refs["Ausfuehrende_FirmaRef"] == ("ch20p3q400001729", "Basket1")
     assert len(written.source.of("Datei")) == 5
 
@@ -390,7 +391,7 @@ def test_export_verb_writes_csv_through_the_registry_and_one_transfer_per_inspec
     crack = read_log_file(tmp_path / "x" / "P1.xtf").observations[1]
     assert (crack.code, crack.char1, crack.char2, crack.q1, crack.clock_from, crack.clock_to, crack.video_time_s) == (
         "BAB", "B", "B", 5.0, 9, 3, 12.4)
-    assert crack.remark == "measured Q1 5.3 mm U95 0.8 mm (pipegauge 0.1.0, perspective); =1+1"
+    assert crack.remark == f"measured Q1 5.3 mm U95 0.8 mm (pipegauge {__version__}, perspective); =1+1"
 
 
 def test_a_transfer_package_takes_the_rest_of_its_header_from_package_json(tmp_path):

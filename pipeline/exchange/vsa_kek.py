@@ -407,7 +407,6 @@ def transfer_text(inspection: dict, observations: list[dict], version: str, *, m
     key = inspection["inspection_id"]
     date = inspection["inspection_date"]
     last_change = date.strftime("%Y%m%d")
-    kept = {(o.cls, o.tid): o for o in (source.objects if source else [])}
     u_src = next((o for o in (source.objects if source else []) if o.cls == "Untersuchung"), None)
     u = TransferObject("Untersuchung", u_src.tid if u_src else _tid(key, "Untersuchung"), 0,
                        dict(u_src.attrs) if u_src else {}, dict(u_src.refs) if u_src else {},

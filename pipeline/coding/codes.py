@@ -52,6 +52,7 @@ class Code:
     q1, q2 : quantification per characterisation 1 (key ``"*"`` for any)
     continuous : whether it may be coded as a continuous defect (S/F markers)
     char1_optional : characterisation 1 may be left empty (a national catalogue adds letters EN 13508-2 lacks)
+    changes_geometry : the record changes the header's profile or pipe units from its distance on (VSA-KEK AEC, AEF)
     """
 
     code: str
@@ -62,6 +63,7 @@ class Code:
     q2: Mapping[str, Quantification] = field(default_factory=dict)
     continuous: bool = True
     char1_optional: bool = False
+    changes_geometry: bool = False
 
     def quantification(self, which: str, char1: str) -> Quantification | None:
         """The quantification ``"Q1"`` or ``"Q2"`` for a characterisation 1, or None when the code has none."""
@@ -140,10 +142,11 @@ _TABLE = (
 # that transfer (AEC 300 for a 300 mm profile, AEF 2000 for 2 m units) [uncertain: not in EN 13508-2].
 _TABLE += (
     Code("AEC", "change of profile (VSA-KEK)", {"X": "change"}, {c: "new profile" for c in "ABCDEFGH"},
-         q1={ANY: _q("mm", "height of the new profile")}, continuous=False),
+         q1={ANY: _q("mm", "height of the new profile")}, continuous=False, changes_geometry=True),
     Code("AED", "change of material (VSA-KEK)", {"X": "change"}, {c: "new material" for c in "ABCDEFGHIJKLMNOPQRSTUVWX"},
          continuous=False),
-    Code("AEF", "new pipe unit length (VSA-KEK)", q1={ANY: _q("mm", "length of the new pipe units")}, continuous=False),
+    Code("AEF", "new pipe unit length (VSA-KEK)", q1={ANY: _q("mm", "length of the new pipe units")}, continuous=False,
+         changes_geometry=True),
 )
 
 CODES: Mapping[str, Code] = MappingProxyType({c.code: c for c in _TABLE})

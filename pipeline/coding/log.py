@@ -177,6 +177,10 @@ def parse_log_rows(rows, file: str, section_length_m: float, field_names: dict[s
             bad("code", f"{f['code']!r} is not an EN 13508-2 pipe observation code known to pipegauge "
                         "(pipeline/coding/codes.py lists them)")
         else:
+            if spec.changes_geometry and math.isfinite(distance) and distance > DISTANCE_SLACK_M:
+                # pipegauge measures the whole section with one header: a change part-way would be silently ignored
+                bad("code", f"{code} ({spec.name}) at {distance} m changes the section part-way, which pipegauge does "
+                            f"not apply; deliver the section as two packages split at {distance} m")
             for column, allowed in (("char1", spec.char1), ("char2", spec.char2)):
                 value = f[column].upper()
                 if allowed and value and value not in allowed:

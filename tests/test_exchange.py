@@ -379,7 +379,7 @@ def test_export_verb_writes_csv_through_the_registry_and_one_transfer_per_inspec
                       "package_folder": str(tmp_path / "gone"), "video_file": "video.mp4", "problems": []}
         observations = [{"row": 0, "distance_m": 0.0, "code": "BCD", "valid": True},
                         {"row": 1, "distance_m": 2.5, "code": "BAB", "char1": "B", "char2": "B", "q1": 4.0,
-                         "q1_unit": "mm", "clock_from": 9, "clock_to": 3, "video_time_s": 12.4, "remark": "=1+1",
+                         "q1_unit": "mm", "clock_from": 9, "clock_to": 3, "video_time_s": 12.4, "remark": "=1+1\nsecond\tline",
                          "valid": True}]
         measurements = [{"row": 1, "quantity": "Q1", "source": "marks", "code": "BAB", "unit": "mm", "value": 5.26,
                          "U95": 0.81, "status": "ok", "confident": True}]
@@ -391,7 +391,7 @@ def test_export_verb_writes_csv_through_the_registry_and_one_transfer_per_inspec
     crack = read_log_file(tmp_path / "x" / "P1.xtf").observations[1]
     assert (crack.code, crack.char1, crack.char2, crack.q1, crack.clock_from, crack.clock_to, crack.video_time_s) == (
         "BAB", "B", "B", 5.0, 9, 3, 12.4)
-    assert crack.remark == f"measured Q1 5.3 mm U95 0.8 mm (pipegauge {__version__}, perspective); =1+1"
+    assert crack.remark == f"measured Q1 5.3 mm U95 0.8 mm (pipegauge {__version__}, perspective); =1+1 second line"
 
 
 def test_a_transfer_package_takes_the_rest_of_its_header_from_package_json(tmp_path):

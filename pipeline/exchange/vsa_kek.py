@@ -48,6 +48,7 @@ TEXT_LIMITS = {"Anmerkung": 100, "Bezeichnung": 20, "vonPunktBezeichnung": 20, "
 # VSA-KEK characterises codes that EN 13508-2 (pipeline/coding/codes.py) does not: the VSA code stands for the EN one
 _VSA_ALIASES = {"BAGA": ("BAG", "", "")}
 _EN_ALIASES = {v: k for k, v in _VSA_ALIASES.items()}
+_CONTROL = re.compile(r"[\x00-\x1f\x7f]")
 _COUNTER = re.compile(r"^(\d{2}):(\d{2}):(\d{2}):(\d{2})$")
 # the Kanalschaden attribute behind each log column, for the messages
 _FIELD_NAMES = {"distance_m": "Distanz", "code": "KanalSchadencode", "char1": "KanalSchadencode (characterisation 1)",
@@ -320,7 +321,9 @@ def _metres(value: float) -> str:
 
 
 def _text(value: object, limit: int | None = None) -> str:
-    text = "" if value is None or (isinstance(value, float) and math.isnan(value)) else str(value).strip()
+    """One line of text (INTERLIS TEXT holds no line breaks or control characters), cut at ``limit`` characters."""
+    text = "" if value is None or (isinstance(value, float) and math.isnan(value)) else str(value)
+    text = " ".join(_CONTROL.sub(" ", text).split())
     return text[:limit] if limit else text
 
 

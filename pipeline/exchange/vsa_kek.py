@@ -43,8 +43,7 @@ MAX_ELEMENTS = 500_000              # XML elements, attributes of the objects in
 MAX_TEXT = 10_000                   # characters kept of one element's text (the model's longest is 200)
 FPS = 25                            # Videozaehlerstand hh:mm:ss:ff counts frames 0..24 (VSA_KEK model)
 QUANTITY_RANGE = (0, 100000)        # Quantifizierung1/2: the model's integer range [mm or %]
-TEXT_LIMITS = {"Anmerkung": 100, "Bezeichnung": 20, "vonPunktBezeichnung": 20, "bisPunktBezeichnung": 20,
-               "Ausfuehrender": 50, "Streckenschaden": 3}
+ANMERKUNG_CHARS = 100              # Kanalschaden.Anmerkung is TEXT*100 (other texts are cut at their own length)
 # VSA-KEK characterises codes that EN 13508-2 (pipeline/coding/codes.py) does not: the VSA code stands for the EN one
 _VSA_ALIASES = {"BAGA": ("BAG", "", "")}
 _EN_ALIASES = {v: k for k, v in _VSA_ALIASES.items()}
@@ -449,7 +448,7 @@ def transfer_text(inspection: dict, observations: list[dict], version: str, *, m
         if notes:
             note = "; ".join(notes) + f" (pipegauge {__version__}, {inspection.get('model') or 'perspective'})"
             remark = f"{note}; {remark}" if remark else note
-        a["Anmerkung"] = remark[:TEXT_LIMITS["Anmerkung"]]
+        a["Anmerkung"] = remark[:ANMERKUNG_CHARS]
         if not k_src:
             a.pop("Einzelschadenklasse", None)   # pipegauge grades nothing yet: only a contractor's class is passed on
         objects.append(k)

@@ -424,3 +424,15 @@ def test_a_transfer_package_takes_the_rest_of_its_header_from_package_json(tmp_p
     manifest(observations="observations.csv")
     with pytest.raises(PackageError, match="field 'observations': a package with a 'transfer' takes its observations from it"):
         load_manifest(pkg)
+
+
+def test_objects_of_other_classes_are_said_not_read(tmp_path):
+    text = REAL_XTF.read_text(encoding="utf-8").replace(
+        "</VSA_KEK_2020_1_LV95.KEK>",
+        '<VSA_KEK_2020_1_LV95.KEK.Normschachtschaden TID="n1"><Distanz>0.5</Distanz></VSA_KEK_2020_1_LV95.KEK.Normschachtschaden>'
+        "</VSA_KEK_2020_1_LV95.KEK>")
+    path = tmp_path / "with-manhole.xtf"
+    path.write_text(text, encoding="utf-8")
+    reading = read_log_file(path)
+    assert reading.details["not read"] == "1 Normschachtschaden"
+    assert len(reading.observations) == 8

@@ -264,6 +264,12 @@ def read_transfer_log(path: str | os.PathLike) -> TransferLog:
         raise TransferError(f"{u.where(t.path)}: " + "; ".join(problems))
     details = {k: v for k, v in a.items() if k not in ("Bezeichnung", "vonPunktBezeichnung", "bisPunktBezeichnung",
                                                        "Ausfuehrender", "Zeitpunkt", "Inspizierte_Laenge") and v}
+    others: dict[str, int] = {}
+    for o in t.objects:
+        if o.cls not in ("Untersuchung", "Kanalschaden", "Datentraeger", "Datei"):
+            others[o.cls] = others.get(o.cls, 0) + 1
+    if others:     # manhole damage (Normschachtschaden)... is not a pipe log: said, not read
+        details["not read"] = ", ".join(f"{n} {cls}" for cls, n in sorted(others.items()))
     files = t.of("Datei")
     photos: dict[str, list[str]] = {}
     for d in files:

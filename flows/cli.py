@@ -477,17 +477,47 @@ def cmd_report(args: argparse.Namespace) -> int:
 
 
 def cmd_export(args: argparse.Namespace) -> int:
-    from pipeline.store import export_csv, export_parquet
+    from pipeline.exchange import WRITERS, writer
 
     fmt = args.format or ("parquet" if args.out.suffix.lower() == ".parquet" else "csv")
-    write = export_parquet if fmt == "parquet" else export_csv
-    n = write(_dataset_of(args.data), args.out, args.start, args.end)
-    _say(f"pipegauge export: {n} quantities written to {args.out} ({fmt})")
+    written = writer(fmt)(_dataset_of(args.data), args.out, args.start, args.end)
+    if WRITERS[fmt].out == "file":
+        _say(f"pipegauge export: {sum(n for _, n in written)} quantities written to {args.out} ({fmt})")
+    else:
+        for path, n in written:
+            print(path)
+        _say(f"pipegauge export: {len(written)} transfer(s) ({fmt}, {sum(n for _, n in written)} observations) in {args.out}")
     return EXIT_OK
+
+
+def cmd_log(args: argparse.Namespace) -> int:
+    from pipeline.exchange import read_log_file
+    from pipeline.text import format_table
+
+    reading = read_log_file(args.file)
+    if args.json:
+        print(json.dumps(reading.as_dict(), indent=1, default=str))
+        return EXIT_OK
+    print(f"{reading.file} ({reading.format})")
+    for key, value in {**reading.header_fields, **reading.details, "video": reading.video}.items():
+        if value not in ("", None):
+            print(f"  {key}: {value}")
+    cell = lambda v: "" if v is None else v      # noqa: E731
+    rows = [(o.row, f"{o.distance_m:.2f}", o.code, o.char1, o.char2, cell(o.q1), o.q1_unit, cell(o.q2), o.q2_unit,
+             cell(o.clock_from), cell(o.clock_to), "Y" if o.at_joint else "", o.continuous,
+             "" if o.video_time_s is None else f"{o.video_time_s:.2f}", o.ref, o.grade, o.remark[:40])
+            for o in reading.observations]
+    print(format_table(("row", "distance_m", "code", "c1", "c2", "q1", "unit", "q2", "unit", "from", "to", "joint",
+                        "cont", "video_s", "ref", "grade", "remark"), rows,
+                       title=f"{len(rows)} observation(s)"))
+    problems = reading.problems()
+    print(f"{len(problems)} problem(s)" + "".join(f"\n  {p}" for p in problems))
+    return EXIT_FAILED if problems else EXIT_OK
 
 
 def build_parser() -> argparse.ArgumentParser:
     from pipeline.calibration.pattern import PATTERN_SYNTAX
+    from pipeline.exchange import WRITERS        # the registry only: each format's module loads when used
 
     parser = argparse.ArgumentParser(
         prog="pipegauge",
@@ -599,11 +629,20 @@ def build_parser() -> argparse.ArgumentParser:
                                       "its observation and section. CSV text cells are safe against spreadsheet "
                                       "formula injection.")
     ex.add_argument("--data", type=Path, default=Path("reports/dataset"), help="dataset folder (default: %(default)s)")
-    ex.add_argument("--out", type=Path, required=True, help="file to write (.csv or .parquet)")
-    ex.add_argument("--format", choices=("csv", "parquet"), help="default: from the file's extension")
+    ex.add_argument("--out", type=Path, required=True,
+                    help="file to write (.csv or .parquet); for a transfer format, the folder for one file per inspection")
+    ex.add_argument("--format", choices=tuple(WRITERS),
+                    help="default: from the file's extension; vsa-kek-*: VSA-KEK INTERLIS transfers (docs/formats.md)")
     ex.add_argument("--from", dest="start", type=_date, help="first inspection date YYYY-MM-DD")
     ex.add_argument("--to", dest="end", type=_date, help="last inspection date YYYY-MM-DD")
     ex.set_defaults(func=cmd_export)
+
+    lg = verbs.add_parser("log", help="print an observation log (observations.csv or a VSA-KEK transfer) as pipegauge reads it",
+                          description="Header, observations and problems of a delivered log, validated as a package's "
+                                      "would be (docs/formats.md). Exit 1 when a record has a problem.")
+    lg.add_argument("file", type=Path, help="observations.csv (with header.json beside it) or a .xtf transfer")
+    lg.add_argument("--json", action="store_true", help="print JSON")
+    lg.set_defaults(func=cmd_log)
 
     c = verbs.add_parser("certificate", help="check or convert a camera calibration certificate",
                          description="Validate a calibration certificate (docs/certificate-format.md) or convert it "

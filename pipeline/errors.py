@@ -53,3 +53,7 @@ class MeasurementError(PipegaugeError):
 
 class StoreError(PipegaugeError):
     """The Parquet dataset cannot be read or written."""
+
+
+class TransferError(PipegaugeError):
+    """An exchange file (a VSA-KEK INTERLIS transfer...) is refused: malformed, hostile, too large, of another model."""

@@ -20,7 +20,7 @@ __all__ = [
 # Delivered text files.
 MAX_JSON_BYTES = 1 << 20            # package.json, header.json, a certificate [bytes]
 MAX_CSV_BYTES = 16 << 20            # observations.csv, marks.csv [bytes]
-MAX_TRANSFER_BYTES = 64 << 20       # an exchange file (e.g. a VSA-KEK transfer) [bytes]
+MAX_TRANSFER_BYTES = 16 << 20       # an exchange file of one inspection (e.g. a VSA-KEK transfer) [bytes]
 MAX_LOG_ROWS = 5_000                # rows of one section's observation log
 MAX_MARK_LINES = 4_000              # lines of marks.csv (two points per measured quantity)
 MAX_ROW_NUMBER = 999_999            # a log row number (the dataset stores it as int32)

@@ -122,3 +122,11 @@ def test_code_table_units_follow_design():
     assert CODES["BAJ"].quantification("Q1", "C").unit == "deg"
     assert CODES["BDD"].quantification("Q1", "A").method == "water_level"
     assert CODES["BBF"].quantification("Q1", "A") is None
+
+
+def test_a_profile_change_part_way_is_refused_at_the_start_accepted(tmp_path):
+    obs = read_log(_log(tmp_path, "0,0.0,AEC,X,C,300,mm,,,,,,,,,", "1,0.0,AEF,,,2000,mm,,,,,,,,,",
+                        "2,12.5,AEC,X,B,600,mm,,,,,,,,,", "3,12.5,AED,X,F,,,,,,,,,,,"), 42.0)
+    assert [[str(p) for p in o.problems] for o in obs] == [[], [], [
+        "observations.csv row 2, field 'code': AEC (change of profile (VSA-KEK)) at 12.5 m changes the section "
+        "part-way, which pipegauge does not apply; deliver the section as two packages split at 12.5 m"], []]

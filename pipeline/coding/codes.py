@@ -51,6 +51,8 @@ class Code:
     char1, char2 : allowed characterisation letters -> meaning (empty: none is coded)
     q1, q2 : quantification per characterisation 1 (key ``"*"`` for any)
     continuous : whether it may be coded as a continuous defect (S/F markers)
+    char1_optional : characterisation 1 may be left empty (a national catalogue adds letters EN 13508-2 lacks)
+    changes_geometry : the record changes the header's profile or pipe units from its distance on (VSA-KEK AEC, AEF)
     """
 
     code: str
@@ -60,6 +62,8 @@ class Code:
     q1: Mapping[str, Quantification] = field(default_factory=dict)
     q2: Mapping[str, Quantification] = field(default_factory=dict)
     continuous: bool = True
+    char1_optional: bool = False
+    changes_geometry: bool = False
 
     def quantification(self, which: str, char1: str) -> Quantification | None:
         """The quantification ``"Q1"`` or ``"Q2"`` for a characterisation 1, or None when the code has none."""
@@ -121,7 +125,9 @@ _TABLE = (
     Code("BCD", "start node", continuous=False),
     Code("BCE", "finish node", continuous=False),
     Code("BDA", "general photograph", continuous=False),
-    Code("BDB", "general remark", continuous=False),
+    # VSA-KEK codes the kind of a general remark (BDBA start of the survey ... BDBM); EN 13508-2 has none
+    Code("BDB", "general remark", {c: "kind of remark (VSA-KEK)" for c in "ABCDEFGHIJKLM"}, continuous=False,
+         char1_optional=True),
     Code("BDC", "survey abandoned", {c: "reason" for c in "ABCZ"}, continuous=False),
     Code("BDD", "water level", {"A": "clear", "B": "discontinued", "C": "turbid", "D": "coloured", "E": "turbid and coloured"},
          q1={ANY: _q("%", "water level, % of the vertical dimension", "water_level")}),
@@ -129,6 +135,18 @@ _TABLE = (
          continuous=False),
     Code("BDF", "atmosphere", {"A": "oxygen deficiency", "B": "hydrogen sulphide", "C": "methane", "Z": "other"}),
     Code("BDG", "loss of vision", {"A": "camera under water", "B": "silt", "C": "steam", "Z": "other"}),
+)
+
+# Swiss VSA-KEK in-line header changes (EN13508-2-notes 2.4, seen in the TEKSI transfer): X, then the new profile
+# or material letter of the VSA catalogue; AEF gives the new pipe unit length. Q1 units are VSA's usage as read in
+# that transfer (AEC 300 for a 300 mm profile, AEF 2000 for 2 m units) [uncertain: not in EN 13508-2].
+_TABLE += (
+    Code("AEC", "change of profile (VSA-KEK)", {"X": "change"}, {c: "new profile" for c in "ABCDEFGH"},
+         q1={ANY: _q("mm", "height of the new profile")}, continuous=False, changes_geometry=True),
+    Code("AED", "change of material (VSA-KEK)", {"X": "change"}, {c: "new material" for c in "ABCDEFGHIJKLMNOPQRSTUVWX"},
+         continuous=False),
+    Code("AEF", "new pipe unit length (VSA-KEK)", q1={ANY: _q("mm", "length of the new pipe units")}, continuous=False,
+         changes_geometry=True),
 )
 
 CODES: Mapping[str, Code] = MappingProxyType({c.code: c for c in _TABLE})

@@ -19,8 +19,8 @@ from ..limits import (MAX_CSV_BYTES, MAX_DISTANCE_M, MAX_FRAME_INDEX, MAX_LOG_RO
                       MAX_ROW_NUMBER, MAX_TEXT_FIELD_CHARS)
 from .codes import CODES, UNITS, Quantification
 
-__all__ = ["Observation", "Mark", "RowProblem", "read_log", "read_marks", "check_marks_in_frame",
-           "LOG_COLUMNS", "MARK_COLUMNS", "DEFAULT_MARK_U_PX"]
+__all__ = ["Observation", "Mark", "RowProblem", "read_log", "parse_log_rows", "read_marks", "check_marks_in_frame",
+           "LOG_COLUMNS", "MARK_COLUMNS", "DEFAULT_MARK_U_PX", "MAX_LOG_ROWS"]
 
 LOG_COLUMNS = ("row", "distance_m", "code", "char1", "char2", "q1", "q1_unit", "q2", "q2_unit",
                "clock_from", "clock_to", "at_joint", "continuous", "video_time", "photo", "remark")
@@ -66,6 +66,8 @@ class Observation:
     remark: str
     fields: dict[str, str]
     problems: list[RowProblem] = field(default_factory=list)
+    ref: str = ""         # the delivered record's own id when its format has one (a VSA-KEK Kanalschaden TID)
+    grade: str = ""       # the contractor's condition grade when delivered (VSA-KEK Einzelschadenklasse)
 
     def quantification(self, which: str) -> Quantification | None:
         spec = CODES.get(self.code)
@@ -113,12 +115,16 @@ def _read_table(path: Path, required: tuple[str, ...], what: str, max_rows: int)
     return rows
 
 
-def _float(text: str) -> float | None:
+def finite_number(text: str) -> float | None:
+    """A delivered number as a finite float, or None when the text is none."""
     try:
         value = float(text)
     except ValueError:
         return None
     return value if math.isfinite(value) else None
+
+
+_float = finite_number
 
 
 def _int(text: str) -> int | None:
@@ -137,16 +143,34 @@ def read_log(path: str | os.PathLike, section_length_m: float) -> list[Observati
     section_length_m : the header's section length [m]; a distance beyond it is an error
     """
     path = Path(path)
-    name = path.name
+    rows = _read_table(path, LOG_COLUMNS, "observation log", MAX_LOG_ROWS)
+    return parse_log_rows(((f"line {line}", raw) for line, raw in enumerate(rows, start=2)), path.name, section_length_m)
+
+
+def parse_log_rows(rows, file: str, section_length_m: float, field_names: dict[str, str] | None = None) -> list[Observation]:
+    """Validate delivered log records given as text fields (the columns of observations.csv).
+
+    rows : (where, fields) pairs; ``where`` names the record when its row number is unusable ("line 5",
+    "Kanalschaden TID ch20zzshw70lrfne"); fields maps LOG_COLUMNS, plus optional ``ref`` and ``grade``, to text.
+    Every format's reader comes here, so a value is judged the same whichever file brought it.
+    section_length_m : the header's section length [m]; a distance beyond it is an error
+    field_names : the delivered format's name of a column, for the messages ({"distance_m": "Distanz"...})
+    """
+    name = file
+    field_names = field_names or {}
     observations: list[Observation] = []
-    seen: dict[int, int] = {}
-    for line, raw in enumerate(_read_table(path, LOG_COLUMNS, "observation log", MAX_LOG_ROWS), start=2):
+    seen: dict[int, str] = {}
+    for where, raw in rows:
+        if len(observations) >= MAX_LOG_ROWS:
+            raise ObservationLogError(f"{file}: more than {MAX_LOG_ROWS:,} rows; pipegauge reads an observation log "
+                                      f"of at most {MAX_LOG_ROWS:,} rows (docs/operations.md, input limits); "
+                                      "deliver one file per pipe section")
         f = {k: (raw.get(k) or "").strip() for k in LOG_COLUMNS}
         problems: list[RowProblem] = []
-        label = f"row {_clip(f['row'], 20)}" if f["row"] else f"line {line}"
+        label = f"row {_clip(f['row'], 20)}" if f["row"] and not raw.get("ref") else where
 
         def bad(column: str, message: str) -> None:
-            problems.append(RowProblem(name, label, column, message))
+            problems.append(RowProblem(name, label, field_names.get(column, column), message))
 
         for column in LOG_COLUMNS:
             limit = MAX_REMARK_CHARS if column == "remark" else MAX_TEXT_FIELD_CHARS
@@ -156,10 +180,10 @@ def read_log(path: str | os.PathLike, section_length_m: float) -> list[Observati
         row = _int(f["row"])
         if row is None or not 0 <= row <= MAX_ROW_NUMBER:
             bad("row", f"{_clip(f['row'])!r} is not a row number (a whole number 0-{MAX_ROW_NUMBER})")
-            row = -line
+            row = -1 - len(observations)
         elif row in seen:
-            bad("row", f"row number {row} is used twice (lines {seen[row]} and {line}); number the rows uniquely")
-        seen.setdefault(row, line)
+            bad("row", f"row number {row} is used twice ({seen[row]} and {where}); number the rows uniquely")
+        seen.setdefault(row, where)
         distance = _float(f["distance_m"])
         if distance is None or not 0 <= distance <= MAX_DISTANCE_M:
             bad("distance_m", f"{_clip(f['distance_m'])!r} is not a distance in m (a number 0-{MAX_DISTANCE_M:g})")
@@ -173,11 +197,15 @@ def read_log(path: str | os.PathLike, section_length_m: float) -> list[Observati
             bad("code", f"{f['code']!r} is not an EN 13508-2 pipe observation code known to pipegauge "
                         "(pipeline/coding/codes.py lists them)")
         else:
+            if spec.changes_geometry and math.isfinite(distance) and distance > DISTANCE_SLACK_M:
+                # pipegauge measures the whole section with one header: a change part-way would be silently ignored
+                bad("code", f"{code} ({spec.name}) at {distance} m changes the section part-way, which pipegauge does "
+                            f"not apply; deliver the section as two packages split at {distance} m")
             for column, allowed in (("char1", spec.char1), ("char2", spec.char2)):
                 value = f[column].upper()
                 if allowed and value and value not in allowed:
                     bad(column, f"{value!r} is not a characterisation of {code}; use one of {', '.join(allowed)}")
-                elif allowed and not value and column == "char1":
+                elif allowed and not value and column == "char1" and not spec.char1_optional:
                     bad(column, f"{code} needs a characterisation 1 ({', '.join(allowed)})")
                 elif not allowed and value:
                     bad(column, f"{code} takes no characterisation {column[-1]}, got {value!r}")
@@ -221,7 +249,8 @@ def read_log(path: str | os.PathLike, section_length_m: float) -> list[Observati
             row, distance, code, f["char1"].upper(), f["char2"].upper(), values["q1"], f["q1_unit"],
             values["q2"], f["q2_unit"], clocks["clock_from"], clocks["clock_to"], f["at_joint"].upper() == "Y",
             f["continuous"].upper(), video_time, f["photo"], f["remark"], {k: _clip(raw.get(k) or "") for k in LOG_COLUMNS},
-            problems))
+            problems, ref=_clip((raw.get("ref") or "").strip(), MAX_TEXT_FIELD_CHARS),
+            grade=_clip((raw.get("grade") or "").strip(), MAX_TEXT_FIELD_CHARS)))
     _check_continuous(observations, name)
     return observations
 

@@ -31,12 +31,22 @@ class PackageManifest:
     header: Path
     observations: Path
     marks: Path
+    transfer: Path | None = None     # an exchange file holding the header and the log (docs/formats.md)
+    section: dict | None = None      # what the transfer does not hold: shape, height_mm... (header.json's fields)
 
 
 def load_manifest(folder: str | os.PathLike) -> PackageManifest:
-    """Read and validate ``folder/package.json``; every named file must exist inside the folder."""
+    """Read and validate ``folder/package.json``; every named file must exist inside the folder.
+
+    With a ``transfer`` (an exchange file such as a VSA-KEK INTERLIS transfer) the header and the log come from
+    it, and ``section`` gives the header's fields the transfer does not hold.
+    """
     folder = Path(folder)
     path = folder / "package.json"
+    if folder.is_file():
+        raise PackageError(f"{folder}: a file, not an inspection package; a package is a folder with a package.json "
+                           "(docs/formats.md). A VSA-KEK transfer goes in such a folder, named by package.json's "
+                           "'transfer' field; `pipegauge log FILE` shows what pipegauge reads in it")
     data = read_json(path, PackageError, "missing; an inspection package is a folder with a package.json (docs/formats.md)")
     if not isinstance(data, dict):
         raise PackageError(f"{path}: expected a JSON object")
@@ -50,8 +60,19 @@ def load_manifest(folder: str | os.PathLike) -> PackageManifest:
             problems.append(f"field {key!r}: {value!r} is not an id (letters, digits, '.', '_', '-'; at most 128)")
         ids[key] = value if isinstance(value, str) else ""
     files = {}
-    for key, default in (("video", "video.mp4"), ("header", "header.json"), ("observations", "observations.csv"),
-                         ("marks", "marks.csv")):
+    names = (("video", "video.mp4"), ("header", "header.json"), ("observations", "observations.csv"), ("marks", "marks.csv"))
+    section = None
+    if "transfer" in data:
+        # the transfer stands for the header and the log
+        names = (("video", "video.mp4"), ("transfer", None), ("marks", "marks.csv"))
+        for key in ("header", "observations"):
+            if key in data:
+                problems.append(f"field {key!r}: a package with a 'transfer' takes its {key} from it; remove {key!r}")
+        section = data.get("section", {})
+        if not isinstance(section, dict):
+            problems.append(f"field 'section': expected an object with the header's fields, got {section!r}")
+            section = {}
+    for key, default in names:
         name = data.get(key, default)
         target = (folder / str(name)).resolve()
         if not isinstance(name, str) or folder.resolve() not in target.parents:
@@ -61,7 +82,9 @@ def load_manifest(folder: str | os.PathLike) -> PackageManifest:
         files[key] = folder / str(name)
     if problems:
         raise PackageError(f"{path}: " + "; ".join(problems))
-    return PackageManifest(folder, ids["package_id"], ids["certificate_id"], **files)
+    if "transfer" in files:
+        files["header"] = files["observations"] = files["transfer"]
+    return PackageManifest(folder, ids["package_id"], ids["certificate_id"], **files, section=section)
 
 
 def certificate_path(manifest: PackageManifest, certificates: str | os.PathLike | None = None) -> Path:

@@ -26,8 +26,9 @@ import numpy as np
 from .. import __version__
 from ..camera import load_certificate
 from ..coding import (CODES, Mark, Observation, SectionHeader, certificate_path, check_marks_in_frame,
-                      load_header, load_manifest, read_log, read_marks)
+                      load_manifest, read_marks)
 from ..errors import MeasurementError, PackageError, PipegaugeError
+from ..exchange import load_package_log
 from ..video.ingest import ingest_chainage
 from ..video.overlay_check import overlay_header_mismatches
 from ..video.overlay_ocr import OverlayReader
@@ -149,9 +150,8 @@ def measure_package(folder: str | os.PathLike, *, certificates: str | os.PathLik
         record["inspection_id"] = manifest.package_id
         digests = digests or file_digests(folder)          # the video is read once for both hashes
         record["package_sha256"] = package_digest(digests)
-        header = load_header(manifest.header)
+        header, observations = load_package_log(manifest)      # header.json + observations.csv, or a transfer
         record.update(_header_fields(header))
-        observations = read_log(manifest.observations, header.section_length_m)
         marks, mark_problems = read_marks(manifest.marks, observations)
         cert = load_certificate(certificate_path(manifest, certificates))
         record.update(certificate_id=cert.certificate_id, certificate_valid_until=cert.valid_until,

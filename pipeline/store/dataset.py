@@ -40,7 +40,7 @@ from ..errors import StoreError
 from .schema import SCHEMA_VERSION, SCHEMAS, TABLES
 
 __all__ = ["write_inspection", "read_table", "inspection_files", "stored_input_key", "file_stem",
-           "remove_uncommitted"]
+           "remove_uncommitted", "require_dataset"]
 
 _UNSAFE = re.compile(r"[^A-Za-z0-9._-]|^[._]")
 DETAIL_TABLES = ("thumbnails", "measurements", "observations")
@@ -115,6 +115,14 @@ def write_inspection(root: str | os.PathLike, inspection: dict, observations: li
             if path != written[table]:
                 path.unlink(missing_ok=True)
     return written
+
+
+def require_dataset(root: str | os.PathLike) -> Path:
+    """``root`` when it holds a pipegauge dataset; StoreError saying what to pass otherwise."""
+    if not (Path(root) / "inspections").is_dir():
+        raise StoreError(f"{root}: no pipegauge dataset here (no inspections/ folder); pass the folder a run wrote "
+                         "(OUT or OUT/dataset) with --data")
+    return Path(root)
 
 
 def read_table(root: str | os.PathLike, table: str, *, start: dt.date | None = None, end: dt.date | None = None,

@@ -17,8 +17,7 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 
 from ..atomic import atomic_path
-from ..errors import StoreError
-from .dataset import read_table
+from .dataset import read_table, require_dataset
 
 __all__ = ["export_frame", "export_csv", "export_parquet", "spreadsheet_safe", "EXPORT_COLUMNS"]
 
@@ -44,9 +43,7 @@ def export_frame(root: str | os.PathLike, start: dt.date | None = None, end: dt.
     row number (flagged as a problem) joins each measurement with the first
     row of that number, so no measurement is exported twice.
     """
-    if not (Path(root) / "inspections").is_dir():
-        raise StoreError(f"{root}: no pipegauge dataset here (no inspections/ folder); pass the folder a run wrote "
-                         "(OUT or OUT/dataset) with --data")
+    require_dataset(root)
     m = read_table(root, "measurements", start=start, end=end).drop(columns=["distance_m"])
     o = read_table(root, "observations", start=start, end=end)[
         ["inspection_id", "row", "distance_m", "code_meaning", "clock_from", "clock_to", "remark"]]

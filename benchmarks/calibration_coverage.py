@@ -19,7 +19,7 @@ import numpy as np
 
 from pipeline.calibration.pattern import parse_pattern
 from pipeline.calibration.solve import PARAMETERS, calibrate
-from pipeline.calibration.synthetic import random_board_poses, render_board, subpixel_rays
+from pipeline.synth.boards import random_board_poses, render_board, subpixel_rays
 from pipeline.calibration.views import View, find_corners
 from pipeline.synth.samples import sample_certificate
 

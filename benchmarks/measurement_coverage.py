@@ -43,7 +43,7 @@ from pipeline.measurement.inspection import ideal_point_and_u
 from pipeline.profiles import level_tables
 from pipeline.synth.delivery import CODECS, delivered
 from pipeline.synth.package import _wall
-from pipeline.synth.rig import CameraPose, project_points
+from pipeline.camera.pose import CameraPose, project_points
 from pipeline.synth.samples import sample_specs
 from pipeline.synth.scene import Deformation
 from pipeline.video.ingest import ingest_chainage

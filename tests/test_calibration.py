@@ -10,7 +10,7 @@ import pytest
 from pypdf import PdfReader
 
 from flows.cli import main
-from pipeline.calibration.demo import write_calibration_set
+from pipeline.synth.calibration_set import write_calibration_set
 from pipeline.calibration.pattern import parse_pattern
 from pipeline.calibration.solve import PARAMETERS, calibrate
 from pipeline.calibration.views import View, find_corners, read_views

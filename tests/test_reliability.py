@@ -16,7 +16,6 @@ from pathlib import Path
 import pyarrow.parquet as pq
 import pytest
 
-from pipeline import limits
 from pipeline.coding import read_log, read_marks
 from pipeline.coding.log import LOG_COLUMNS
 from pipeline.errors import ObservationLogError, StoreError

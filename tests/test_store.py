@@ -12,7 +12,6 @@ from pathlib import Path
 
 import pyarrow.dataset as ds
 import pyarrow.parquet as pq
-import pytest
 
 from pipeline.store import SCHEMAS, export_csv, export_parquet, inspection_files, read_table, write_inspection
 

@@ -8,7 +8,7 @@ import pytest
 
 from pipeline.profiles import clock_to_theta, wall_point
 from pipeline.synth.render import LIP_MM, Renderer
-from pipeline.synth.rig import CameraPose, project_points
+from pipeline.camera.pose import CameraPose, project_points
 from pipeline.synth.samples import sample_certificate
 from pipeline.synth.scene import Marker, Pipe, Scene
 

@@ -4,7 +4,8 @@ from __future__ import annotations
 
 import datetime as dt
 
-from ..camera.certificate import Certificate, certificate_from_dict
+from ..camera.certificate import Certificate
+from ..camera.certificate_format import certificate_from_dict
 from .pattern import Pattern
 from .solve import PARAMETERS, SOLVER_FLAGS, Calibration, uncertainty_source
 

@@ -1,15 +1,19 @@
 """The camera: calibration certificate, lens distortion, and the measurement models.
 
-* ``certificate``: the certificate format, loading and validation;
+* ``certificate``: the calibration as an object, with its uncertainty;
+* ``certificate_format``: the certificate's JSON format, loading and validation;
+* ``conventions``: the pixel <-> opencv parameter conversions and their Jacobians;
 * ``distortion``: the Brown model of eqs. 16-19 and conversions to OpenCV's;
 * ``lens``: the distortion of a certified camera with its uncertainty;
 * ``orthographic``: camera square to the cross-section plane, eqs. 12-15;
-* ``perspective``: the collinearity equations, eqs. 1-11.
+* ``perspective``: the collinearity equations, eqs. 1-11;
+* ``pose``: the camera's pose in the pipe (world and camera frames), pixel rays, projection of world points.
 """
 
 from pathlib import Path
 
-from .certificate import Certificate, Parameter, certificate_from_dict, load_certificate
+from .certificate import Certificate, Parameter
+from .certificate_format import certificate_from_dict, load_certificate
 
 __all__ = ["Certificate", "Parameter", "certificate_from_dict", "load_certificate", "sample_certificate_path"]
 

@@ -34,7 +34,7 @@ from .pose_lsq import fit_pose_and_depths
 from .ridges import dark_centre, ridge_points
 from .section_shape import (arc_coverage_deg, extents, fit_ellipse, fit_section, points_in_plane, profile_aspect,
                             sector_jackknife)
-from .view import POSE_PARAMETERS, PipeView
+from .view import PipeView
 
 __all__ = ["Ring", "PlaneContour", "PipeContour", "FrameCandidates", "frame_candidates", "detect_contour",
            "contour_from_candidates", "wall_u_from_tolerance"]

@@ -2,7 +2,7 @@
 
 A pinhole camera (camera matrix K of the certificate) sits at (ox, oy, 0) in
 pipe coordinates scaled by H (docs/conventions.md: X right, Y up, Z along the
-pipe), turned by yaw, pitch and roll (``pipeline.synth.rig.camera_rotation``).
+pipe), turned by yaw, pitch and roll (``pipeline.camera.pose.camera_rotation``).
 The cross-section at depth t (= distance along the axis / H) is the profile
 scaled by f / (t H) up to perspective; with no tilt it is exactly a scaled
 copy centred at VP - (f/t) (ox, -oy).
@@ -16,7 +16,7 @@ from functools import cached_property
 import numpy as np
 
 from ..profiles import arc_of_hit, profile_polygon, ray_to_wall
-from ..synth.rig import camera_rotation
+from ..camera.pose import camera_rotation
 
 __all__ = ["PipeView", "POSE_PARAMETERS"]
 

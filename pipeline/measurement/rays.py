@@ -3,7 +3,7 @@
 The ray through an ideal image point (x, y) [px] leaves the camera centre
 (ox, oy, 0) [H] in the world direction R_wc (x - cx)/fx, (y - cy)/fy, 1)
 (source paper eqs. 1-11, written with the rotation of
-``pipeline.synth.rig.camera_rotation``). A point on the wall is where that
+``pipeline.camera.pose.camera_rotation``). A point on the wall is where that
 ray meets the profile (exact ray-arc intersection); a point off the wall is
 where it crosses the cross-section Z = t of its companion point. Every
 argument may be an array over Monte Carlo trials.
@@ -14,7 +14,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..profiles import ray_to_wall
-from ..synth.rig import camera_rotations
+from ..camera.pose import camera_rotations
 
 __all__ = ["ray_directions", "wall_point", "plane_point", "marked_points"]
 

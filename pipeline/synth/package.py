@@ -35,7 +35,7 @@ from ..profiles import (
     chord_at_height, clock_to_theta, perimeter, segment_height_for_area_fraction, theta_to_clock, wall_point,
 )
 from .render import Renderer
-from .rig import CameraPose, ideal_project_points, project_points
+from ..camera.pose import CameraPose, ideal_project_points, project_points
 from .scene import Connection, Crack, Deformation, Deposit, DisplacedJoint, Scene
 from .texture import MATERIALS
 from .trajectory import Stop, counter_reading, travel

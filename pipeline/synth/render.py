@@ -24,7 +24,7 @@ import numpy as np
 
 from ..camera.certificate import Certificate
 from ..profiles import clock_to_theta, exit_table, perimeter, profile_polygon, segment_height_for_area_fraction, wall_point
-from .rig import camera_rotation, pixel_rays
+from ..camera.pose import camera_rotation, pixel_rays
 from .scene import Connection, Crack, Deformation, Deposit, DisplacedJoint, Marker, Scene
 from .texture import MATERIALS, TEXEL_MM, wall_texture
 

@@ -13,7 +13,8 @@ from typing import Callable
 
 import numpy as np
 
-from ..camera.certificate import Certificate, certificate_from_dict
+from ..camera.certificate import Certificate
+from ..camera.certificate_format import certificate_from_dict
 from .package import CameraMount, PackageSpec, build_package
 from .scene import Connection, Crack, Deformation, Deposit, DisplacedJoint, Pipe, Scene
 from .trajectory import Stop

@@ -9,8 +9,8 @@ import cv2
 import numpy as np
 
 from ..camera.certificate import Certificate
-from .pattern import Pattern
-from .synthetic import random_board_poses, render_board, subpixel_rays
+from ..calibration.pattern import Pattern
+from .boards import random_board_poses, render_board, subpixel_rays
 
 __all__ = ["write_calibration_set"]
 

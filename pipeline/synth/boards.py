@@ -1,6 +1,6 @@
 """Synthetic calibration images: a chessboard or ChArUco board in known poses seen by a known camera.
 
-Each pixel's ray comes from the true camera (``synth.rig``: exact inverse of
+Each pixel's ray comes from the true camera (``camera.pose``: exact inverse of
 its distortion), sampled 2 x 2 per pixel so that edges are anti-aliased like a
 real sensor's; the ray meets the board's plane, and the board's squares (and markers) give
 the brightness. Noise is added per pixel.
@@ -12,7 +12,7 @@ import cv2
 import numpy as np
 
 from ..camera.certificate import Certificate
-from .pattern import Pattern
+from ..calibration.pattern import Pattern
 
 __all__ = ["subpixel_rays", "render_board", "random_board_poses"]
 

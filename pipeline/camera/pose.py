@@ -1,4 +1,4 @@
-"""The synthetic camera: pose in the pipe, pixel rays, and projection of world points.
+"""The camera in the pipe: its pose, pixel rays, and the projection of world points.
 
 Frames (docs/conventions.md):
 
@@ -27,7 +27,7 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from ..camera.certificate import Certificate
+from .certificate import Certificate
 
 __all__ = ["CameraPose", "camera_rotation", "camera_rotations", "pixel_rays", "project_points", "ideal_project_points"]
 

@@ -41,7 +41,7 @@ from pipeline.synth.delivery import CODECS, delivered
 from pipeline.video.ingest import ingest_chainage
 from pipeline.video.overlay_ocr import OverlayReader
 from pipeline.video.pipe_contour import contours_at_frames, overlay_mask_of
-from pipeline.video.undistort import Undistorter
+from pipeline.camera.undistort import Undistorter
 
 from ingest import decode_only   # benchmarks/ingest.py, the same grab loop
 
@@ -118,7 +118,8 @@ def run(args, tmp: Path) -> None:
                       f"{'confident' if plane.confident else 'NOT confident: ' + '; '.join(plane.reasons)}")
         minutes = ingest.info.duration_s / 60.0
         per_contour = t_contours / max(len(contours), 1)
-        print(f"{folder.name} ({ingest.info.codec}): decode only {t_decode:.2f} s; track {t_track:.2f} s; {len(contours)} contours {t_contours:.2f} s; "
+        print(f"{folder.name} ({ingest.info.codec}): decode only {t_decode:.2f} s; track {t_track:.2f} s; "
+              f"{len(contours)} contours {t_contours:.2f} s; "
               f"ingest / decode-only = {(t_track + t_contours) / t_decode:.1f} = track {t_track / t_decode:.1f} "
               f"+ contours {t_contours / t_decode:.1f}; per minute of video: decode {t_decode / minutes:.1f} s, "
               f"track {t_track / minutes:.1f} s; per observation frame: contour {per_contour:.1f} s, as long as "

@@ -39,7 +39,7 @@ import numpy as np
 from pipeline.camera import load_certificate
 from pipeline.coding import load_header, load_manifest, read_log, read_marks
 from pipeline.measurement import MarkedQuantity, marked_quantity, measure_quantity
-from pipeline.measurement.inspection import ideal_point_and_u
+from pipeline.measurement import ideal_point_and_u
 from pipeline.profiles import level_tables
 from pipeline.synth.delivery import CODECS, delivered
 from pipeline.synth.package import _wall
@@ -49,7 +49,7 @@ from pipeline.synth.scene import Deformation
 from pipeline.video.ingest import ingest_chainage
 from pipeline.video.overlay_ocr import OverlayReader
 from pipeline.video.pipe_contour import contours_at_frames, overlay_mask_of
-from pipeline.video.undistort import Undistorter
+from pipeline.camera.undistort import Undistorter
 
 SAMPLES = Path(__file__).resolve().parent.parent / "sample_videos"
 CLICK_SIGMA_PX = 0.7

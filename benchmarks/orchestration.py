@@ -27,7 +27,7 @@ os.environ.setdefault("PREFECT_SERVER_ANALYTICS_ENABLED", "false")
 os.environ.setdefault("PREFECT_LOGGING_LEVEL", "WARNING")
 
 from flows.nightly import dataset_folder, nightly, task_runner_for  # noqa: E402
-from pipeline.inbox import discover_packages, process_package  # noqa: E402
+from pipeline.inspection import discover_packages, process_package  # noqa: E402
 from pipeline.video.overlay_ocr import OverlayReader  # noqa: E402
 
 SAMPLES = Path(__file__).resolve().parent.parent / "sample_videos"

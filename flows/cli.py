@@ -16,7 +16,6 @@ import sys
 from pathlib import Path
 from typing import Callable, Sequence
 
-import numpy as np
 
 from flows.console import say as _say
 from pipeline import __version__
@@ -152,178 +151,22 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
 # -- probe ---------------------------------------------------------------------
 
 def cmd_probe(args: argparse.Namespace) -> int:
-    import cv2
+    from pipeline.inspection.probe import ProbeRequestError, probe
 
-    from pipeline.camera import load_certificate
-    from pipeline.video.overlay_ocr import OverlayReader, parse_chainage
-    from pipeline.video.reader import check_integrity, iter_frames, read_frame, read_image
-    from pipeline.video.undistort import Undistorter
-
-    path = Path(args.source)
-    is_image = path.suffix.lower() in {".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff"}
-    reader = OverlayReader()
-    report: dict = {"source": str(path)}
-    box, spread = None, {}       # spread: frames over the video kept by the track's pass (for the overlay mask)
-    if is_image:
-        if args.chainage is not None:
-            _say(f"pipegauge probe: error: --chainage needs a video ({path} is an image)")
-            return EXIT_USAGE
-        frame = read_image(path)
-        index, first = 0, [frame]
-    else:
-        if args.chainage is not None:
-            found = _probe_track(path, reader, args.chainage)
-            if found is None:
-                return EXIT_USAGE
-            ingest, index, mapping = found
-            info, box, spread = ingest.info, ingest.box, ingest.spread_frames
-        else:
-            info, mapping = check_integrity(path), {}
-            index = int(round(args.time * info.fps)) if args.time is not None else (args.frame or 0)
-        report["video"] = {"width": info.width, "height": info.height, "fps": info.fps,
-                           "frames": info.frame_count, "duration_s": round(info.duration_s, 3), "codec": info.codec}
-        report.update(mapping)
-        if not 0 <= index < info.frame_count:
-            _say(f"pipegauge probe: error: frame {index} is outside the video (0-{info.frame_count - 1})")
-            return EXIT_USAGE
-        if box is None:
-            first = [f for _, f in iter_frames(path, every=max(1, info.frame_count // 4))][:3]
-        frame = read_frame(path, index)
-    if box is None:
-        box = reader.locate_chainage(first, str(path))
-    read = reader.read(frame, box, index)
-    report["frame"] = index
-    report["chainage"] = {"text": read.text, "m": read.value, "score": round(read.score, 4), "box_px": list(box)}
-    text_lines = reader.lines(frame)
-    report["overlay_lines"] = [t for t, _, _ in text_lines if parse_chainage(t) is None]
-    if args.certificate:
-        cert = load_certificate(args.certificate)
-        und = Undistorter(cert, frame.shape[1], frame.shape[0], str(path))
-        report["certificate"] = cert.certificate_id
-        grays = [cv2.cvtColor(und.frame(frame), cv2.COLOR_BGR2GRAY)]
-        mask = None
-        if not is_image:
-            from pipeline.video.pipe_contour import overlay_mask, overlay_mask_of, read_ideal_grays
-
-            around = [k for k in range(index - 3 * int(info.fps), index + 3 * int(info.fps) + 1, 6)
-                      if 0 <= k < info.frame_count and k != index]
-            more = read_ideal_grays(path, around, und)
-            grays += [more[k] for k in around if k in more]
-            mask = overlay_mask_of(spread.values(), und) if spread else overlay_mask(path, und)
-        report["contour"] = _probe_contour(grays, und, args.shape, mask)
-        if is_image:
-            report["still_ring"] = _probe_still_ring(grays[0], args.shape, [b for _, b, _ in text_lines] + [box])
-        if args.debug_image:
-            _draw_contour(und.frame(frame), report["contour"], args.debug_image, report.get("still_ring"))
-        report.get("still_ring", {}).pop("_polygon", None)
-        report["contour"].pop("_polygons", None)
-        report["contour"].pop("_vp", None)
-    elif args.debug_image:
-        _write_image(args.debug_image, frame)
+    try:
+        result = probe(args.source, time_s=args.time, frame=args.frame, chainage_m=args.chainage,
+                       certificate=args.certificate, shape=args.shape, draw=args.debug_image is not None)
+    except ProbeRequestError as exc:
+        _say(f"pipegauge probe: error: {exc}")
+        return EXIT_USAGE
+    if args.debug_image:
+        result.save_debug_image(args.debug_image)
     if args.json:
-        print(json.dumps(report, indent=2))
+        print(json.dumps(result.report, indent=2))
     else:
-        for key, value in report.items():
+        for key, value in result.report.items():
             print(f"{key}: {value}")
     return EXIT_OK
-
-
-def _probe_track(path: Path, reader, chainage_m: float):
-    """Fit the video's chainage track (one decoding pass) and find the first frame at ``chainage_m`` [m]:
-    (the ingest, frame, {"track": ..., "at_chainage": ...} for the report), or None (said why) when the camera
-    never gets there."""
-    from pipeline.video.ingest import ingest_chainage
-
-    ingest = ingest_chainage(path, reader)
-    track = ingest.track
-    try:
-        index, u_frames = track.frame_at(chainage_m)
-    except ValueError:
-        _say(f"pipegauge probe: error: {path}: the camera never reaches {chainage_m:g} m; its track runs from "
-             f"{track.values.min():.2f} m to {track.values.max():.2f} m")
-        return None
-    segment = next((kind for first, last, kind in track.segments if first <= index <= last), "moving")
-    mapping = {
-        "track": {"from_m": round(float(track.values.min()), 3), "to_m": round(float(track.values.max()), 3),
-                  "reads_used": track.reads_used, "reads_rejected": len(track.rejected),
-                  "segments": [{"first_frame": first, "last_frame": last, "camera": kind}
-                               for first, last, kind in track.segments]},
-        "at_chainage": {"m": chainage_m, "u_m": round(float(track.counter.u(chainage_m)), 4), "frame": index,
-                        "u_frames": round(u_frames, 2) if np.isfinite(u_frames) else None,
-                        "time_s": round(index / ingest.info.fps, 3), "camera": segment}}
-    return ingest, index, mapping
-
-
-def _probe_contour(grays, und, shape: str, mask) -> dict:
-    """The pipe contour of the first frame (pose from all), summarised for the probe report."""
-    from pipeline.contour import detect_contour
-
-    pc = detect_contour(grays, und.K, shape, mask=mask)
-    out = {"confident": pc.confident, "problems": pc.problems, "rings": len(pc.rings),
-           "ring_rms_px": None if not pc.rings else round(pc.rms_px, 3)}
-    if pc.rings:
-        v = pc.view
-        out.update(vanishing_point_px=[round(float(c), 2) for c in v.vanishing_point],
-                   camera_offset_H=[round(v.ox, 4), round(v.oy, 4)],
-                   yaw_pitch_roll_deg=[round(float(np.degrees(a)), 3) for a in (v.yaw, v.pitch, v.roll)])
-        own = [r for r in pc.rings if r.frame == 0]
-        out["rings_in_frame"] = [{"depth_H": round(r.depth, 4), "p_H_px": round(r.p_H, 2), "arc_coverage_deg": r.coverage_deg,
-                                  "rms_px": round(r.rms_px, 3)} for r in own]
-        mid = np.median([r.depth for r in own or pc.rings])
-        plane = pc.at_point(v.project([[0.0, 0.5, mid]])[0])
-        out["plane_at_median_ring"] = {"depth_H": round(plane.depth, 4), "p_H_px": round(plane.p_H, 2),
-                                       "u_p_H_px": round(plane.u_p_H, 3), "confident": plane.confident}
-        out["_polygons"] = [v.ring(r.depth).tolist() for r in own] or [plane.polygon.tolist()]
-        out["_vp"] = v.vanishing_point.tolist()
-    return out
-
-
-def _probe_still_ring(gray, shape: str, text_boxes) -> dict:
-    """The ring of a single still (``pipeline.contour.still``), the overlay's text boxes masked out."""
-    from pipeline.contour.still import ring_in_still
-
-    mask = np.full(gray.shape, 255, np.uint8)
-    for x0, y0, x1, y1 in text_boxes:
-        mask[max(0, y0 - 6):y1 + 7, max(0, x0 - 6):x1 + 7] = 0
-    ring = ring_in_still(gray, shape, mask=mask)
-    if ring is None:
-        return {"found": False, "problems": ["no closed ring of the header's profile stands out in this still"]}
-    return {"found": True, "confident": ring.confident, "problems": list(ring.problems),
-            "centre_px": [round(c, 2) for c in ring.centre], "p_H_px": round(ring.p_H, 2),
-            "u_p_H_px": round(ring.u_p_H, 2), "points": ring.n_points, "arc_coverage_deg": ring.coverage_deg,
-            "rms_px": round(ring.rms_px, 3), "_polygon": ring.polygon.tolist()}
-
-
-def _draw_contour(image, contour: dict, out_path, still_ring: dict | None = None) -> None:
-    """The ideal frame with the rings found (green), the still's ring (yellow) and the vanishing point (red)."""
-    import cv2
-
-    for poly in contour.pop("_polygons", []):
-        cv2.polylines(image, [np.round(np.asarray(poly)).astype(np.int32)], True, (0, 255, 0), 1, cv2.LINE_AA)
-    if still_ring and still_ring.get("_polygon"):
-        cv2.polylines(image, [np.round(np.asarray(still_ring["_polygon"])).astype(np.int32)], True, (0, 255, 255), 2,
-                      cv2.LINE_AA)
-    vp = contour.pop("_vp", None)
-    if vp is not None:
-        cv2.drawMarker(image, (int(round(vp[0])), int(round(vp[1]))), (0, 0, 255), cv2.MARKER_CROSS, 15, 2)
-    _write_image(out_path, image)
-
-
-def _write_image(out_path, image) -> None:
-    """Write an image atomically; an unwritable path or an unknown extension raises OSError naming the path."""
-    import cv2
-
-    from pipeline.atomic import atomic_path
-
-    out_path = Path(out_path)
-    try:
-        ok, data = cv2.imencode(out_path.suffix or ".png", image)
-    except cv2.error:
-        ok = False
-    if not ok:
-        raise OSError(22, f"cannot encode an image as {out_path.suffix!r}; use .png or .jpg", str(out_path))
-    with atomic_path(out_path) as tmp:
-        tmp.write_bytes(data.tobytes())
 
 
 # -- parser --------------------------------------------------------------------
@@ -331,7 +174,7 @@ def _write_image(out_path, image) -> None:
 # -- measure / export -----------------------------------------------------------
 
 def cmd_measure(args: argparse.Namespace) -> int:
-    from pipeline.inbox import duplicate_claims
+    from pipeline.inspection import duplicate_claims
     from pipeline.store.lock import dataset_lock
     from pipeline.video.overlay_ocr import OverlayReader
 
@@ -349,7 +192,7 @@ def cmd_measure(args: argparse.Namespace) -> int:
 
 def _measure_one(folder, args: argparse.Namespace, reader) -> int:
     """Measure and store one package, print its quantities; returns 1 when it is not ok."""
-    from pipeline.measurement import measure_package
+    from pipeline.inspection import measure_package
     from pipeline.store import write_inspection
 
     result = measure_package(folder, certificates=args.certificates, model=args.model, reader=reader,

@@ -32,7 +32,7 @@ from prefect.states import Failed
 from prefect.task_runners import ProcessPoolTaskRunner, TaskRunner, ThreadPoolTaskRunner
 
 from flows.console import say
-from pipeline.inbox import PackageOutcome, discover_packages, duplicate_claims, process_package, refused_outcome
+from pipeline.inspection import PackageOutcome, discover_packages, duplicate_claims, process_package, refused_outcome
 from pipeline.report import render_night_summary
 from pipeline.store import remove_uncommitted
 from pipeline.store.lock import dataset_lock, remove_stale_temporaries

@@ -14,7 +14,7 @@ from pipeline.contour.ridges import static_overlay_mask
 from pipeline.profiles import exit_table, profile_polygon, ray_to_wall
 from pipeline.video.pipe_contour import read_ideal_grays
 from pipeline.video.reader import iter_frames
-from pipeline.video.undistort import Undistorter
+from pipeline.camera.undistort import Undistorter
 
 SAMPLES = Path(__file__).resolve().parent.parent / "sample_videos"
 S02 = SAMPLES / "S02-circular-water-offset"

@@ -296,7 +296,7 @@ def test_a_sample_delivered_as_a_transfer_measures_bit_for_bit_as_its_csv_packag
     `measure` run fails with its reason while the other completes; the dataset's export passes the validator."""
     import pandas as pd
 
-    from pipeline.measurement import measure_package
+    from pipeline.inspection import measure_package
     from pipeline.store import read_table, write_inspection
 
     sample = "S02-circular-water-offset"

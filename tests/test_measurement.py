@@ -16,7 +16,7 @@ from pipeline.measurement import MarkedQuantity, measure_quantity, value_from_im
 from pipeline.measurement.methods import METHODS, reference_dimension
 from pipeline.measurement.rays import marked_points
 from pipeline.profiles import level_tables
-from pipeline.video.undistort import Undistorter
+from pipeline.camera.undistort import Undistorter
 
 SAMPLES = Path(__file__).resolve().parent.parent / "sample_videos"
 

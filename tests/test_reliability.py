@@ -234,7 +234,7 @@ def _package(folder: Path, package_id: str) -> Path:
 
 
 def test_duplicate_claims_and_a_trailing_newline_id(tmp_path):
-    from pipeline.inbox import duplicate_claims, package_id_of
+    from pipeline.inspection import duplicate_claims, package_id_of
 
     a, b, c = _package(tmp_path / "a", "TWIN"), _package(tmp_path / "b", "TWIN"), _package(tmp_path / "c", "ONE")
     claims = duplicate_claims([a, b, c])
@@ -244,7 +244,7 @@ def test_duplicate_claims_and_a_trailing_newline_id(tmp_path):
 
 
 def test_a_stored_result_of_another_folder_is_never_replaced(tmp_path):
-    from pipeline.inbox import process_package
+    from pipeline.inspection import process_package
 
     inbox, out = tmp_path / "inbox", tmp_path / "out"
     first = _package(inbox / "first", "TWIN")
@@ -259,7 +259,7 @@ def test_a_stored_result_of_another_folder_is_never_replaced(tmp_path):
 
 
 def test_a_package_linked_from_outside_the_inbox_is_not_read(tmp_path):
-    from pipeline.inbox import process_package
+    from pipeline.inspection import process_package
 
     outside = _package(tmp_path / "elsewhere" / "pkg", "P")
     (tmp_path / "inbox").mkdir()
@@ -275,8 +275,8 @@ def test_a_package_linked_from_outside_the_inbox_is_not_read(tmp_path):
 
 
 def test_a_record_the_store_refuses_is_stored_as_a_failure(tmp_path, monkeypatch):
-    from pipeline import inbox
-    from pipeline.measurement.inspection import InspectionResult
+    from pipeline.inspection import inbox
+    from pipeline.inspection import InspectionResult
 
     folder = _package(tmp_path / "inbox" / "P", "P")
     inspection, observations, measurements = _records("P")

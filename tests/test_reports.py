@@ -15,7 +15,7 @@ from pypdf import PdfReader
 
 from flows.cli import main
 from pipeline.errors import StoreError
-from pipeline.inbox import process_package
+from pipeline.inspection import process_package
 from pipeline.report import render_inspection_report, render_night_summary
 from pipeline.report.example import example_inspection
 from pipeline.report.inspection_report import inspection_warnings

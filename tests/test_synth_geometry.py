@@ -94,7 +94,7 @@ def test_a_joint_inside_a_deformed_stretch_is_drawn_deformed_also_when_it_is_dis
     """The wall positions follow the deformation whatever else changes the rays (here a displaced joint's segments)."""
     from pipeline.contour.ridges import dark_centre, ridge_points
     from pipeline.synth.scene import Deformation, DisplacedJoint
-    from pipeline.video.undistort import Undistorter
+    from pipeline.camera.undistort import Undistorter
 
     cert = sample_certificate(720, 576)
     R, e, z_cam = 150.0, 0.08, 1700.0

@@ -18,7 +18,7 @@ from pipeline.video.glyphs import GlyphTemplates, segment_glyphs
 from pipeline.video.ingest import MASK_FRAMES, ingest_chainage
 from pipeline.video.overlay_ocr import OverlayRead, OverlayReader, parse_chainage
 from pipeline.video.reader import check_integrity, iter_frames, probe_video
-from pipeline.video.undistort import Undistorter
+from pipeline.camera.undistort import Undistorter
 
 ROOT = Path(__file__).resolve().parent.parent
 SAMPLES = ROOT / "sample_videos"

@@ -7,7 +7,8 @@
 * ``lens``: the distortion of a certified camera with its uncertainty;
 * ``orthographic``: camera square to the cross-section plane, eqs. 12-15;
 * ``perspective``: the collinearity equations, eqs. 1-11;
-* ``pose``: the camera's pose in the pipe (world and camera frames), pixel rays, projection of world points.
+* ``pose``: the camera's pose in the pipe (world and camera frames), pixel rays, projection of world points;
+* ``undistort``: frames and points from the recorded (distorted) image to the ideal one.
 """
 
 from pathlib import Path

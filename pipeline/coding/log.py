@@ -271,7 +271,8 @@ def _check_continuous(observations: list[Observation], name: str) -> None:
         else:
             start = open_.pop(number, None)
             if start is None:
-                o.problems.append(RowProblem(name, f"row {o.row}", "continuous", f"F{number} finishes a defect never started (no S{number} before it)"))
+                o.problems.append(RowProblem(name, f"row {o.row}", "continuous",
+                                             f"F{number} finishes a defect never started (no S{number} before it)"))
             elif start.code != o.code:
                 o.problems.append(RowProblem(name, f"row {o.row}", "continuous",
                                              f"F{number} finishes {start.code} of row {start.row} but this row is {o.code}"))
@@ -332,7 +333,8 @@ def read_marks(path: str | os.PathLike, observations: list[Observation]) -> tupl
             continue
         (fa, pa, ua, la), (fb, pb, ub, lb) = group["a"], group["b"]
         if fa != fb:
-            problems.append(RowProblem(name, f"lines {la}-{lb}", "frame", f"row {row} {quantity}: points a and b are on frames {fa} and {fb}; mark both on one frame"))
+            problems.append(RowProblem(name, f"lines {la}-{lb}", "frame", f"row {row} {quantity}: points a and b are on "
+                                                                          f"frames {fa} and {fb}; mark both on one frame"))
             continue
         marks.append(Mark(row, quantity, fa, pa, pb, max(ua, ub), (la, lb)))
     return marks, problems

@@ -14,7 +14,8 @@ from typing import Callable
 
 from ..errors import PipegaugeError
 
-__all__ = ["LogReading", "observation_record", "Reader", "Writer", "READERS", "WRITERS", "reader_for", "read_log_file", "load_package_log", "writer"]
+__all__ = ["LogReading", "observation_record", "Reader", "Writer", "READERS", "WRITERS", "reader_for", "read_log_file",
+           "load_package_log", "writer"]
 
 
 @dataclass

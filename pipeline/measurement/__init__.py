@@ -1,8 +1,11 @@
-"""Observations to quantities with U95: the two measurement models, budgets, and a whole package."""
+"""Observations to quantities with U95: the two measurement models, methods per code, budgets.
 
-from .inspection import InspectionResult, file_digests, marked_quantity, measure_package, package_digest
+The conductor that measures a whole package is ``pipeline.inspection``.
+"""
+
+from .marked import ideal_point_and_u, marked_quantity
 from .methods import METHODS, Method, value_from_image_ratio, value_from_points
 from .quantity import MODELS, BudgetEntry, MarkedQuantity, QuantityResult, measure_quantity
 
-__all__ = ["InspectionResult", "file_digests", "marked_quantity", "measure_package", "package_digest", "METHODS", "Method", "value_from_image_ratio",
-           "value_from_points", "MODELS", "BudgetEntry", "MarkedQuantity", "QuantityResult", "measure_quantity"]
+__all__ = ["ideal_point_and_u", "marked_quantity", "METHODS", "Method", "value_from_image_ratio", "value_from_points",
+           "MODELS", "BudgetEntry", "MarkedQuantity", "QuantityResult", "measure_quantity"]

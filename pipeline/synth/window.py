@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..camera.certificate import Certificate
-from ..video.undistort import Undistorter
+from ..camera.undistort import Undistorter
 from .render import Renderer
 from .scene import Scene
 

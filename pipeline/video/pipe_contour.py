@@ -21,7 +21,7 @@ from ..contour.ridges import static_overlay_mask
 from .beside_decoding import ordered_map
 from .chainage_track import ChainageTrack
 from .reader import FrameScan, iter_frames, probe_video
-from .undistort import Undistorter
+from ..camera.undistort import Undistorter
 
 __all__ = ["overlay_mask", "overlay_mask_of", "window_frames", "read_ideal_grays", "contours_at_frames"]
 

@@ -35,12 +35,13 @@ from ..video.overlay_ocr import OverlayReader
 from ..report.thumbnail import THUMBNAIL_WIDTH_PX, measurement_thumbnail
 from ..video.pipe_contour import contours_at_frames, overlay_mask_of
 from ..video.reader import read_frame
-from ..video.undistort import Undistorter
-from .automatic import measurable_automatically, measure_automatic
-from .quantity import MODELS, MarkedQuantity, QuantityResult, measure_quantity
-from .wall import contour_under
+from ..camera.undistort import Undistorter
+from ..measurement.automatic import measurable_automatically, measure_automatic
+from ..measurement.marked import marked_quantity
+from ..measurement.quantity import MODELS, MarkedQuantity, QuantityResult, measure_quantity
+from ..measurement.wall import contour_under
 
-__all__ = ["InspectionResult", "measure_package", "file_sha256", "file_digests", "package_digest", "ideal_point_and_u", "marked_quantity"]
+__all__ = ["InspectionResult", "measure_package", "file_sha256", "file_digests", "package_digest"]
 
 
 @dataclass
@@ -93,22 +94,6 @@ def package_digest(digests: dict[str, str]) -> str:
 def _seed(inspection_id: str, row: int, quantity: str) -> int:
     """A Monte Carlo seed fixed by what is measured, so a re-run repeats every trial."""
     return zlib.crc32(f"{inspection_id}/{row}/{quantity}".encode())
-
-
-def ideal_point_and_u(und: Undistorter, point, u_px: float, u_cert_px: float) -> tuple[tuple[float, float], float]:
-    """A recorded point in the ideal image and its coordinate u there: marking and certificate residual, scaled by the undistortion's local stretch."""
-    p = np.asarray(point, float)
-    e = 0.5
-    around = und.points(np.array([p, p + (e, 0), p - (e, 0), p + (0, e), p - (0, e)]))
-    J = np.column_stack([(around[1] - around[2]) / (2 * e), (around[3] - around[4]) / (2 * e)])
-    stretch = float(np.sqrt(abs(np.linalg.det(J))))
-    return (float(around[0, 0]), float(around[0, 1])), stretch * float(np.hypot(u_px, u_cert_px))
-
-
-def marked_quantity(obs: Observation, mark: Mark, und: Undistorter, cert) -> MarkedQuantity:
-    """The quantity a mark measures, its points in the ideal image with their u (``ideal_point_and_u``)."""
-    (a, u_a), (b, u_b) = (ideal_point_and_u(und, p, mark.u_px, cert.image_coordinate_u_px) for p in (mark.a, mark.b))
-    return MarkedQuantity(obs.code, obs.char1, mark.quantity, obs.quantification(mark.quantity).method, a, b, u_a, u_b)
 
 
 def _observation_record(o: Observation) -> dict:

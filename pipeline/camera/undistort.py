@@ -11,7 +11,7 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
-from ..camera.certificate import Certificate
+from .certificate import Certificate
 
 __all__ = ["Undistorter"]
 

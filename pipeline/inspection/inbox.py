@@ -27,14 +27,13 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable
 
-from . import __version__
-from .coding import PackageManifest, certificate_path, load_manifest
-from .errors import PackageError, PipegaugeError, StoreError
-from .measurement import measure_package
-from .measurement.inspection import file_digests, file_sha256, package_digest
-from .report import render_inspection_report, report_file_name
-from .store import stored_input_key, write_inspection
-from .video.overlay_ocr import OverlayReader
+from .. import __version__
+from ..coding import PackageManifest, certificate_path, load_manifest
+from ..errors import PackageError, PipegaugeError, StoreError
+from ..report import render_inspection_report, report_file_name
+from ..store import stored_input_key, write_inspection
+from ..video.overlay_ocr import OverlayReader
+from .measure import file_digests, file_sha256, measure_package, package_digest
 
 __all__ = ["PackageOutcome", "discover_packages", "duplicate_claims", "input_key", "process_package", "refused_outcome",
            "CERTIFICATES_FOLDER"]

@@ -32,6 +32,7 @@ from prefect.states import Failed
 from prefect.task_runners import ProcessPoolTaskRunner, TaskRunner, ThreadPoolTaskRunner
 
 from flows.console import say
+from pipeline.coding.package import CERTIFICATES_FOLDER
 from pipeline.inspection import PackageOutcome, discover_packages, duplicate_claims, process_package, refused_outcome
 from pipeline.report import render_night_summary
 from pipeline.store import remove_uncommitted
@@ -107,7 +108,7 @@ def _failed_row(folder: str, exc: BaseException) -> dict:
 def nightly(inbox: str, out: str, model: str = "perspective", certificates: str | None = None) -> list[dict]:
     """Measure every package of ``inbox`` into ``out``; returns one summary row per package (also an artifact)."""
     packages = discover_packages(inbox)
-    certificates = certificates or str(Path(inbox) / "certificates")
+    certificates = certificates or str(Path(inbox) / CERTIFICATES_FOLDER)
     rows: list[dict] = []
     with dataset_lock(dataset_folder(out)):
         stale = remove_stale_temporaries(out) + remove_uncommitted(dataset_folder(out))

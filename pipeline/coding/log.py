@@ -20,11 +20,12 @@ from ..limits import (MAX_CSV_BYTES, MAX_DISTANCE_M, MAX_FRAME_INDEX, MAX_LOG_RO
 from .codes import CODES, UNITS, Quantification
 
 __all__ = ["Observation", "Mark", "RowProblem", "read_log", "parse_log_rows", "read_marks", "check_marks_in_frame",
-           "LOG_COLUMNS", "MARK_COLUMNS", "DEFAULT_MARK_U_PX", "MAX_LOG_ROWS"]
+           "LOG_COLUMNS", "MARK_COLUMNS", "MARK_OPTIONAL_COLUMNS", "DEFAULT_MARK_U_PX", "MAX_LOG_ROWS"]
 
 LOG_COLUMNS = ("row", "distance_m", "code", "char1", "char2", "q1", "q1_unit", "q2", "q2_unit",
                "clock_from", "clock_to", "at_joint", "continuous", "video_time", "photo", "remark")
 MARK_COLUMNS = ("row", "quantity", "frame", "point", "x_px", "y_px")
+MARK_OPTIONAL_COLUMNS = ("u_px",)   # a mark's coordinate u [px]; DEFAULT_MARK_U_PX when absent
 DEFAULT_MARK_U_PX = 1.0      # standard uncertainty of a marked coordinate when marks.csv gives none [px]
 DISTANCE_SLACK_M = 0.05      # a distance may pass the section length by the counter's rounding [m]
 _VIDEO_TIME = re.compile(r"^(\d{1,2}):([0-5]\d):([0-5]\d(?:\.\d+)?)$")
@@ -292,7 +293,7 @@ def read_marks(path: str | os.PathLike, observations: list[Observation]) -> tupl
     problems: list[RowProblem] = []
     groups: dict[tuple[int, str], dict[str, tuple]] = {}
     for line, raw in enumerate(_read_table(path, MARK_COLUMNS, "marks file", MAX_MARK_LINES), start=2):
-        f = {k: (raw.get(k) or "").strip() for k in (*MARK_COLUMNS, "u_px")}
+        f = {k: (raw.get(k) or "").strip() for k in (*MARK_COLUMNS, *MARK_OPTIONAL_COLUMNS)}
         where = f"line {line}"
 
         def bad(column: str, message: str) -> None:

@@ -14,9 +14,10 @@ from pathlib import Path
 from ..errors import PackageError
 from .jsonfile import read_json
 
-__all__ = ["PackageManifest", "load_manifest", "certificate_path", "PACKAGE_FORMAT"]
+__all__ = ["PackageManifest", "load_manifest", "certificate_path", "PACKAGE_FORMAT", "CERTIFICATES_FOLDER"]
 
 PACKAGE_FORMAT = "pipegauge-inspection-package"
+CERTIFICATES_FOLDER = "certificates"      # an inbox's folder of certificates, beside its packages
 _ID = re.compile(r"[A-Za-z0-9][A-Za-z0-9._-]{0,127}")
 
 
@@ -89,7 +90,7 @@ def load_manifest(folder: str | os.PathLike) -> PackageManifest:
 
 def certificate_path(manifest: PackageManifest, certificates: str | os.PathLike | None = None) -> Path:
     """The certificate file a package names: ``<certificates>/<id>.json`` (default: beside the package folder)."""
-    folder = Path(certificates) if certificates else manifest.folder.parent / "certificates"
+    folder = Path(certificates) if certificates else manifest.folder.parent / CERTIFICATES_FOLDER
     path = folder / f"{manifest.certificate_id}.json"
     if not path.is_file():
         raise PackageError(f"{manifest.folder / 'package.json'}: certificate {manifest.certificate_id!r} not found "

@@ -29,6 +29,7 @@ from typing import Callable
 
 from .. import __version__
 from ..coding import PackageManifest, certificate_path, load_manifest
+from ..coding.package import CERTIFICATES_FOLDER
 from ..errors import PackageError, PipegaugeError, StoreError
 from ..report import render_inspection_report, report_file_name
 from ..store import stored_input_key, write_inspection
@@ -38,7 +39,6 @@ from .measure import file_digests, file_sha256, measure_package, package_digest
 __all__ = ["PackageOutcome", "discover_packages", "duplicate_claims", "input_key", "process_package", "refused_outcome",
            "CERTIFICATES_FOLDER"]
 
-CERTIFICATES_FOLDER = "certificates"
 
 
 @dataclass(frozen=True)

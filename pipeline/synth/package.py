@@ -37,16 +37,18 @@ from ..profiles import (
 from .render import Renderer
 from ..camera.pose import CameraPose, ideal_project_points, project_points
 from .scene import Connection, Crack, Deformation, Deposit, DisplacedJoint, Scene
+from ..coding.header import HEADER_FORMAT
+from ..coding.log import LOG_COLUMNS, MARK_COLUMNS as MARKS_REQUIRED, MARK_OPTIONAL_COLUMNS
+from ..coding.package import PACKAGE_FORMAT
 from .texture import MATERIALS
 from .trajectory import Stop, counter_reading, travel
 
 __all__ = ["CameraMount", "PackageSpec", "build_package", "plan_travel", "header_lines", "renderer_for",
            "render_frames", "PACKAGE_FORMAT"]
 
-PACKAGE_FORMAT = "pipegauge-inspection-package"
-OBSERVATION_COLUMNS = ["row", "distance_m", "code", "char1", "char2", "q1", "q1_unit", "q2", "q2_unit",
-                       "clock_from", "clock_to", "at_joint", "continuous", "video_time", "photo", "remark"]
-MARK_COLUMNS = ["row", "quantity", "frame", "point", "x_px", "y_px", "u_px"]
+# The package's formats are defined once, in pipeline.coding; the generator writes what it reads.
+OBSERVATION_COLUMNS = list(LOG_COLUMNS)
+MARK_COLUMNS = [*MARKS_REQUIRED, *MARK_OPTIONAL_COLUMNS]
 
 
 @dataclass(frozen=True)
@@ -420,7 +422,7 @@ def _plane_truth(spec, cert, pose: CameraPose, z_plane: float) -> dict:
 def _header(spec: PackageSpec) -> dict:
     pipe = spec.scene.pipe
     return {
-        "format": "pipegauge-section-header", "format_version": 1,
+        "format": HEADER_FORMAT, "format_version": 1,
         "section_id": spec.section_id, "site": spec.site,
         "start_node": spec.start_node, "finish_node": spec.finish_node, "direction": "downstream",
         "shape": pipe.shape, "height_mm": spec.nominal_height_mm,

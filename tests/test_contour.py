@@ -92,7 +92,7 @@ def test_a_frame_without_rings_is_not_a_contour():
 
 
 def _fit(pose, sd, rms, held_roll=True):
-    from pipeline.contour.detect import PipeContour
+    from pipeline.contour.result import PipeContour
 
     var = np.square(np.asarray(sd, float))
     if held_roll:
@@ -169,14 +169,14 @@ def test_a_single_still_gives_the_ring_of_its_visible_joint_face():
 
 def test_first_pose_profile_fit_recovers_an_egg_ring_among_outliers():
     """The hand-written robust fit behind the first pose: centre and scale of a noisy egg ring, 15 % clutter."""
-    from pipeline.contour.detect import _template_fit
+    from pipeline.contour.first_pose import template_fit
 
     rng = np.random.default_rng(3)
     centre, scale = np.array([612.3, 347.8]), 281.6
     ring = profile_polygon("egg", 1.0, 300) * scale * np.array([1.0, -1.0]) + centre
     ring = ring[40:260] + rng.normal(0.0, 0.3, (220, 2))          # a partial arc, as under water
     clutter = rng.uniform(300.0, 900.0, (40, 2))
-    c, s, keep = _template_fit(np.vstack([ring, clutter]), "egg")
+    c, s, keep = template_fit(np.vstack([ring, clutter]), "egg")
     assert np.hypot(*(c - centre)) < 0.3 and abs(s - scale) < 0.3
     assert keep[:220].mean() > 0.98 and keep[220:].mean() < 0.2
 

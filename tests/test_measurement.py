@@ -11,7 +11,7 @@ import pytest
 from pipeline.camera import load_certificate
 from pipeline.coding import CODES
 from pipeline.contour import PipeView
-from pipeline.contour.detect import PipeContour, Ring
+from pipeline.contour.result import PipeContour, Ring
 from pipeline.measurement import MarkedQuantity, measure_quantity, value_from_image_ratio, value_from_points
 from pipeline.measurement.methods import METHODS, reference_dimension
 from pipeline.measurement.rays import marked_points

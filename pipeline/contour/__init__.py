@@ -6,7 +6,8 @@ the world frame of docs/conventions.md scaled by the pipe's height H, so the
 wall is the header's profile of height 1.
 """
 
-from .detect import PipeContour, PlaneContour, detect_contour
+from .detect import detect_contour
+from .result import PipeContour, PlaneContour
 from .view import PipeView
 
 __all__ = ["PipeContour", "PlaneContour", "PipeView", "detect_contour"]

@@ -23,7 +23,7 @@ import dataclasses
 
 import numpy as np
 
-from .detect import PipeContour
+from .result import PipeContour
 
 __all__ = ["reconcile_windows", "GROSS_M2", "MIN_OVERLAP"]
 

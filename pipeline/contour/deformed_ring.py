@@ -30,7 +30,7 @@ import cv2
 import numpy as np
 
 from ..profiles import profile_width
-from .detect import PipeContour
+from .result import PipeContour
 from .ridges import dark_centre, ridge_points
 from .section_shape import arc_coverage_deg, extents, fit_ellipse, fit_section, points_in_plane, sector_jackknife
 

@@ -1,6 +1,6 @@
 """Least squares of one shared pose and one depth per ring: Levenberg-Marquardt for an arrow-shaped Jacobian.
 
-In the pose fit (``detect._fit``) every residual depends on the few pose
+In the pose fit (``ring_fit._fit``) every residual depends on the few pose
 parameters, and a ring point's two residuals on its own ring's depth only.
 The normal equations are then a small dense pose block bordered by a
 diagonal depth block; this fit builds them with bincounts from the

@@ -12,7 +12,7 @@ eq. 12). Method:
    the candidates within ``INLIER_PX`` and the share of the circumference
    they cover (rings are closed; text and texture are not);
 3. the header's profile fitted to the best circle's inliers (scale = p_H,
-   ``detect._template_fit``);
+   ``first_pose.template_fit``);
 4. u(p_H): delete-one-sector jackknife over 8 angular sectors of
    the inliers (neighbouring ridge points share blur and texture, so the
    sectors, not the points, are independent), combined with the profile's
@@ -26,9 +26,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..profiles import profile_polygon, ray_to_wall
-from .detect import INLIER_PX, MIN_CURVE_POINTS, _template_fit
+from .first_pose import template_fit
 from .ridges import dark_centre, edge_points, ridge_points
 from .section_shape import arc_coverage_deg, ellipse_distance, extents, fit_ellipse, sector_jackknife
+from .tuning import INLIER_PX, MIN_CURVE_POINTS
 
 __all__ = ["StillRing", "ring_in_still"]
 
@@ -112,11 +113,11 @@ def ring_in_still(gray: np.ndarray, shape: str, *, mask: np.ndarray | None = Non
         return None
     if shape == "circular":
         return _ellipse_ring(pts, best, wall_u)
-    centre, p_H, keep = _template_fit(pts[best], shape)
+    centre, p_H, keep = template_fit(pts[best], shape)
     inliers = pts[best][keep]
     if len(inliers) < MIN_INLIERS:
         return None
-    u = float(np.hypot(sector_jackknife(inliers, centre, lambda p: _template_fit(p, shape)[1]), 2 * wall_u * p_H))
+    u = float(np.hypot(sector_jackknife(inliers, centre, lambda p: template_fit(p, shape)[1]), 2 * wall_u * p_H))
     d = inliers - centre
     rho = ray_to_wall(shape, 1.0, (0.0, 0.0), np.stack([d[:, 0], -d[:, 1]], 1) / np.hypot(*d.T)[:, None])
     rms = float(np.sqrt(np.mean((np.hypot(*d.T) - p_H * rho) ** 2)))

@@ -9,11 +9,11 @@ the pose and the log depths log t_k minimising
     C = 1/2 sum_f rho(f^2),   f: x and y of reproject(q_i, t_k(i)) - q_i [px], ox / OFFSET_PRIOR_H, oy / OFFSET_PRIOR_H
 
 (the reprojection error of each ring point q_i, every ``FIT_POINT_STRIDE``-th of its ring, moved along the
-pipe to its ring's depth t_k(i) [H], ``PipeView.reproject``; and the prior on the camera offset). Rings
-that do not follow the family are dropped (a ring's RMS above ``MAX_RING_RMS_PX`` or twice the median
-ring's: a lateral's rim), and so are deformed rings: their whole ridge curves, carried into their plane, trace an ellipse whose height / width departs from the profile's by
-more than ``MAX_ASPECT_DEPARTURE`` and 3 u (delete-one-sector jackknife; ``section_shape``; circular pipes,
-rings seen over at least ``MIN_BEST_COVERAGE_DEG``).
+pipe to its ring's depth t_k(i) [H], ``PipeView.reproject``; and the prior on the camera offset). Rings that
+do not follow the family are dropped (a ring's RMS above ``MAX_RING_RMS_PX`` or twice the median ring's: a
+lateral's rim), and so are deformed rings: their whole ridge curves, carried into their plane, trace an
+ellipse whose height / width departs from the profile's by more than ``MAX_ASPECT_DEPARTURE`` and 3 u (delete-
+one-sector jackknife; ``section_shape``; circular pipes, rings seen over at least ``MIN_BEST_COVERAGE_DEG``).
 Units: image points [px], depths and the offset [H], angles [rad].
 """
 

@@ -12,8 +12,9 @@ the pose and the log depths log t_k minimising
 pipe to its ring's depth t_k(i) [H], ``PipeView.reproject``; and the prior on the camera offset). Rings that
 do not follow the family are dropped (a ring's RMS above ``MAX_RING_RMS_PX`` or twice the median ring's: a
 lateral's rim), and so are deformed rings: their whole ridge curves, carried into their plane, trace an
-ellipse whose height / width departs from the profile's by more than ``MAX_ASPECT_DEPARTURE`` and 3 u (delete-
-one-sector jackknife; ``section_shape``; circular pipes, rings seen over at least ``MIN_BEST_COVERAGE_DEG``).
+ellipse whose height / width departs from the profile's by more than ``MAX_ASPECT_DEPARTURE`` and 3 u
+(delete-one-sector jackknife; ``section_shape``; circular pipes, rings seen over at least
+``MIN_BEST_COVERAGE_DEG``).
 Units: image points [px], depths and the offset [H], angles [rad].
 """
 

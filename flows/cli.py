@@ -244,8 +244,21 @@ def _check_inbox(args: argparse.Namespace) -> int | None:
 
 def _dask_unreachable(address: str, timeout_s: float = 15.0) -> str | None:
     """Why a Dask scheduler cannot be reached (None when it can): checked before the flow starts."""
+    import socket
+    from urllib.parse import urlsplit
+
     from distributed import Client
 
+    where = urlsplit(address if "://" in address else f"tcp://{address}")
+    try:
+        port = where.port
+    except ValueError:
+        return f"{address!r} is not an address tcp://HOST:PORT"
+    if where.scheme == "tcp" and where.hostname and port:
+        try:        # a refused connection answers at once; the client would retry until its timeout
+            socket.create_connection((where.hostname, port), timeout=timeout_s).close()
+        except OSError as exc:
+            return exc.strerror or str(exc)
     try:
         with Client(address, timeout=f"{timeout_s}s"):
             return None

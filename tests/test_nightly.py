@@ -27,11 +27,56 @@ def prefect_home(tmp_path_factory) -> Path:
     return tmp_path_factory.mktemp("prefect-home")
 
 
-@pytest.fixture
-def env(prefect_home) -> dict:
+def _base_env(prefect_home: Path) -> dict:
     e = dict(os.environ, PREFECT_HOME=str(prefect_home), DO_NOT_TRACK="1", PREFECT_SERVER_ANALYTICS_ENABLED="false")
     e.pop("PREFECT_API_URL", None)
     return e
+
+
+@pytest.fixture(scope="session")
+def prefect_server(prefect_home, tmp_path_factory):
+    """A real Prefect server on loopback for the session (`prefect server start`): the runs use it through
+    PREFECT_API_URL instead of starting an embedded server each (docs/operations.md)."""
+    import urllib.request
+
+    env = _base_env(prefect_home)
+    api = f"http://127.0.0.1:{_free_port()}/api"
+    log = tmp_path_factory.mktemp("prefect-server") / "server.txt"
+    server = subprocess.Popen([str(Path(sys.executable).parent / "prefect"), "server", "start", "--host", "127.0.0.1",
+                               "--port", api.split(":")[-1].split("/")[0]], env=env, stdout=log.open("w"),
+                              stderr=subprocess.STDOUT, start_new_session=True)
+
+    def healthy() -> bool:
+        try:
+            return urllib.request.urlopen(f"{api}/health", timeout=2).status == 200
+        except OSError:
+            return False
+
+    try:
+        _wait_for(healthy, "the Prefect server", 300)
+        yield api
+    finally:
+        _stop(server)
+
+
+@pytest.fixture
+def env(prefect_home, prefect_server) -> dict:
+    """The environment of a run that uses the session's Prefect server."""
+    return dict(_base_env(prefect_home), PREFECT_API_URL=prefect_server)
+
+
+@pytest.fixture
+def embedded_env(prefect_home) -> dict:
+    """The environment of a run in the default embedded mode (no PREFECT_API_URL: it starts its own server)."""
+    return _base_env(prefect_home)
+
+
+def _flow_run_names(api: str) -> list[str]:
+    import urllib.request
+
+    request = urllib.request.Request(f"{api}/flow_runs/filter", data=json.dumps({"limit": 200}).encode(),
+                                     headers={"Content-Type": "application/json"}, method="POST")
+    return [run["name"] for run in json.loads(urllib.request.urlopen(request, timeout=10).read())]
 
 
 def _pipegauge(*args: str, env: dict, **kw) -> subprocess.CompletedProcess:
@@ -71,60 +116,8 @@ def _assert_dataset_sound(dataset: Path) -> None:
         assert not frame.duplicated(key).any(), f"duplicate rows in {table}"
 
 
-def test_good_and_bad_packages_in_one_night_then_nothing_new(tmp_path, env):
-    inbox = _inbox(tmp_path)
-    corrupt = _bad_copy(inbox, "corrupt-video", "BAD-VIDEO")
-    video = (corrupt / "video.mp4").read_bytes()
-    (corrupt / "video.mp4").write_bytes(video[: len(video) // 3])
-    malformed = _bad_copy(inbox, "malformed-log", "BAD-LOG")
-    (malformed / "observations.csv").write_text("this is not;an observation log\n1;2\n")
-    orphan = _bad_copy(inbox, "no-certificate", "BAD-CERT")
-    manifest = json.loads((orphan / "package.json").read_text())
-    manifest["certificate_id"] = "CAM-NOWHERE"
-    (orphan / "package.json").write_text(json.dumps(manifest))
-    (inbox / "stray-folder").mkdir()
-    (inbox / "stray-folder" / "notes.txt").write_text("not a package")
-    before = _snapshot(inbox)
-    out = tmp_path / "out"
-
-    first = _pipegauge("run", str(inbox), "--out", str(out), env=env)
-    assert first.returncode == 1, first.stderr
-    inspections = read_table(out / "dataset", "inspections").set_index("inspection_id")
-    assert set(inspections.index) == {*GOOD, "BAD-VIDEO", "BAD-LOG", "BAD-CERT", "stray-folder"}
-    assert (inspections.loc[list(GOOD), "status"] == "ok").all()
-    assert "video.mp4: OpenCV cannot open this video" in inspections.loc["BAD-VIDEO", "error"]
-    assert "missing column(s)" in inspections.loc["BAD-LOG", "error"]
-    assert "certificate 'CAM-NOWHERE' not found" in inspections.loc["BAD-CERT", "error"]
-    assert "stray-folder/package.json: missing" in inspections.loc["stray-folder", "error"]
-    assert "4 failed" in first.stderr and "no-certificate: failed" in first.stderr
-    assert "Traceback" not in first.stderr
-    _assert_dataset_sound(out / "dataset")
-    assert _snapshot(inbox) == before, "the contractor's files were changed"
-    reports = sorted(p.name for p in (out / "reports").glob("*.pdf"))
-    assert [r for r in reports if not r.startswith("summary-")] == sorted(f"{i}.pdf" for i in inspections.index)
-    summary = [r for r in reports if r.startswith("summary-")]
-    assert len(summary) == 1
-    from pypdf import PdfReader
-
-    text = " ".join(p.extract_text() for p in PdfReader(out / "reports" / summary[0]).pages)
-    assert "2 ok, 0 partial, 4 failed" in text and "CAM-NOWHERE" in text
-
-    second = _pipegauge("run", str(inbox), "--out", str(out), env=env)
-    assert second.returncode == 1, second.stderr                 # the bad ones are still bad
-    assert "2 ok, 0 partial, 4 failed; 0 processed, 6 unchanged" in second.stderr
-    assert "corrupt-video: failed (unchanged since the last run): " in second.stderr
-    stored = read_table(out / "dataset", "inspections").set_index("inspection_id").processed_at
-    assert (stored == inspections.processed_at.reindex(stored.index)).all(), "a package was processed again"
-
-    # Delivering the missing certificate is new input: that package alone is processed again.
-    shutil.copy(inbox / "certificates" / "SYN-720x576.json", inbox / "certificates" / "CAM-NOWHERE.json")
-    third = _pipegauge("run", str(inbox), "--out", str(out), env=env)
-    assert third.returncode == 1 and "no-certificate: ok" in third.stderr and "1 processed, 5 unchanged" in third.stderr
-
-
-def test_a_hostile_inbox_ends_bounded_keeps_the_good_package_and_names_every_fault(tmp_path, env):
-    """Issue 18's hostile delivery: one good package among packages built from its defects."""
-    inbox = _inbox(tmp_path, good=("S01-circular-clean",))
+def _hostile_packages(inbox: Path, tmp_path: Path) -> None:
+    """Issue 18's hostile delivery: packages built from its defects, beside the night's good and bad ones."""
     rows = _bad_copy(inbox, "bad-rows", "BAD-ROWS")            # a distance of 1e308, a row number over int32, a long remark
     log = (rows / "observations.csv").read_text().splitlines()
     head, first, second = log[0].split(","), log[1].split(","), log[2].split(",")
@@ -140,61 +133,87 @@ def test_a_hostile_inbox_ends_bounded_keeps_the_good_package_and_names_every_fau
     _bad_copy(inbox, "newline-id", "NEWLINE\n")
     for name in ("é-accent", "#hash", "x y", "x_y"):            # names a file system allows, no manifest
         (inbox / name).mkdir()
-    outside = tmp_path / "elsewhere"
-    _bad_copy(tmp_path, "elsewhere", "LINKED")
-    (inbox / "linked").symlink_to(outside)
+    _bad_copy(tmp_path, "elsewhere", "LINKED")                  # a package folder linked from outside the inbox
+    (inbox / "linked").symlink_to(tmp_path / "elsewhere")
+
+
+def test_good_bad_and_hostile_packages_in_one_night_then_nothing_new(tmp_path, env, prefect_server):
+    """One good night's run among broken and hostile deliveries; a rerun with nothing new rewrites nothing."""
+    from pipeline.report import report_file_name
+
+    inbox = _inbox(tmp_path)
+    corrupt = _bad_copy(inbox, "corrupt-video", "BAD-VIDEO")
+    video = (corrupt / "video.mp4").read_bytes()
+    (corrupt / "video.mp4").write_bytes(video[: len(video) // 3])
+    malformed = _bad_copy(inbox, "malformed-log", "BAD-LOG")
+    (malformed / "observations.csv").write_text("this is not;an observation log\n1;2\n")
+    orphan = _bad_copy(inbox, "no-certificate", "BAD-CERT")
+    manifest = json.loads((orphan / "package.json").read_text())
+    manifest["certificate_id"] = "CAM-NOWHERE"
+    (orphan / "package.json").write_text(json.dumps(manifest))
+    (inbox / "stray-folder").mkdir()
+    (inbox / "stray-folder" / "notes.txt").write_text("not a package")
+    _hostile_packages(inbox, tmp_path)
+    before = _snapshot(inbox)
     out = tmp_path / "out"
 
-    first_run = _pipegauge("run", str(inbox), "--out", str(out), env=env)
-    assert first_run.returncode == 1, first_run.stderr
+    first = _pipegauge("run", str(inbox), "--out", str(out), env=env)
+    assert first.returncode == 1, first.stderr
     for text in ("unexpected error", "Traceback"):
-        assert text not in first_run.stderr
-    stored = read_table(out / "dataset", "inspections").set_index("inspection_id")
-    assert stored.loc["S01-circular-clean", "status"] == "ok"
-    good = read_table(out / "dataset", "measurements", inspection_ids=["S01-circular-clean"])
-    assert len(good) == stored.loc["S01-circular-clean", "n_measurements"] > 0 and (good.status == "ok").all()
-    assert stored.loc["BAD-ROWS", "status"] == "partial"
-    problems = " ".join(stored.loc["BAD-ROWS", "problems"])
+        assert text not in first.stderr
+    assert "2 ok, 1 partial, 13 failed; 13 processed, 0 unchanged since the last run, 3 refused unread" in first.stderr
+    inspections = read_table(out / "dataset", "inspections").set_index("inspection_id")
+    assert set(inspections.index) == {*GOOD, "BAD-VIDEO", "BAD-LOG", "BAD-CERT", "stray-folder", "BAD-ROWS", "HUGE-LOG",
+                                      "newline-id", "é-accent", "#hash", "x y", "x_y"}
+    assert (inspections.loc[list(GOOD), "status"] == "ok").all()
+    good = read_table(out / "dataset", "measurements", inspection_ids=list(GOOD))
+    assert len(good) == inspections.loc[list(GOOD), "n_measurements"].sum() > 0 and (good.status == "ok").all()
+    assert "video.mp4: OpenCV cannot open this video" in inspections.loc["BAD-VIDEO", "error"]
+    assert "missing column(s)" in inspections.loc["BAD-LOG", "error"]
+    assert "certificate 'CAM-NOWHERE' not found" in inspections.loc["BAD-CERT", "error"]
+    assert "stray-folder/package.json: missing" in inspections.loc["stray-folder", "error"]
+    assert "no-certificate: failed" in first.stderr
+    # the hostile ones, each recorded (or refused) with its real reason
+    assert inspections.loc["BAD-ROWS", "status"] == "partial"
+    problems = " ".join(inspections.loc["BAD-ROWS", "problems"])
     assert "'1e308' is not a distance in m" in problems and "'3000000000' is not a row number" in problems
     assert "5,000 characters; at most 500" in problems
-    assert "more than 5,000 rows" in stored.loc["HUGE-LOG", "error"]
-    assert "field 'package_id': 'NEWLINE\\n' is not an id" in stored.loc["newline-id", "error"]
+    assert "more than 5,000 rows" in inspections.loc["HUGE-LOG", "error"]
+    assert "field 'package_id': 'NEWLINE\\n' is not an id" in inspections.loc["newline-id", "error"]
     for name in ("é-accent", "#hash", "x y", "x_y"):
-        assert f"{name}/package.json: missing" in stored.loc[name, "error"]
-    assert "TWIN" not in stored.index and "LINKED" not in stored.index and "linked" not in stored.index
-    assert "package id 'TWIN' is claimed by 2 folders (twin-a, twin-b)" in first_run.stderr
-    assert "linked: failed (refused): " in first_run.stderr and "outside the inbox" in first_run.stderr
-    assert "3 refused unread" in first_run.stderr
+        assert f"{name}/package.json: missing" in inspections.loc[name, "error"]
+    assert "package id 'TWIN' is claimed by 2 folders (twin-a, twin-b)" in first.stderr
+    assert "linked: failed (refused): " in first.stderr and "outside the inbox" in first.stderr
     _assert_dataset_sound(out / "dataset")
+    assert _snapshot(inbox) == before, "the contractor's files were changed"
     reports = {p.name for p in (out / "reports").glob("*.pdf")}
-    assert {"S01-circular-clean.pdf", "BAD-ROWS.pdf", "%C3%A9-accent.pdf", "%23hash.pdf", "x%20y.pdf",
-            "x_y.pdf"} <= reports
+    assert {r for r in reports if not r.startswith("summary-")} == {report_file_name(i) for i in inspections.index}
+    assert {"%C3%A9-accent.pdf", "%23hash.pdf", "x%20y.pdf", "x_y.pdf"} <= reports
+    summary = [r for r in reports if r.startswith("summary-")]
+    assert len(summary) == 1
+    from pypdf import PdfReader
 
-    before = _snapshot(out)
-    rerun = _pipegauge("run", str(inbox), "--out", str(out), env=env)
-    assert rerun.returncode == 1 and "Traceback" not in rerun.stderr
-    assert "0 processed" in rerun.stderr and "kept as it was" in rerun.stderr
-    after = _snapshot(out)
-    stored = lambda snapshot: {k: v for k, v in snapshot.items() if not Path(k).name.startswith(".")}  # noqa: E731
-    assert stored(after) == stored(before), "a rerun with nothing new rewrote a file"
+    text = " ".join(p.extract_text() for p in PdfReader(out / "reports" / summary[0]).pages)
+    assert "2 ok, 1 partial, 13 failed" in text and "CAM-NOWHERE" in text
+    # the run used the configured server: no embedded one was started, and the flow run is on that server
+    assert not (out / ".prefect-server.pid").exists() and "embedded" not in first.stderr
+    assert f"nightly {inbox}" in _flow_run_names(prefect_server)
 
+    stored_files = _snapshot(out)
+    second = _pipegauge("run", str(inbox), "--out", str(out), env=env)
+    assert second.returncode == 1, second.stderr                 # the bad ones are still bad
+    assert "2 ok, 1 partial, 13 failed; 0 processed, 13 unchanged since the last run, 3 refused unread" in second.stderr
+    assert "corrupt-video: failed (unchanged since the last run): " in second.stderr
+    assert "kept as it was" in second.stderr and "Traceback" not in second.stderr
+    stored = read_table(out / "dataset", "inspections").set_index("inspection_id").processed_at
+    assert (stored == inspections.processed_at.reindex(stored.index)).all(), "a package was processed again"
+    kept = lambda snapshot: {k: v for k, v in snapshot.items() if not Path(k).name.startswith(".")}  # noqa: E731
+    assert kept(_snapshot(out)) == kept(stored_files), "a rerun with nothing new rewrote a file"
 
-def test_an_embedded_server_left_by_a_killed_run_is_stopped_by_the_next_run(tmp_path, env):
-    inbox = _inbox(tmp_path, good=("S01-circular-clean",))
-    out = tmp_path / "out"
-    proc = subprocess.Popen([sys.executable, "-m", "flows.cli", "run", str(inbox), "--out", str(out)], cwd=ROOT,
-                            env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-    pid_file = out / ".prefect-server.pid"
-    _wait_for(lambda: pid_file.is_file() and pid_file.read_text().strip(), "the embedded server's pid file", 300)
-    server = int(pid_file.read_text())
-    proc.kill()                                           # the run alone, as kill -9 would: its server lives on
-    proc.wait()
-    assert Path(f"/proc/{server}").exists(), "the server died with the run: nothing to recover"
-    rerun = _pipegauge("run", str(inbox), "--out", str(out), env=env)
-    assert rerun.returncode == 0, rerun.stderr
-    assert f"stopped the embedded Prefect server (pid {server}) left running by an interrupted run" in rerun.stderr
-    _wait_for(lambda: not _alive(server), "the left-over server to end", 30)
-    assert not pid_file.exists()
+    # Delivering the missing certificate is new input: that package alone is processed again.
+    shutil.copy(inbox / "certificates" / "SYN-720x576.json", inbox / "certificates" / "CAM-NOWHERE.json")
+    third = _pipegauge("run", str(inbox), "--out", str(out), env=env)
+    assert third.returncode == 1 and "no-certificate: ok" in third.stderr and "1 processed, 12 unchanged" in third.stderr
 
 
 def _alive(pid: int) -> bool:
@@ -216,26 +235,33 @@ def test_usage_errors_exit_2(tmp_path, env):
     assert "Traceback" not in nowhere.stderr
 
 
-def test_a_run_killed_mid_way_then_rerun(tmp_path, env):
+def test_a_run_killed_mid_way_then_rerun(tmp_path, embedded_env):
+    """kill -9 of an embedded-mode run after its first package is stored: the rerun stops the Prefect server the
+    killed run left behind, processes the interrupted package again, and skips the stored one."""
     inbox = _inbox(tmp_path, good=("S02-circular-water-offset", "S01-circular-clean"))
     out = tmp_path / "out"
     proc = subprocess.Popen([sys.executable, "-m", "flows.cli", "run", str(inbox), "--out", str(out)], cwd=ROOT,
-                            env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
-                            start_new_session=True)
+                            env=embedded_env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
     stored = out / "dataset" / "inspections"
+    pid_file = out / ".prefect-server.pid"
     deadline = time.monotonic() + 600
     # a stored file, not the hidden temporary it is written under before the rename
     while (not [p for p in stored.rglob("*.parquet") if not p.name.startswith(".")]
            and time.monotonic() < deadline and proc.poll() is None):
         time.sleep(0.2)
     assert proc.poll() is None, "the run ended before it could be killed: " + proc.stderr.read()
-    os.killpg(proc.pid, signal.SIGKILL)                     # the whole run, as a power cut would
+    server = int(pid_file.read_text())
+    proc.kill()                                             # the run alone, as kill -9 would: its server lives on
     proc.wait()
+    assert _alive(server), "the server died with the run: nothing to recover"
     assert len(read_table(out / "dataset", "inspections")) == 1
 
-    rerun = _pipegauge("run", str(inbox), "--out", str(out), env=env)
+    rerun = _pipegauge("run", str(inbox), "--out", str(out), env=embedded_env)
     assert rerun.returncode == 0, rerun.stderr
+    assert f"stopped the embedded Prefect server (pid {server}) left running by an interrupted run" in rerun.stderr
     assert "2 ok, 0 partial, 0 failed; 1 processed, 1 unchanged" in rerun.stderr
+    _wait_for(lambda: not _alive(server), "the left-over server to end", 30)
+    assert not pid_file.exists()
     _assert_dataset_sound(out / "dataset")
     inspections = read_table(out / "dataset", "inspections")
     assert sorted(inspections.inspection_id) == ["S01-circular-clean", "S02-circular-water-offset"]
@@ -289,26 +315,13 @@ def _stop(proc: subprocess.Popen) -> None:
 
 
 def test_served_deployment_on_a_real_prefect_server(tmp_path, env):
-    """prefect server start on loopback, pipegauge serve, a triggered run, its outputs."""
-    import urllib.request
-
+    """pipegauge serve on the session's Prefect server (`prefect server start` on loopback), a triggered run, its
+    outputs."""
     prefect = str(Path(sys.executable).parent / "prefect")
-    port = _free_port()
-    env = dict(env, PREFECT_HOME=str(tmp_path / "server-home"))
-    env["PREFECT_API_URL"] = f"http://127.0.0.1:{port}/api"
     logs = tmp_path / "logs"
     logs.mkdir()
-    server = subprocess.Popen([prefect, "server", "start", "--host", "127.0.0.1", "--port", str(port)], env=env,
-                              stdout=(logs / "server.txt").open("w"), stderr=subprocess.STDOUT, start_new_session=True)
     serve = None
     try:
-        def healthy() -> bool:
-            try:
-                return urllib.request.urlopen(f"{env['PREFECT_API_URL']}/health", timeout=2).status == 200
-            except OSError:
-                return False
-
-        _wait_for(healthy, "the Prefect server")
         inbox = _inbox(tmp_path, good=("S02-circular-water-offset",))
         out = tmp_path / "out"
         serve = subprocess.Popen([sys.executable, "-m", "flows.cli", "serve", str(inbox), "--out", str(out),
@@ -330,7 +343,6 @@ def test_served_deployment_on_a_real_prefect_server(tmp_path, env):
     finally:
         if serve is not None:
             _stop(serve)
-        _stop(server)
 
 
 def test_only_transient_errors_are_retried():

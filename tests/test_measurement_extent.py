@@ -1,0 +1,104 @@
+"""Issue 20: each quantity measured along its own extent; intervals inside the quantity's domain; resolution."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import asdict
+
+import numpy as np
+import pytest
+
+from pipeline.coding import CODES
+from pipeline.measurement import MarkedQuantity, measure_quantity
+from pipeline.metrology.display import format_record, format_result, is_lopsided
+from test_measurement import _contour, _truth
+
+
+def _crack(char2: str):
+    truth, cert, und, view = _truth("S01-circular-clean")
+    obs = next(o for o in truth["observations"] if o["code"] == "BAB" and o["char2"] == char2)
+    q = obs["quantities"][0]
+    return truth, cert, view, und.points(q["points_px_noise_free"]), q["true_value"]
+
+
+def _image_direction(view, point, extent: str) -> np.ndarray:
+    """Unit image vector at a wall point [px]: along the pipe's axis or around its cross-section."""
+    xy, t = view.wall_hits(np.array([point]))
+    theta = math.atan2(xy[0, 1], xy[0, 0])
+    r = math.hypot(*xy[0])
+    if extent == "along":
+        ends = [[*xy[0], t[0]], [*xy[0], t[0] + 0.01]]
+    else:
+        ends = [[r * math.cos(theta + s), r * math.sin(theta + s), t[0]] for s in (0.0, 0.01)]
+    d = np.diff(view.project(np.array(ends)), axis=0)[0]
+    return d / np.linalg.norm(d)
+
+
+def _measure(method, a, b, view, cert, model, u=0.75, seed=3):
+    q = MarkedQuantity("BAB", "B", "Q1", method, tuple(a), tuple(b), u, u)
+    return measure_quantity(q, _contour(view), cert, H=300.0, tolerance=3.0, model=model, seed=seed)
+
+
+def test_a_longitudinal_crack_with_click_noise_along_the_axis_gives_its_circumferential_width():
+    truth, cert, view, p, width = _crack("A")                                # 4 mm longitudinal crack
+    method = CODES["BAB"].quantification("Q1", "B").method_for("A")
+    assert method == "around"
+    axis = _image_direction(view, p.mean(axis=0), "along")
+    a, b = p[0] + 1.0 * axis, p[1] - 1.0 * axis                           # 2 px of click noise toward the vanishing point
+    persp = _measure(method, a, b, view, cert, "perspective")
+    whole = _measure("length", a, b, view, cert, "perspective")           # the 3D distance the issue found
+    assert persp.value == pytest.approx(width, abs=0.6)
+    assert whole.value > 3 * width                                         # the axial offset would dominate it
+    across = next(line for line in persp.budget if line.label == "across")
+    assert across.estimate > 3 * width and across.contribution == 0.0    # the nuisance, reported, not in the value
+    assert persp.low <= width <= persp.high and persp.extent == "around"
+    ortho = _measure(method, a, b, view, cert, "orthographic")
+    assert ortho.value == pytest.approx(width, abs=0.8)
+    assert not any("not in a cross-section plane" in r for r in ortho.reasons)
+
+
+def test_a_circumferential_crack_and_a_connection_are_measured_along_the_axis_and_around():
+    assert CODES["BAB"].quantification("Q1", "C").method_for("B") == "axial"
+    assert CODES["BAB"].quantification("Q1", "B").method_for("C") == "length"     # a complex crack: no direction
+    assert CODES["BCA"].quantification("Q1", "A").method_for("A") == "around"
+    assert CODES["BCA"].quantification("Q2", "A").method_for("A") == "axial"
+
+
+def test_a_width_whose_linear_interval_would_cross_zero_is_reported_with_the_monte_carlo_interval():
+    truth, cert, view, p, width = _crack("A")
+    r = _measure("around", p[0], p[1], view, cert, "orthographic", u=3.0)    # coarse marks on a 2 px crack
+    u_linear = math.sqrt(sum(line.contribution ** 2 for line in r.budget))
+    assert r.value - 1.96 * u_linear < 0                                     # the linear interval would go below 0
+    assert r.interval.startswith("Monte Carlo") and "domain" in r.interval
+    assert any("Monte Carlo interval reported" in reason for reason in r.reasons)
+    assert 0.0 <= r.low < r.value < r.high
+
+
+def test_a_1_px_crack_is_reported_below_resolution_with_its_upper_bound():
+    truth, cert, view, p, width = _crack("A")
+    mid = p.mean(axis=0)
+    around = _image_direction(view, mid, "around")
+    a, b = mid - 0.5 * around, mid + 0.5 * around                          # 1 px apart around the pipe
+    for model in ("perspective", "orthographic"):
+        r = _measure("around", a, b, view, cert, model)
+        assert r.below_resolution and r.low >= 0.0
+        text = format_record(asdict(r))
+        assert text.startswith("< ") and "below resolution" in text and f"{r.high:.1f}" in text
+    wide = _measure("around", p[0] - 2 * around, p[1] + 2 * around, view, cert, "perspective")
+    assert not wide.below_resolution
+
+
+def test_a_lopsided_interval_is_printed_as_low_high_and_a_symmetric_one_with_plus_minus():
+    truth, cert, view, p, width = _crack("A")
+    mid = p.mean(axis=0)
+    around = _image_direction(view, mid, "around")
+    r = _measure("around", mid - 1.1 * around, mid + 1.1 * around, view, cert, "perspective", u=1.5)  # 2.2 px apart
+    assert is_lopsided(r.value, r.low, r.high)
+    text = format_record(asdict(r))
+    value, interval = text.split(" mm ")
+    low, high = (float(x) for x in interval.strip("[]").split(", "))
+    assert "±" not in text and float(value) == pytest.approx(r.value, abs=0.1)
+    assert (low, high) == pytest.approx((r.low, r.high), abs=0.1)
+    assert format_result(30.06, 0.56, "%", 29.53, 30.61) == "30.06 ± 0.56 %"
+    assert format_result(1.234, 4.9, "mm", 0.02, 6.1) == "1.2 mm [0.0, 6.1]"
+    assert format_record({"value": float("nan"), "U95": float("nan"), "unit": "mm"}) == ""

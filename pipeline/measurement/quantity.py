@@ -8,9 +8,12 @@ Inputs of both models, each with a label that names its budget line:
   uncertainty (``certificate_scale_u``) [1];
 * orthographic (eqs. 12-15): ``p_H`` from the contour fit [px], ``p_X``
   between the undistorted marks [px], and ``approximation``, the
-  orthographic model's own error: rectangular, half-width the difference
-  between the orthographic and the perspective value at the estimates
-  (the paper leaves this error as future work);
+  orthographic model's own error: normal, u the difference between the
+  orthographic and the perspective value of the same extent at the
+  estimates (the paper leaves this error as future work); for an extent
+  off a cross-section plane (along the axis, the whole distance on the
+  wall), combined with the perspective value's own u, which that
+  difference inherits;
 * perspective (eqs. 1-11): the camera pose from the contour fit, jointly
   normal (``ox``, ``oy`` [H], ``yaw``, ``pitch``, ``roll`` [rad]), the marks
   ``xa``, ``ya``, ``xb``, ``yb`` [px], and ``wall``, the wall's radial
@@ -283,22 +286,28 @@ def measure_quantity(q: MarkedQuantity, contour: PipeContour, cert: Certificate,
         raise MeasurementError(f"{q.code} {q.quantity}: the marks do not meet the pipe wall with the fitted camera pose")
 
     common = {"certificate": Normal(1.0, max(u_cert, 1e-12)), "H": _h_input(H, tolerance) if method.scales_with_H else H}
+    cov = contour.covariance
+    free = [i for i in range(5) if cov[i, i] > 0]
+    names = [("ox", "oy", "yaw", "pitch", "roll")[i] for i in free]
+    fixed = {n: v for n, v in pose.items() if n not in names}
+    perspective_inputs = InputSet(
+        {"xa": Normal(a[0], q.u_a), "ya": Normal(a[1], q.u_a), "xb": Normal(b[0], q.u_b),
+         "yb": Normal(b[1], q.u_b), "wall": Normal(1.0, max(2 * contour.wall_u, 1e-12)),
+         **{k: Normal(v, max(q.u_anchor, 1e-12)) for k, v in anchored.items()}, **fixed, **common},
+        joint=[JointNormal(names, [pose[n] for n in names], cov[np.ix_(free, free)])] if names else [])
     if model == "orthographic":
         delta_ortho = abs(v_ortho - v_persp)
+        if method.extent not in IN_SECTION:
+            # off a cross-section plane the difference is estimated with the perspective value's own
+            # uncertainty (click noise along the axis), which the orthographic inputs do not see
+            delta_ortho = math.hypot(delta_ortho, propagate_linear(perspective, perspective_inputs).u)
         inputs = InputSet({"p_X": Normal(p_X, math.hypot(q.u_a, q.u_b)), "p_H": Normal(plane.p_H, plane.u_p_H),
                            "approximation": Normal(0.0, delta_ortho) if delta_ortho > 0 else 0.0, **common})
         fn = orthographic
         nuisance = None if direction is None else (
             lambda p_across, **_: p_across, {"p_across": Normal(p_across, math.hypot(q.u_a, q.u_b))})
     else:
-        cov = contour.covariance
-        free = [i for i in range(5) if cov[i, i] > 0]
-        names = [("ox", "oy", "yaw", "pitch", "roll")[i] for i in free]
-        fixed = {n: v for n, v in pose.items() if n not in names}
-        inputs = InputSet({"xa": Normal(a[0], q.u_a), "ya": Normal(a[1], q.u_a), "xb": Normal(b[0], q.u_b),
-                           "yb": Normal(b[1], q.u_b), "wall": Normal(1.0, max(2 * contour.wall_u, 1e-12)),
-                           **{k: Normal(v, max(q.u_anchor, 1e-12)) for k, v in anchored.items()}, **fixed, **common},
-                          joint=[JointNormal(names, [pose[n] for n in names], cov[np.ix_(free, free)])] if names else [])
+        inputs = perspective_inputs
         fn = perspective
         nuisance = None if across_from_points(q.method, np.zeros(3), np.zeros(3), H) is None else (across, inputs)
     lin = propagate_linear(fn, inputs, name=q.quantity)

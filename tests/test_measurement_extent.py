@@ -102,3 +102,26 @@ def test_a_lopsided_interval_is_printed_as_low_high_and_a_symmetric_one_with_plu
     assert format_result(30.06, 0.56, "%", 29.53, 30.61) == "30.06 ± 0.56 %"
     assert format_result(1.234, 4.9, "mm", 0.02, 6.1) == "1.2 mm [0.0, 6.1]"
     assert format_record({"value": float("nan"), "U95": float("nan"), "unit": "mm"}) == ""
+
+
+def test_the_export_writes_each_value_as_the_report_does(tmp_path):
+    import csv
+    import datetime as dt
+
+    from pipeline.store import export_csv, write_inspection
+
+    inspection = {"inspection_id": "P1", "inspection_date": dt.date(2026, 11, 30), "section_id": "S9", "status": "ok",
+                  "model": "perspective", "problems": [], "pipeline_version": "0.1.0",
+                  "processed_at": dt.datetime(2026, 11, 30, 2, 0, tzinfo=dt.timezone.utc)}
+    observations = [{"row": r, "distance_m": 1.0 * r, "code": "BAB", "char1": "B", "char2": "A", "valid": True}
+                    for r in (1, 2, 3)]
+    base = {"quantity": "Q1", "code": "BAB", "method": "around", "extent": "around", "unit": "mm", "status": "ok"}
+    measurements = [{**base, "row": 1, "value": 4.0, "U95": 0.4, "low": 3.6, "high": 4.4, "below_resolution": False},
+                    {**base, "row": 2, "value": 1.2, "U95": 4.9, "low": 0.0, "high": 6.1, "below_resolution": False},
+                    {**base, "row": 3, "value": 1.5, "U95": 5.0, "low": 0.0, "high": 6.5, "below_resolution": True}]
+    write_inspection(tmp_path / "ds", inspection, observations, measurements)
+    export_csv(tmp_path / "ds", tmp_path / "out.csv")
+    rows = {int(r["row"]): r for r in csv.DictReader(open(tmp_path / "out.csv", encoding="utf-8"))}
+    assert rows[1]["result"] == "4.00 ± 0.40 mm"
+    assert rows[2]["result"] == "1.2 mm [0.0, 6.1]"
+    assert rows[3]["result"] == "< 6.5 mm (below resolution)" and rows[3]["below_resolution"] == "True"

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import math
-from dataclasses import asdict
+from dataclasses import asdict, replace
 
 import numpy as np
 import pytest
@@ -125,3 +125,32 @@ def test_the_export_writes_each_value_as_the_report_does(tmp_path):
     assert rows[1]["result"] == "4.00 ± 0.40 mm"
     assert rows[2]["result"] == "1.2 mm [0.0, 6.1]"
     assert rows[3]["result"] == "< 6.5 mm (below resolution)" and rows[3]["below_resolution"] == "True"
+
+
+def test_the_issues_dn400_crack_far_ahead_is_below_resolution_not_twenty_mm():
+    # issue 20: a 1.5 mm longitudinal crack 2.8 m ahead in a DN400 (720x576, camera off the axis and tilted)
+    # was measured 21.1 mm; 1 px toward the vanishing point is about 70 mm along the pipe there
+    from pipeline.camera import load_certificate
+    from pipeline.contour import PipeView
+    from test_measurement import SAMPLES
+
+    cert = load_certificate(SAMPLES / "certificates" / "SYN-720x576.json")
+    cv = cert.in_convention("opencv")
+    H = 400.0
+    view = PipeView("circular", cv.value("fx"), cv.value("fy"), cv.value("cx"), cv.value("cy"), 0.06, 0.12,
+                    math.radians(4.0), math.radians(-5.0), 0.0)
+    theta, z = math.radians(150), 2800.0 / H
+    d = 1.5 / H                                                  # arc of the width on a wall of radius 1/2 [H]
+    pts = np.array([[0.5 * math.cos(theta - d), 0.5 * math.sin(theta - d), z],
+                    [0.5 * math.cos(theta + d), 0.5 * math.sin(theta + d), z]])
+    width = H * float(np.linalg.norm(pts[1, :2] - pts[0, :2]))
+    p = view.project(pts)
+    axis = _image_direction(view, p.mean(axis=0), "along")
+    a, b = p[0] + 0.7 * axis, p[1] - 0.7 * axis                  # click noise toward the vanishing point
+    q = MarkedQuantity("BAB", "B", "Q1", "around", tuple(a), tuple(b), 0.75, 0.75)
+    whole = measure_quantity(replace(q, method="length"), _contour(view), cert, H=H, tolerance=4.0, seed=2)
+    assert whole.value > 10 * width                              # the 3D distance takes up the axial offset
+    for model in ("perspective", "orthographic"):
+        r = measure_quantity(q, _contour(view), cert, H=H, tolerance=4.0, model=model, seed=2)
+        assert r.below_resolution and 0.0 <= r.low and width <= r.high < whole.value / 2
+        assert format_record(asdict(r)).startswith("< ")

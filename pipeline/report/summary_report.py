@@ -72,7 +72,7 @@ def render_night_summary(rows: Sequence[dict], data: str | os.PathLike, path: st
                         "height H, % as such): where to look first, not a condition grade.", st["small"]),
               Spacer(1, 1.5 * mm)]
     if len(worst):
-        table = [[Paragraph(h, st["cell"]) for h in ("Inspection", "Row", "Code", "Description", "Value ± U95", "Upper bound")]]
+        table = [[Paragraph(h, st["cell"]) for h in ("Inspection", "Row", "Code", "Description", "Value (95 %)", "Upper bound")]]
         for r in worst.itertuples():
             table.append([Paragraph(safe_text(r.inspection_id, 80), st["cell"]), Paragraph(str(r.row), st["cell"]),
                           Paragraph(safe_text(f"{r.code} {r.char1 or ''} {r.quantity}"), st["cell"]),

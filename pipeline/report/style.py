@@ -23,9 +23,9 @@ from reportlab.lib.styles import ParagraphStyle
 from reportlab.pdfbase import pdfmetrics
 from reportlab.pdfbase.ttfonts import TTFont
 
-from ..metrology.display import format_record, format_result, significant_step
+from ..metrology.display import format_record, significant_step  # the one place a value is written
 
-__all__ = ["styles", "safe_text", "format_quantity", "format_record", "significant_step", "FONT", "FONT_BOLD", "ACCENT", "TABLE_STYLE", "build_pdf"]
+__all__ = ["styles", "safe_text", "format_record", "significant_step", "FONT", "FONT_BOLD", "ACCENT", "TABLE_STYLE", "build_pdf"]
 
 FONT, FONT_BOLD = "DejaVuSansCondensed", "DejaVuSansCondensed-Bold"
 ACCENT = colors.HexColor("#e8eef5")
@@ -85,12 +85,6 @@ def safe_text(text: object, limit: int = 400) -> str:
     for pattern, font in _CID_RUNS:
         s = pattern.sub(lambda m: f'<font name="{font}">{m.group(0)}</font>', s)
     return s
-
-
-def format_quantity(value: float, U95: float, unit: str, low: float | None = None, high: float | None = None,
-                    below_resolution: bool = False) -> str:
-    """The value with its interval as the report writes it (``pipeline.metrology.display.format_result``)."""
-    return format_result(value, U95, unit, low, high, below_resolution)
 
 
 def build_pdf(story: list, path, *, title: str, footer: str):

@@ -73,7 +73,8 @@ def generate(kind: str, scene, z: float, rng: np.random.Generator) -> tuple[str,
     if kind == "along":
         w = rng.uniform(2, 40)
         pts = np.array([_wall(scene, theta, z - w / 2), _wall(scene, theta, z + w / 2)])
-        return "length", "", pts, float(np.linalg.norm(pts[1] - pts[0]))
+        # a width along the pipe (circumferential crack, connection width) is measured along the axis (issue 20)
+        return "axial", "", pts, float(np.linalg.norm(pts[1] - pts[0]))
     if kind == "axial":
         w = rng.uniform(5, 40)
         pts = np.array([_wall(scene, theta, z - w / 2), _wall(scene, theta + rng.normal(0, 0.02), z + w / 2)])

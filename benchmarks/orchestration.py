@@ -2,7 +2,7 @@
 
 On an inbox of the sample packages plus a renamed copy of S02 (four packages):
 
-1. direct: ``pipeline.inbox.process_package`` called on each package in turn;
+1. direct: ``pipeline.inspection.process_package`` called on each package in turn;
 2. flow, 1 worker: ``pipegauge run``'s flow (embedded Prefect, ephemeral server already started);
 3. flow, 2 workers: the same with two worker processes.
 

@@ -20,6 +20,7 @@ from typing import Callable, Sequence
 from flows.console import say as _say
 from pipeline import __version__
 from pipeline.errors import PipegaugeError
+from pipeline.metrology.display import format_record
 
 EXIT_OK, EXIT_FAILED, EXIT_USAGE = 0, 1, 2
 
@@ -210,7 +211,7 @@ def _measure_one(folder, args: argparse.Namespace, reader) -> int:
         what = m["quantity"] + (" from the image" if m.get("source") == "contour" else "")
         if m["status"] == "ok":
             print(f"{rec['inspection_id']} row {m['row']:3d} {m['code']} {m['char1'] or '-'} {what}: "
-                  f"{m['value']:9.2f} +- {m['U95']:.2f} {m['unit']:2s} (U95, {m['interval']})"
+                  f"{format_record(m, '+-')} ({m['interval']})"
                   + ("" if m["confident"] else "  LOW CONFIDENCE: " + (m["warnings"] or "")))
         else:
             print(f"{rec['inspection_id']} row {m['row']:3d} {m['code']} {what}: not measured: {m['error']}")

@@ -9,10 +9,13 @@ Each quantification says its unit and, when pipegauge measures it from the
 two points marked in the image, its *method* (a key of
 ``pipeline.measurement.methods.METHODS``):
 
-* ``length``: distance between two wall points [mm] (crack width,
-  opening height and width, break length);
+* ``length``: distance between two wall points [mm] (break length; the
+  width of a crack whose shape does not say the width's direction);
+* ``around``: extent around the pipe between two wall points, in the
+  cross-section (a longitudinal crack's width, a connection's height) [mm];
 * ``axial``: distance along the pipe axis between two wall points
-  (longitudinal joint displacement) [mm];
+  (longitudinal joint displacement, a circumferential crack's width, a
+  connection's width) [mm];
 * ``step``: from a wall point to a point displaced off the wall in the same
   cross-section (radial joint displacement) [mm];
 * ``deformation``: reduction of the vertical (char. A) or horizontal (B)
@@ -42,6 +45,11 @@ class Quantification:
     unit: str
     meaning: str
     method: str | None = None
+    by_char2: Mapping[str, str] = field(default_factory=dict)   # characterisation 2 -> method, where it says the direction
+
+    def method_for(self, char2: str = "") -> str | None:
+        """The method for an observation with characterisation 2 ``char2`` (a crack's shape says its width's direction)."""
+        return self.by_char2.get(char2, self.method)
 
 
 @dataclass(frozen=True)
@@ -71,8 +79,12 @@ class Code:
         return table.get(char1, table.get(ANY))
 
 
-def _q(unit: str, meaning: str, method: str | None = None) -> Quantification:
-    return Quantification(unit, meaning, method)
+def _q(unit: str, meaning: str, method: str | None = None, by_char2: Mapping[str, str] | None = None) -> Quantification:
+    return Quantification(unit, meaning, method, MappingProxyType(dict(by_char2 or {})))
+
+
+# A longitudinal crack's width runs around the pipe, a circumferential crack's along it; the other shapes do not say.
+_CRACK_WIDTH = {"A": "around", "B": "axial"}
 
 
 _AREA = _q("%", "reduction of the cross-sectional area")
@@ -83,7 +95,7 @@ _TABLE = (
     Code("BAA", "deformation", {"A": "vertical", "B": "horizontal"},
          q1={ANY: _q("%", "change of the dimension in the characterised direction", "deformation")}),
     Code("BAB", "crack", _CRACK_CHARS, _CRACK_SHAPES,
-         q1={"B": _q("mm", "crack width", "length"), "C": _q("mm", "crack width", "length")}),
+         q1={"B": _q("mm", "crack width", "length", _CRACK_WIDTH), "C": _q("mm", "crack width", "length", _CRACK_WIDTH)}),
     Code("BAC", "break or collapse", {"A": "break", "B": "missing pieces", "C": "collapse"},
          q1={ANY: _q("mm", "length of the break", "length")}),
     Code("BAD", "defective brickwork", {"A": "displaced bricks", "B": "missing bricks", "C": "dropped invert", "D": "collapsed"},
@@ -117,8 +129,8 @@ _TABLE = (
     Code("BBH", "vermin", {"A": "rat", "B": "cockroach", "Z": "other"}, {"A": "in pipe", "B": "in connection", "C": "in joint", "Z": "other"},
          q1={ANY: _q("count", "number of animals")}, continuous=False),
     Code("BCA", "connection", {c: "type" for c in "ABCDEFGZ"}, {"A": "open", "B": "closed"},
-         q1={ANY: _q("mm", "height of the opening (around the pipe)", "length")},
-         q2={ANY: _q("mm", "width of the opening (along the pipe)", "length")}, continuous=False),
+         q1={ANY: _q("mm", "height of the opening (around the pipe)", "around")},
+         q2={ANY: _q("mm", "width of the opening (along the pipe)", "axial")}, continuous=False),
     Code("BCB", "point repair", {c: "repair" for c in "ABCDEFGHIZ"}),
     Code("BCC", "curvature", {"A": "left", "B": "right"}, {"A": "up", "B": "down"},
          q1={ANY: _q("deg", "angle of the bend")}),

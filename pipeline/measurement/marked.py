@@ -28,4 +28,5 @@ def ideal_point_and_u(und: Undistorter, point, u_px: float, u_cert_px: float) ->
 def marked_quantity(obs: Observation, mark: Mark, und: Undistorter, cert) -> MarkedQuantity:
     """The quantity a mark measures, its points in the ideal image with their u (``ideal_point_and_u``)."""
     (a, u_a), (b, u_b) = (ideal_point_and_u(und, p, mark.u_px, cert.image_coordinate_u_px) for p in (mark.a, mark.b))
-    return MarkedQuantity(obs.code, obs.char1, mark.quantity, obs.quantification(mark.quantity).method, a, b, u_a, u_b)
+    return MarkedQuantity(obs.code, obs.char1, mark.quantity, obs.quantification(mark.quantity).method_for(obs.char2), a, b,
+                          u_a, u_b)

@@ -8,19 +8,32 @@ Inputs of both models, each with a label that names its budget line:
   uncertainty (``certificate_scale_u``) [1];
 * orthographic (eqs. 12-15): ``p_H`` from the contour fit [px], ``p_X``
   between the undistorted marks [px], and ``approximation``, the
-  orthographic model's own error: rectangular, half-width the difference
-  between the orthographic and the perspective value at the estimates
-  (the paper leaves this error as future work);
+  orthographic model's own error: normal, u the difference between the
+  orthographic and the perspective value of the same extent at the
+  estimates (the paper leaves this error as future work); for an extent
+  off a cross-section plane (along the axis, the whole distance on the
+  wall), combined with the perspective value's own u, which that
+  difference inherits;
 * perspective (eqs. 1-11): the camera pose from the contour fit, jointly
   normal (``ox``, ``oy`` [H], ``yaw``, ``pitch``, ``roll`` [rad]), the marks
   ``xa``, ``ya``, ``xb``, ``yb`` [px], and ``wall``, the wall's radial
   position against the nominal profile [1].
 
+Each method measures one extent (``methods.Method.extent``): around the
+pipe, the orthographic p_X is the marks' image separation along the
+image of the cross-section's wall at their midpoint; along the pipe, along
+the image of the axis there. The other component is the nuisance
+``across``: a budget line of its own with no weight in the value.
+
 The orthographic value and U95 come from the law of propagation (k = 1.96,
 every input is Type B), checked by Monte Carlo (JCGM 101 clause 8); when
-the check fails, the Monte Carlo interval is reported instead. The
-perspective model is nonlinear: its value and interval are the Monte
-Carlo ones, with a budget from the linearised model beside them.
+the check fails, or when the linear interval leaves the quantity's domain
+(a width below 0, a level above 100 %), the Monte Carlo interval is
+reported instead, its trials held inside the domain. The perspective model
+is nonlinear: its value and interval are the Monte Carlo ones, with a
+budget from the linearised model beside them. An extent under
+``RESOLUTION_PX`` in the image is flagged ``below_resolution``: only its
+upper bound says something.
 """
 
 from __future__ import annotations
@@ -35,15 +48,17 @@ from ..camera.certificate import Certificate
 from ..contour import PipeContour
 from ..errors import MeasurementError
 from ..metrology import InputSet, JointNormal, Normal, Rectangular, propagate_linear, propagate_monte_carlo, validate_linear
-from ..profiles import level_tables
-from .methods import METHODS, reference_dimension, value_from_image_ratio, value_from_points
+from ..profiles import level_tables, wall_point
+from .methods import (IN_SECTION, METHODS, across_from_points, reference_dimension, value_from_image_ratio,
+                      value_from_points, within_domain)
 from .rays import marked_points
 
 __all__ = ["MarkedQuantity", "QuantityResult", "BudgetEntry", "measure_quantity", "certificate_scale_u", "MODELS",
-           "INPUT_DESCRIPTIONS"]
+           "INPUT_DESCRIPTIONS", "RESOLUTION_PX"]
 
 MODELS = ("orthographic", "perspective")
 CERTIFICATE_DRAWS = 200
+RESOLUTION_PX = 2.0     # an extent under about 2 px is not resolved: a blurred edge spreads over 1-2 px
 
 INPUT_DESCRIPTIONS = {
     "H": "pipe height H (header, manufacturing tolerance)",
@@ -57,6 +72,7 @@ INPUT_DESCRIPTIONS = {
     "xb": "mark b, x (marking, certificate residual)", "yb": "mark b, y (marking, certificate residual)",
     "xo": "anchor on the wall, x (marking, certificate residual)", "yo": "anchor on the wall, y (marking, certificate residual)",
     "wall": "wall position against the nominal profile (tolerance, displaced joints logged before it)",
+    "across": "the marks' separation across the measured extent (nuisance, not part of the value)",
 }
 
 
@@ -121,6 +137,8 @@ class QuantityResult:
     confident: bool
     reasons: tuple[str, ...]
     budget: list[BudgetEntry] = field(default_factory=list)
+    extent: str = "section"           # which extent was measured (methods.Method.extent)
+    below_resolution: bool = False    # the extent spans under RESOLUTION_PX in the image: report its upper bound
 
 
 def certificate_scale_u(cert: Certificate, K: np.ndarray, ideal_points: np.ndarray, reference: np.ndarray,
@@ -177,6 +195,31 @@ def _budget(lin, origin: str = "marking") -> list[BudgetEntry]:
                         line.distribution, line.sensitivity, line.contribution, line.share) for line in lin.budget]
 
 
+def _image_direction(view, method: str, a: np.ndarray, b: np.ndarray) -> np.ndarray | None:
+    """Unit vector [1] in the ideal image of the measured extent at the marks' midpoint: the cross-section's
+    wall (``around``) or the pipe's axis (``along``); None for other extents or marks off the wall."""
+    extent = METHODS[method].extent
+    xy, t = view.wall_hits(np.array([a, b]))
+    if extent not in ("around", "along") or not np.all(np.isfinite(t)):
+        return None
+    theta, depth, step = math.atan2(*xy.mean(axis=0)[::-1]), float(t.mean()), 1e-3
+    if extent == "around":
+        ends = [(*wall_point(view.shape, 1.0, theta + s), depth) for s in (-step, step)]
+    else:
+        ends = [(*wall_point(view.shape, 1.0, theta), depth + s) for s in (0.0, step)]
+    d = np.diff(view.project(np.array(ends)), axis=0)[0]
+    n = float(np.linalg.norm(d))
+    return d / n if n > 0 and math.isfinite(n) else None
+
+
+def _across_line(fn, inputs, model: str) -> BudgetEntry:
+    """The nuisance's budget line: its estimate and u [mm] (perspective) or [px] (orthographic), weight 0."""
+    lin = propagate_linear(fn, inputs, name="across")
+    unit = "mm" if model == "perspective" else "px"
+    return BudgetEntry("across", f"{INPUT_DESCRIPTIONS['across']} [{unit}]", float(lin.value), float(lin.u),
+                       "nuisance", 0.0, 0.0, 0.0)
+
+
 def _h_input(H: float, tolerance: float):
     return Rectangular(H, tolerance) if tolerance > 0 else H
 
@@ -205,7 +248,10 @@ def measure_quantity(q: MarkedQuantity, contour: PipeContour, cert: Certificate,
         raise MeasurementError(f"{q.code} {q.quantity}: no camera pose could be fitted ({'; '.join(contour.problems)})")
     reference = reference_dimension(shape, q.char1)
     a, b = np.asarray(q.a, float), np.asarray(q.b, float)
-    p_X = float(np.linalg.norm(b - a))
+    # only the image separation along the measured extent scales to it; the rest is the nuisance
+    direction = _image_direction(view, q.method, a, b)
+    p_X = float(np.linalg.norm(b - a)) if direction is None else float(abs(np.dot(b - a, direction)))
+    p_across = 0.0 if direction is None else float(abs(direction[0] * (b - a)[1] - direction[1] * (b - a)[0]))
     u_cert = certificate_scale_u(cert, np.array([[view.fx, 0, view.cx], [0, view.fy, view.cy], [0, 0, 1]]),
                                  np.array([a, b]), _plane_reference(contour, plane.depth), seed=seed)
     below = _below_widest(contour, q, plane.depth)
@@ -216,56 +262,87 @@ def measure_quantity(q: MarkedQuantity, contour: PipeContour, cert: Certificate,
         # the certificate factor stretches the marks about their midpoint
         xa_, ya_ = mid[0] + certificate * (xa - mid[0]), mid[1] + certificate * (ya - mid[1])
         xb_, yb_ = mid[0] + certificate * (xb - mid[0]), mid[1] + certificate * (yb - mid[1])
-        Pa, Pb = marked_points(method.surfaces, shape, xa_, ya_, xb_, yb_, ox=ox, oy=oy, yaw=yaw, pitch=pitch,
-                               roll=roll, wall=wall, anchor=None if xo is None else (xo, yo), **K)
-        return value_from_points(q.method, shape, Pa, Pb, H, reference)
+        Pa, Pb = points(ox, oy, yaw, pitch, roll, xa_, ya_, xb_, yb_, wall, xo, yo)
+        return within_domain(q.method, value_from_points(q.method, shape, Pa, Pb, H, reference))
+
+    def points(ox, oy, yaw, pitch, roll, xa, ya, xb, yb, wall, xo, yo):
+        return marked_points(method.surfaces, shape, xa, ya, xb, yb, ox=ox, oy=oy, yaw=yaw, pitch=pitch,
+                             roll=roll, wall=wall, anchor=None if xo is None else (xo, yo), **K)
+
+    def across(ox, oy, yaw, pitch, roll, xa, ya, xb, yb, wall, certificate, H, xo=None, yo=None):
+        return across_from_points(q.method, *points(ox, oy, yaw, pitch, roll, xa, ya, xb, yb, wall, xo, yo), H)
 
     def orthographic(p_X, p_H, certificate, approximation, H):
-        return value_from_image_ratio(q.method, shape, certificate * p_X / p_H, H, below, reference) + approximation
+        raw = value_from_image_ratio(q.method, shape, certificate * p_X / p_H, H, below, reference) + approximation
+        return within_domain(q.method, raw)
 
     pose = dict(zip(("ox", "oy", "yaw", "pitch", "roll"), view.pose))
     anchored = {} if q.anchor is None else {"xo": q.anchor[0], "yo": q.anchor[1]}
     at_estimates = dict(**pose, xa=a[0], ya=a[1], xb=b[0], yb=b[1], wall=1.0, certificate=1.0, H=H, **anchored)
     v_persp = float(np.asarray(perspective(**at_estimates)).reshape(-1)[0])
-    v_ortho = float(np.asarray(value_from_image_ratio(q.method, shape, p_X / plane.p_H, H, below, reference)).reshape(-1)[0])
+    v_ortho = float(np.asarray(within_domain(q.method, value_from_image_ratio(q.method, shape, p_X / plane.p_H, H, below,
+                                                                              reference))).reshape(-1)[0])
     if not (math.isfinite(v_persp) and math.isfinite(v_ortho)):
         raise MeasurementError(f"{q.code} {q.quantity}: the marks do not meet the pipe wall with the fitted camera pose")
 
     common = {"certificate": Normal(1.0, max(u_cert, 1e-12)), "H": _h_input(H, tolerance) if method.scales_with_H else H}
+    cov = contour.covariance
+    free = [i for i in range(5) if cov[i, i] > 0]
+    names = [("ox", "oy", "yaw", "pitch", "roll")[i] for i in free]
+    fixed = {n: v for n, v in pose.items() if n not in names}
+    perspective_inputs = InputSet(
+        {"xa": Normal(a[0], q.u_a), "ya": Normal(a[1], q.u_a), "xb": Normal(b[0], q.u_b),
+         "yb": Normal(b[1], q.u_b), "wall": Normal(1.0, max(2 * contour.wall_u, 1e-12)),
+         **{k: Normal(v, max(q.u_anchor, 1e-12)) for k, v in anchored.items()}, **fixed, **common},
+        joint=[JointNormal(names, [pose[n] for n in names], cov[np.ix_(free, free)])] if names else [])
     if model == "orthographic":
         delta_ortho = abs(v_ortho - v_persp)
+        if method.extent not in IN_SECTION:
+            # off a cross-section plane the difference is estimated with the perspective value's own
+            # uncertainty (click noise along the axis), which the orthographic inputs do not see
+            delta_ortho = math.hypot(delta_ortho, propagate_linear(perspective, perspective_inputs).u)
         inputs = InputSet({"p_X": Normal(p_X, math.hypot(q.u_a, q.u_b)), "p_H": Normal(plane.p_H, plane.u_p_H),
                            "approximation": Normal(0.0, delta_ortho) if delta_ortho > 0 else 0.0, **common})
         fn = orthographic
+        nuisance = None if direction is None else (
+            lambda p_across, **_: p_across, {"p_across": Normal(p_across, math.hypot(q.u_a, q.u_b))})
     else:
-        cov = contour.covariance
-        free = [i for i in range(5) if cov[i, i] > 0]
-        names = [("ox", "oy", "yaw", "pitch", "roll")[i] for i in free]
-        fixed = {n: v for n, v in pose.items() if n not in names}
-        inputs = InputSet({"xa": Normal(a[0], q.u_a), "ya": Normal(a[1], q.u_a), "xb": Normal(b[0], q.u_b),
-                           "yb": Normal(b[1], q.u_b), "wall": Normal(1.0, max(2 * contour.wall_u, 1e-12)),
-                           **{k: Normal(v, max(q.u_anchor, 1e-12)) for k, v in anchored.items()}, **fixed, **common},
-                          joint=[JointNormal(names, [pose[n] for n in names], cov[np.ix_(free, free)])] if names else [])
+        inputs = perspective_inputs
         fn = perspective
+        nuisance = None if across_from_points(q.method, np.zeros(3), np.zeros(3), H) is None else (across, inputs)
     lin = propagate_linear(fn, inputs, name=q.quantity)
     mc = propagate_monte_carlo(fn, inputs, seed=seed, name=q.quantity, max_trials=400_000)
     check = validate_linear(lin, mc)
-    if model == "orthographic" and check.validated:
+    bound_low, bound_high = method.domain
+    crosses = lin.interval.low < bound_low or lin.interval.high > bound_high
+    reasons = list(plane.reasons)
+    if model == "orthographic" and check.validated and not crosses:
         value, low, high, how, k, u = lin.value, lin.interval.low, lin.interval.high, "linear, k = 1.96 (validated by Monte Carlo)", lin.k, lin.u
     else:
         # The model at the estimates (GUM 4.1.4), with the shortest 95 % Monte Carlo interval: a length
         # near the marking noise has a skewed distribution whose mean lies above the measured value.
-        reason = "perspective model" if model == "perspective" else "linear not validated"
+        reason = ("perspective model" if model == "perspective" else
+                  f"the linear interval [{lin.interval.low:.3g}, {lin.interval.high:.3g}] {method.unit} leaves the "
+                  f"quantity's domain" if crosses else "linear not validated")
         value = v_persp if model == "perspective" else v_ortho
         low, high, how, k, u = mc.shortest.low, mc.shortest.high, f"Monte Carlo, shortest 95 % ({reason})", math.nan, mc.u
-    reasons = list(plane.reasons)
+        if model == "orthographic" and crosses:
+            reasons.append(f"Monte Carlo interval reported: {reason}")
     if model == "orthographic" and abs(v_ortho - v_persp) > 0.1 * max(abs(v_persp), 1e-9):
+        where = ("in the feature's cross-section: the camera is not square to it" if method.extent in IN_SECTION else
+                 "the feature is not in a cross-section plane square to the camera")
         reasons.append(f"orthographic model off by {abs(v_ortho - v_persp):.3g} {method.unit} against the perspective "
-                       "model: the feature is not in a cross-section plane square to the camera")
+                       f"model {where}")
+    below_resolution = method.unit == "mm" and p_X < RESOLUTION_PX
+    if below_resolution:
+        reasons.append(f"below the image's resolution: the marks are {p_X:.2g} px apart along the measured extent "
+                       f"(under {RESOLUTION_PX:g} px); only the upper bound {high:.3g} {method.unit} is measured")
+    budget = _budget(lin, q.origin) + ([] if nuisance is None else [_across_line(*nuisance, model)])
     return QuantityResult(
         model=model, method=q.method, unit=method.unit, value=float(value), u=float(u), U95=float(max(high - value, value - low)),
         low=float(low), high=float(high), interval=how, k=float(k), mc_trials=mc.trials, mc_seed=mc.seed,
         linear_validated=check.validated, d_low=check.d_low, d_high=check.d_high, delta=check.delta,
         p_H_px=plane.p_H, u_p_H_px=plane.u_p_H, SC_mm_per_px=H / plane.p_H, p_X_px=p_X,
         plane_depth_mm=plane.depth * H, orthographic_value=v_ortho, perspective_value=v_persp,
-        confident=plane.confident and contour.confident, reasons=tuple(dict.fromkeys(reasons)), budget=_budget(lin, q.origin))
+        confident=plane.confident and contour.confident, reasons=tuple(dict.fromkeys(reasons)), budget=budget,
+        extent=method.extent, below_resolution=below_resolution)

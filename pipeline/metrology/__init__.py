@@ -15,6 +15,7 @@ Typical use::
 References: JCGM 100:2008 (GUM), JCGM 101:2008 (GUM Supplement 1).
 """
 
+from .display import format_record, format_result
 from .distributions import Arcsine, Distribution, JointNormal, Normal, Rectangular, StudentT, Triangular
 from .inputs import InputSet
 from .intervals import CoverageInterval, numerical_tolerance, shortest_interval, symmetric_interval
@@ -38,6 +39,8 @@ __all__ = [
     "Triangular",
     "Validation",
     "block_size",
+    "format_record",
+    "format_result",
     "coverage_factor",
     "numerical_tolerance",
     "propagate_linear",

@@ -27,7 +27,7 @@ from ..limits import MAX_REPORT_OBSERVATIONS, MAX_REPORT_QUANTITIES, MAX_REPORT_
 from ..store import file_stem, read_table
 from .graphics import budget_bars, pipe_strip
 from .method import method_statement
-from .style import ACCENT, TABLE_STYLE, build_pdf, format_quantity, safe_text, styles
+from .style import ACCENT, TABLE_STYLE, build_pdf, format_record, safe_text, styles
 
 __all__ = ["render_inspection_report", "inspection_warnings", "report_file_name", "NEAR_EXPIRY_DAYS"]
 
@@ -125,14 +125,14 @@ def _delivered(o: dict) -> str:
 
 
 def _observation_table(observations: list[dict], by_row: dict[int, list[dict]]) -> Table:
-    head = ["Row", "m", "Code", "Description", "Clock", "Logged", "Measured (value ± U95)", "Remark"]
+    head = ["Row", "m", "Code", "Description", "Clock", "Logged", "Measured (value ± U95 or [95 % interval])", "Remark"]
     rows = [[_p(h) for h in head]]
     for o in observations:
         measured = []
         for m in by_row.get(o["row"], []):
             if m["status"] == "ok":
                 flag = "" if m.get("confident") else " ⚠"
-                measured.append(f"{_label(m)}: {format_quantity(m['value'], m['U95'], m['unit'])}{flag}")
+                measured.append(f"{_label(m)}: {safe_text(format_record(m))}{flag}")
             else:
                 measured.append(f"{_label(m)}: not measured")
         clock = "" if _missing(o.get("clock_from")) else f"{int(o['clock_from'])}" + (
@@ -155,7 +155,7 @@ def _quantity_block(m: dict, thumbnail: bytes | None) -> KeepTogether:
     if m["status"] != "ok":
         return KeepTogether([title, _p(f"Not measured: {_txt(m.get('error'))}", "warning"), Spacer(1, 3 * mm)])
     facts = [
-        ("Value ± U95", format_quantity(m["value"], m["U95"], m["unit"])),
+        ("Value (95 %)", safe_text(format_record(m))),
         ("Standard u", f"{m['u']:.3g} {m['unit']}"),
         ("Coverage", _coverage(m)),
         ("Method", f"{_txt(m['method'])}, {_txt(m['model'])} model; seed {m['mc_seed']}"),
@@ -243,7 +243,9 @@ def render_inspection_report(data: str | os.PathLike, inspection_id: str, path: 
               _observation_table(observations[:MAX_REPORT_OBSERVATIONS], by_row),
               *_more(len(observations) - MAX_REPORT_OBSERVATIONS, "observations", "the export"),
               Paragraph("Every measured value is given as value ± U95 (expanded uncertainty, 95 % coverage) with its "
-                        "unit; ⚠ marks a low-confidence measurement (see Warnings).", st["small"])]
+                        "unit, or as value [low, high] when its 95 % interval lies unevenly about it, or as "
+                        "&lt; high when the feature spans under 2 px in the image (below resolution: only its upper "
+                        "bound is measured); ⚠ marks a low-confidence measurement (see Warnings).", st["small"])]
     if measurements:
         story.append(Paragraph("Measured quantities and their uncertainty budgets", st["h2"]))
         story += [_quantity_block(m, thumbs.get((m["row"], m["quantity"], _source(m))))

@@ -5,11 +5,12 @@ from __future__ import annotations
 __all__ = ["method_statement", "VALIDATION"]
 
 # From `python benchmarks/measurement_coverage.py` (--per-frame 17), recorded in docs/measurement.md
-# (2026-11-27); update both together when the benchmark is rerun.
+# (2026-11-30, after issue 20); update both together when the benchmark is rerun.
 VALIDATION = ("Validation against synthetic ground truth (benchmarks/measurement_coverage.py, 221 quantities of "
               "nine kinds measured through the whole chain): the true value lay inside the reported 95 % interval "
-              "for 94.6 % of quantities with the perspective model and 95.5 % with the orthographic model; "
-              "the median |error| / U95 was 0.24 and 0.30.")
+              "for 94.6 % of quantities with the perspective model and 98.2 % with the orthographic model; "
+              "the median |error| / U95 was 0.24 and 0.28. Per code family, bias and interval width against an "
+              "ideal one: benchmarks/measurement_extent.py (docs/measurement.md).")
 
 
 def method_statement(model: str | None) -> list[str]:
@@ -23,6 +24,12 @@ def method_statement(model: str | None) -> list[str]:
         "rings of the frames around the observation; p_H is the pixel height of the cross-section through the marked "
         "points, with u(p_H) from the fit's covariance and the wall's tolerance (and the step of a displaced joint "
         "logged before it).",
+        "Each quantity is measured along its own extent: a longitudinal crack's width and a connection's height "
+        "around the pipe, a circumferential crack's width, a connection's width and a joint gap along its axis; "
+        "the marks' separation across that extent is listed in the budget (<i>across</i>) but is no part of the "
+        "value. Intervals stay within what the quantity can be (a width is never negative); a feature spanning "
+        "under 2 px in the image is given as its upper bound (below resolution), and an interval lying unevenly "
+        "about the value as [low, high].",
         "Quantities marked \"from the image alone\" were measured without the contractor's marks: the water level "
         "(BDD) from the water line found along the wall with the fitted pose, a deformation (BAA, vertical or "
         "horizontal) from a joint ring inside the deformed stretch; the points found stand in for marks, with their "

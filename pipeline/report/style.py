@@ -23,7 +23,9 @@ from reportlab.lib.styles import ParagraphStyle
 from reportlab.pdfbase import pdfmetrics
 from reportlab.pdfbase.ttfonts import TTFont
 
-__all__ = ["styles", "safe_text", "format_quantity", "significant_step", "FONT", "FONT_BOLD", "ACCENT", "TABLE_STYLE", "build_pdf"]
+from ..metrology.display import format_record, significant_step  # the one place a value is written
+
+__all__ = ["styles", "safe_text", "format_record", "significant_step", "FONT", "FONT_BOLD", "ACCENT", "TABLE_STYLE", "build_pdf"]
 
 FONT, FONT_BOLD = "DejaVuSansCondensed", "DejaVuSansCondensed-Bold"
 ACCENT = colors.HexColor("#e8eef5")
@@ -83,24 +85,6 @@ def safe_text(text: object, limit: int = 400) -> str:
     for pattern, font in _CID_RUNS:
         s = pattern.sub(lambda m: f'<font name="{font}">{m.group(0)}</font>', s)
     return s
-
-
-def significant_step(u: float, digits: int = 2) -> float:
-    """The rounding step that keeps ``digits`` significant digits of an uncertainty (GUM 7.2.6)."""
-    import math
-
-    if not (u > 0 and math.isfinite(u)):
-        return 0.01
-    return 10.0 ** (math.floor(math.log10(u)) - digits + 1)
-
-
-def format_quantity(value: float, U95: float, unit: str) -> str:
-    """'value ± U95 unit', U95 with two significant digits and the value to the same decimal place (GUM 7.2.6)."""
-    import math
-
-    step = significant_step(U95)
-    decimals = max(0, -int(math.floor(math.log10(step) + 1e-9)))
-    return f"{value:.{decimals}f} ± {U95:.{decimals}f} {unit}"
 
 
 def build_pdf(story: list, path, *, title: str, footer: str):

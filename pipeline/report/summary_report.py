@@ -15,7 +15,7 @@ from reportlab.platypus import Paragraph, Spacer, Table, TableStyle
 from .. import __version__
 from ..coding.codes import plain_description
 from ..store import read_table
-from .style import TABLE_STYLE, build_pdf, format_quantity, safe_text, styles
+from .style import TABLE_STYLE, build_pdf, format_record, safe_text, styles
 
 __all__ = ["render_night_summary", "worst_observations"]
 
@@ -75,12 +75,12 @@ def render_night_summary(rows: Sequence[dict], data: str | os.PathLike, path: st
                         "height H, % as such): where to look first, not a condition grade.", st["small"]),
               Spacer(1, 1.5 * mm)]
     if len(worst):
-        table = [[Paragraph(h, st["cell"]) for h in ("Inspection", "Row", "Code", "Description", "Value ± U95", "Upper bound")]]
+        table = [[Paragraph(h, st["cell"]) for h in ("Inspection", "Row", "Code", "Description", "Value (95 %)", "Upper bound")]]
         for r in worst.itertuples():
             table.append([Paragraph(safe_text(r.inspection_id, 80), st["cell"]), Paragraph(str(r.row), st["cell"]),
                           Paragraph(safe_text(f"{r.code} {r.char1 or ''} {r.quantity}"), st["cell"]),
                           Paragraph(safe_text(plain_description(r.code, r.char1, r.char2)), st["cell"]),
-                          Paragraph(format_quantity(r.value, r.U95, r.unit), st["cell"]),
+                          Paragraph(safe_text(format_record(r)), st["cell"]),
                           Paragraph(f"{r.high:.3g} {r.unit}", st["cell"])])
         t = Table(table, colWidths=[40 * mm, 10 * mm, 20 * mm, 50 * mm, 40 * mm, 20 * mm], repeatRows=1)
         t.setStyle(TableStyle(TABLE_STYLE))

@@ -17,6 +17,7 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 
 from ..atomic import atomic_path
+from ..metrology.display import format_record
 from .dataset import read_table, require_dataset
 
 __all__ = ["export_frame", "export_csv", "export_parquet", "spreadsheet_safe", "EXPORT_COLUMNS"]
@@ -25,6 +26,7 @@ EXPORT_COLUMNS = [
     "inspection_id", "inspection_date", "section_id", "start_node", "finish_node", "row", "distance_m", "code",
     "code_meaning", "char1", "char2", "quantity", "source", "value", "U95", "unit", "low", "high", "interval", "model",
     "clock_from", "clock_to", "chainage_m", "confident", "warnings", "status", "error", "remark",
+    "result", "below_resolution",     # issue 20: the value as the report writes it (value ± U95 or [low, high])
 ]
 _FORMULA_START = ("=", "+", "-", "@", "\t", "\r")
 
@@ -51,6 +53,7 @@ def export_frame(root: str | os.PathLike, start: dt.date | None = None, end: dt.
     i = read_table(root, "inspections", start=start, end=end)[["inspection_id", "section_id", "start_node", "finish_node"]]
     out = (m.merge(o, on=["inspection_id", "row"], how="left", validate="many_to_one")
            .merge(i, on="inspection_id", how="left", validate="many_to_one"))
+    out["result"] = [format_record(r) for r in out.to_dict("records")]
     return out.reindex(columns=EXPORT_COLUMNS).sort_values(["inspection_date", "inspection_id", "row", "quantity", "source"],
                                                            ignore_index=True)
 

@@ -88,6 +88,10 @@ MEASUREMENTS = pa.schema(_KEY + [
     _f("b_y_px", pa.float64(), "px"), _f("u_mark_px", pa.float64(), "px"),
     _f("confident", pa.bool_()), _f("warnings", pa.string()), _f("status", pa.string(), doc="ok | error"),
     _f("error", pa.string()), _f("budget", BUDGET_TYPE),
+    # issue 20, appended (null in records written before): which extent of the feature was measured, and
+    # whether it spans under 2 px in the image (only its upper bound `high` is measured)
+    _f("extent", pa.string(), doc="around | along | tangent | section (docs/measurement.md)"),
+    _f("below_resolution", pa.bool_()),
 ] + _WRITE)
 
 THUMBNAILS = pa.schema(_KEY + [

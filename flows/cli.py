@@ -365,8 +365,8 @@ def _measure_one(folder, args: argparse.Namespace, reader) -> int:
         print(json.dumps(json_safe({"inspection": rec, "observations": result.observations,
                                     "measurements": result.measurements}), default=str, allow_nan=False))
         return int(rec["status"] != "ok")
-    for line in verdict_lines(rec, result.observations):
-        print(f"{rec['inspection_id']} {line}")
+    for label, text in verdict_lines(rec):
+        print(f"{rec['inspection_id']} {label}: {text}")
     for m in result.measurements:
         what = m["quantity"] + (" from the image" if m.get("source") == "contour" else "")
         if m["status"] == "ok":

@@ -81,20 +81,21 @@ def grade_text(r: Mapping) -> str:
     return f"{status}: {r.get('grade_reason')}"
 
 
-def verdict_lines(inspection: Mapping, observations=None) -> list[str]:
-    """The verdict block: surveyed length, log check counts, section grade with its probability."""
+def verdict_lines(inspection: Mapping) -> list[tuple[str, str]]:
+    """The verdict block as (label, text): surveyed length, log check counts, section grade with its probability."""
     lines = []
     if not is_missing(inspection.get("survey_statement")):
-        lines.append("Survey: " + inspection["survey_statement"])
+        lines.append(("Survey", inspection["survey_statement"]))
     if not is_missing(inspection.get("log_agrees")):
-        lines.append(f"Log check: {int(inspection['log_agrees'])} agree, {int(inspection['log_disagrees'])} disagree, "
-                     f"{int(inspection['log_undecided'])} undecided, {int(inspection['log_not_checked'])} not checked "
-                     "(E_n <= 1 agrees)")
+        lines.append(("Log check", f"{int(inspection['log_agrees'])} agree, {int(inspection['log_disagrees'])} disagree, "
+                                   f"{int(inspection['log_undecided'])} undecided, "
+                                   f"{int(inspection['log_not_checked'])} not checked (E_n <= 1 agrees)"))
     grade = inspection.get("section_grade")
+    scheme = inspection.get("grading_scheme")
     if not is_missing(grade):
-        lines.append(f"Section grade ({inspection.get('grading_scheme')}): {grade}, probability "
-                     f"{100 * float(inspection['section_grade_probability']):.0f} % that an observation is {grade} "
-                     "or worse")
-    elif not is_missing(inspection.get("grading_scheme")):
-        lines.append(f"Section grade ({inspection['grading_scheme']}): no graded observation")
+        lines.append(("Section grade", f"{grade} ({scheme}, the worst single grade); probability "
+                                       f"{100 * float(inspection['section_grade_probability']):.0f} % that at least one "
+                                       f"observation is {grade} or worse"))
+    elif not is_missing(scheme):
+        lines.append(("Section grade", f"none ({scheme}): no graded observation"))
     return lines

@@ -29,13 +29,18 @@ def _no_nan(text):
 @pytest.fixture(scope="module")
 def measured(tmp_path_factory):
     """S02 with its water level (row 1, truth 30 %) logged honestly as 30 % and its intrusion (row 2, truth
-    15.04 %) logged wrongly as 10 %, measured by ``pipegauge measure --json``."""
+    15.04 %) logged wrongly as 10 %, its section 36.5 m long with the finish node there while the video ends
+    near 3 m, measured by ``pipegauge measure --json``."""
     root = tmp_path_factory.mktemp("verdicts")
     package = root / PACKAGE
     shutil.copytree(SAMPLES / PACKAGE, package)
     rows = list(csv.DictReader((package / "observations.csv").open()))
     assert (rows[1]["code"], rows[2]["code"]) == ("BDD", "BAG")
     rows[1]["q1"], rows[2]["q1"] = "30.0", "10.0"
+    rows[-1]["distance_m"] = "36.5"         # a survey that stops early: the finish node 36.5 m on, the video ends ~3 m
+    header = json.loads((package / "header.json").read_text())
+    header["section_length_m"] = 36.5
+    (package / "header.json").write_text(json.dumps(header))
     with (package / "observations.csv").open("w", newline="") as fh:
         w = csv.DictWriter(fh, fieldnames=list(rows[0]))
         w.writeheader()

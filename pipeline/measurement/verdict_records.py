@@ -18,19 +18,12 @@ import math
 from ..grading import Grade, grade, scheme
 from ..grading.probability import result_cdf
 from ..verdicts.log_check import check_logged
+from ..verdicts.log_check import finite_number as _f
 from ..verdicts.survey import survey_verdict
 
 __all__ = ["add_verdicts", "LOG_VERDICTS"]
 
 LOG_VERDICTS = ("agrees", "disagrees", "undecided", "not checked")
-
-
-def _f(x) -> float | None:
-    try:
-        v = float(x)
-    except (TypeError, ValueError):
-        return None
-    return v if math.isfinite(v) else None
 
 
 def _grade_fields(g: Grade) -> dict:

@@ -28,7 +28,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-__all__ = ["RESOLUTION", "LogCheck", "logging_resolution", "check_logged", "U_RES_FACTOR"]
+__all__ = ["RESOLUTION", "LogCheck", "logging_resolution", "check_logged", "U_RES_FACTOR", "finite_number"]
 
 RESOLUTION = {"mm": 1.0, "%": 5.0, "deg": 1.0, "count": 1.0}     # default logging step per unit
 U_RES_FACTOR = 0.95 / 2          # U_res = 0.95 r / 2: 95 % half-width of a rectangular error over +-r/2
@@ -65,7 +65,8 @@ class LogCheck:
     E_n: float | None = None
 
 
-def _number(x) -> float | None:
+def finite_number(x) -> float | None:
+    """x as a finite float, or None (absent, not a number, NaN, infinite)."""
     try:
         v = float(x)
     except (TypeError, ValueError):
@@ -80,12 +81,12 @@ def check_logged(logged, logged_unit: str | None, *, value, U95, unit: str | Non
         return LogCheck("not checked", "the quantity was not measured")
     if logged is None or (isinstance(logged, float) and math.isnan(logged)) or logged == "":
         return LogCheck("not checked", "no logged value")
-    lv = _number(logged)
+    lv = finite_number(logged)
     if lv is None:
         return LogCheck("not checked", f"the logged value {logged!r} is not a number")
     if logged_unit and unit and logged_unit != unit:
         return LogCheck("not checked", f"logged in {logged_unit}, measured in {unit}", lv)
-    mv, U = _number(value), _number(U95)
+    mv, U = finite_number(value), finite_number(U95)
     if mv is None or U is None or U < 0:
         return LogCheck("not checked", "the measurement has no value or U95", lv)
     r = logging_resolution(lv, unit or logged_unit or "")

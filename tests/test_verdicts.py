@@ -130,3 +130,23 @@ def test_the_split_normal_holds_95_percent_on_the_stored_interval():
     assert cdf(6.0) - cdf(1.0) == pytest.approx(0.95, abs=1e-9)
     assert cdf(2.0) == pytest.approx(1.0 / (1.0 + 4.0), abs=1e-9)     # mass below the mode: s_lo / (s_lo + s_hi)
     assert Z95 == pytest.approx(1.96, abs=1e-3)
+
+
+def test_the_nightly_summary_ranks_defects_by_grade_not_by_size_and_lists_contradicted_logs_first():
+    import pandas as pd
+
+    from pipeline.report.summary_report import log_disagreements, worst_observations
+
+    rows = [  # a large connection (ungraded), a small EZ1 crack, an EZ3 water level, a deformation EZ0 at 60 %
+        dict(row=1, code="BCA", unit="mm", high=200.0, grade=None, grade_worst_likely=None, grade_probability=None,
+             log_check="agrees", E_n=0.2),
+        dict(row=2, code="BAB", unit="mm", high=6.0, grade="EZ1", grade_worst_likely="EZ0", grade_probability=0.6,
+             log_check="disagrees", E_n=1.5),
+        dict(row=3, code="BDD", unit="%", high=31.0, grade="EZ3", grade_worst_likely="EZ3", grade_probability=1.0,
+             log_check="disagrees", E_n=4.1),
+        dict(row=4, code="BAA", unit="%", high=9.0, grade="EZ0", grade_worst_likely="EZ0", grade_probability=0.6,
+             log_check="undecided", E_n=9.0),
+    ]
+    m = pd.DataFrame([{**r, "inspection_id": "X", "status": "ok", "grading_scheme": "vsa-2023"} for r in rows])
+    assert list(worst_observations(m, {"X": 300.0}).row) == [4, 2, 3, 1]
+    assert list(log_disagreements(m).row) == [3, 2]

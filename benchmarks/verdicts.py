@@ -106,8 +106,10 @@ def log_checks(cases, rng) -> None:
     print(f"wrong logs, |logged - truth| > 2 U95 and not the honest log: {len(plain)}; detected "
           f"{100 * np.mean([ch.verdict == 'disagrees' for ch in plain]):.1f} %")
     for size in ERROR_SIZES:
-        got = [ch.verdict == "disagrees" for c, ch, bad, sz, differs in wrong if sz == size and differs]
-        print(f"  error {size:3.1f} x max(U95, r): detected {100 * np.mean(got):5.1f} % of {len(got)}")
+        got = [(ch.verdict == "disagrees", c["confident"]) for c, ch, bad, sz, differs in wrong if sz == size and differs]
+        conf = [d for d, confident in got if confident]
+        print(f"  error {size:3.1f} x max(U95, r): detected {100 * np.mean([d for d, _ in got]):5.1f} % of {len(got)}; "
+              f"of the {len(conf)} confident {100 * np.mean(conf):5.1f} %")
 
 
 def grade_checks(cases) -> None:

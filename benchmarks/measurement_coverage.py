@@ -108,23 +108,24 @@ def deformed(scene, z: float) -> bool:
     return any(d.z_from_mm - d.ramp_mm - 50 <= z <= d.z_to_mm + d.ramp_mm + 50 for d in scene.of_type(Deformation))
 
 
-def measure_both(q, contour, cert, header, seed):
+MODELS = ("orthographic", "perspective")
+
+
+def measure_both(q, contour, cert, header, seed, models=MODELS):
     out = {}
-    for model in ("orthographic", "perspective"):
+    for model in models:
         out[model] = measure_quantity(q, contour, cert, H=header.height_mm, tolerance=header.height_tolerance_mm,
                                       model=model, seed=seed)
     return out
 
 
-def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--per-frame", type=int, default=17,
-                        help="generated quantities per observation frame (17: 204 generated, 221 in all)")
-    parser.add_argument("--seed", type=int, default=7)
-    parser.add_argument("--codec", choices=sorted(CODECS), help="re-encode the videos first (default: as written)")
-    args = parser.parse_args()
+def collect(per_frame: int = 17, seed: int = 7, codec: str | None = None, models=MODELS) -> list[tuple]:
+    """Measure the samples' logged quantities and per_frame generated ones at each of their observation frames.
+
+    Returns (set, package, kind, method, truth, {model: QuantityResult} or None, code, char1, header) per quantity.
+    """
     scratch = tempfile.TemporaryDirectory(prefix="pipegauge-codec-")     # removed when the run ends
-    rng = np.random.default_rng(args.seed)
+    rng = np.random.default_rng(seed)
     specs = {spec.package_id: spec for spec, _ in sample_specs()}
     reader = OverlayReader()
     cases = []     # (set, package, kind, method, truth, {model: result})
@@ -138,7 +139,7 @@ def main() -> None:
         cert = load_certificate(SAMPLES / "certificates" / f"{manifest.certificate_id}.json")
         W, Hh = cert.image_width_px, cert.image_height_px
         und = Undistorter(cert, W, Hh)
-        video = delivered(manifest.video, args.codec, Path(scratch.name))
+        video = delivered(manifest.video, codec, Path(scratch.name))
         ingest = ingest_chainage(video, reader)
         track = ingest.track
         mask = overlay_mask_of(ingest.spread_frames.values(), und)
@@ -154,14 +155,15 @@ def main() -> None:
             method = q.method
             kind = "along" if (o.code, o.char2, m.quantity) in (("BAB", "B", "Q1"), ("BCA", "A", "Q2")) else method
             cases.append(("logged", folder.name, kind, method, true_of[(m.row, m.quantity)],
-                          measure_both(q, contours[m.frame], cert, header, seed=1000 + m.row)))
+                          measure_both(q, contours[m.frame], cert, header, seed=1000 + m.row, models=models),
+                          o.code, o.char1, header))
         for frame, contour in contours.items():
             f = frames[frame]
             pose = CameraPose(float(f["X_mm"]), float(f["Y_mm"]), float(f["Z_mm"]),
                               *np.radians([float(f["yaw_deg"]), float(f["pitch_deg"]), float(f["roll_deg"])]))
             kinds = [k for k in KINDS if k != "deformation" or spec.scene.pipe.shape == "circular"]
             made = 0
-            while made < args.per_frame:
+            while made < per_frame:
                 kind = kinds[made % len(kinds)]
                 z = pose.Z + rng.uniform(450, 1400)
                 if deformed(spec.scene, z):
@@ -179,17 +181,27 @@ def main() -> None:
                         "deposit_area": "BBC", "deformation": "BAA"}[method]
                 q = MarkedQuantity(code, char1, "Q1", method, a, b, ua, ub)
                 try:
-                    results = measure_both(q, contour, cert, header, seed=int(rng.integers(1 << 31)))
+                    results = measure_both(q, contour, cert, header, seed=int(rng.integers(1 << 31)), models=models)
                 except Exception as exc:       # a point the fitted pose cannot place: counted, not hidden
                     print(f"{folder.name} frame {frame} {kind}: not measured: {exc}", file=sys.stderr)
-                    cases.append(("generated", folder.name, kind, method, true_value, None))
+                    cases.append(("generated", folder.name, kind, method, true_value, None, code, char1, header))
                     made += 1
                     continue
-                cases.append(("generated", folder.name, kind, method, true_value, results))
+                cases.append(("generated", folder.name, kind, method, true_value, results, code, char1, header))
                 made += 1
         print(f"{folder.name}: {len(contours)} contours, {sum(c[1] == folder.name for c in cases)} quantities "
               f"({time.perf_counter() - t0:.0f} s)", file=sys.stderr)
-    report(cases)
+    return cases
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--per-frame", type=int, default=17,
+                        help="generated quantities per observation frame (17: 204 generated, 221 in all)")
+    parser.add_argument("--seed", type=int, default=7)
+    parser.add_argument("--codec", choices=sorted(CODECS), help="re-encode the videos first (default: as written)")
+    args = parser.parse_args()
+    report(collect(args.per_frame, args.seed, args.codec))
 
 
 def report(cases) -> None:
@@ -199,7 +211,7 @@ def report(cases) -> None:
     for model in ("perspective", "orthographic"):
         inside, ratio, conf_inside = [], [], []
         per_kind: dict[str, list[bool]] = {}
-        for s, pkg, kind, method, t, res in measured:
+        for s, pkg, kind, method, t, res, *_ in measured:
             r = res[model]
             ok = r.low <= t <= r.high
             inside.append(ok)

@@ -194,6 +194,7 @@ def cmd_measure(args: argparse.Namespace) -> int:
 def _measure_one(folder, args: argparse.Namespace, reader) -> int:
     """Measure and store one package, print its quantities; returns 1 when it is not ok."""
     from pipeline.inspection import measure_package
+    from pipeline.report.verdict_text import json_safe, log_check_text, verdict_lines
     from pipeline.store import write_inspection
 
     result = measure_package(folder, certificates=args.certificates, model=args.model, reader=reader,
@@ -205,14 +206,18 @@ def _measure_one(folder, args: argparse.Namespace, reader) -> int:
     for problem in rec.get("problems") or []:
         _say(f"  {problem}")
     if args.json:
-        print(json.dumps({"inspection": rec, "measurements": result.measurements}, default=str))
+        print(json.dumps(json_safe({"inspection": rec, "observations": result.observations,
+                                    "measurements": result.measurements}), default=str, allow_nan=False))
         return int(rec["status"] != "ok")
+    for label, text in verdict_lines(rec):
+        print(f"{rec['inspection_id']} {label}: {text}")
     for m in result.measurements:
         what = m["quantity"] + (" from the image" if m.get("source") == "contour" else "")
         if m["status"] == "ok":
             print(f"{rec['inspection_id']} row {m['row']:3d} {m['code']} {m['char1'] or '-'} {what}: "
                   f"{format_record(m, '+-')} ({m['interval']})"
-                  + ("" if m["confident"] else "  LOW CONFIDENCE: " + (m["warnings"] or "")))
+                  + ("" if m["confident"] else "  LOW CONFIDENCE: " + (m["warnings"] or ""))
+                  + f"; log: {log_check_text(m)}" + (f"; grade {m['grade']}" if m.get("grade") else ""))
         else:
             print(f"{rec['inspection_id']} row {m['row']:3d} {m['code']} {what}: not measured: {m['error']}")
     return int(rec["status"] != "ok")

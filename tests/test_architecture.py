@@ -15,8 +15,8 @@ FLOORS = {
     "errors": 0, "limits": 0, "atomic": 0, "text": 0, "__init__": 0,    # the ground: pipeline/*.py
     "metrology": 1, "profiles": 1,                                        # maths
     "camera": 2,                                                          # the camera and its models
-    "coding": 3, "store": 3,                                              # input and dataset formats
-    "contour": 4,                                                         # the pipe contour in images
+    "coding": 3, "store": 3, "grading": 3,                                # formats; grading schemes as data
+    "contour": 4, "verdicts": 4,                                          # the contour in images; log and survey rules
     "video": 5,                                                           # video ingest
     "measurement": 6, "exchange": 6, "report": 6, "calibration": 6, "paper": 6,
     "inspection": 7,                                                      # the conductor of one package

@@ -345,6 +345,9 @@ def test_a_sample_delivered_as_a_transfer_measures_bit_for_bit_as_its_csv_packag
         o = exported.observations[m["row"]]
         assert (o.q1 if m["quantity"] == "Q1" else o.q2) == round(m["value"])
         assert f"measured {m['quantity']} {m['value']:.1f} {m['unit']} U95 {m['U95']:.1f} {m['unit']}" in o.remark
+    graded = read_table(data, "observations").dropna(subset=["grade"])
+    assert len(graded) >= 3         # Einzelschadenklasse is pipegauge's VSA 2023 grade where it has one
+    assert {r: exported.observations[r].grade for r in graded.row} == dict(zip(graded.row, graded.grade))
 
 
 def test_the_real_transfer_exported_as_2019_passes_the_validator(tmp_path, ili_models):

@@ -144,3 +144,18 @@ def test_samples_command_rejects_an_unknown_package(capsys):
 
     assert main(["samples", "--only", "S99-nothing", "--out", "/nonexistent"]) == 2
     assert "unknown package 'S99-nothing'" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("spec, size", sample_specs(), ids=lambda x: getattr(x, "package_id", ""))
+def test_the_samples_text_files_are_reproduced_byte_for_byte_and_agree_with_the_video(spec, size):
+    from pipeline.synth.package import package_texts
+
+    folder = SAMPLES / spec.package_id
+    for name, text in package_texts(spec, sample_certificate(*size)).items():
+        assert (folder / name).read_bytes() == text.encode("utf-8"), name
+    frames = read_csv(folder / "truth" / "frames.csv")
+    rows = read_csv(folder / "observations.csv")
+    header = json.loads((folder / "header.json").read_text())
+    bce = [r for r in rows if r["code"] == "BCE"]
+    assert len(bce) == 1 and float(bce[0]["distance_m"]) == round(float(frames[-1]["counter_m"]), 2)
+    assert header["section_length_m"] == round(float(frames[-1]["chainage_m"]), 2)

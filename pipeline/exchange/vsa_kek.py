@@ -44,6 +44,7 @@ MAX_TEXT = 10_000                   # characters kept of one element's text (the
 FPS = 25                            # Videozaehlerstand hh:mm:ss:ff counts frames 0..24 (VSA_KEK model)
 QUANTITY_RANGE = (0, 100000)        # Quantifizierung1/2: the model's integer range [mm or %]
 ANMERKUNG_CHARS = 100              # Kanalschaden.Anmerkung is TEXT*100 (other texts are cut at their own length)
+EINZELSCHADENKLASSEN = ("EZ0", "EZ1", "EZ2", "EZ3", "EZ4")     # the models' enumeration, "unbekannt" aside
 # VSA-KEK characterises codes that EN 13508-2 (pipeline/coding/codes.py) does not: the VSA code stands for the EN one
 _VSA_ALIASES = {"BAGA": ("BAG", "", "")}
 _EN_ALIASES = {v: k for k, v in _VSA_ALIASES.items()}
@@ -455,8 +456,11 @@ def transfer_text(inspection: dict, observations: list[dict], version: str, *, m
             note = "; ".join(notes) + f" (pipegauge {__version__}, {inspection.get('model') or 'perspective'})"
             remark = f"{note}; {remark}" if remark else note
         a["Anmerkung"] = remark[:ANMERKUNG_CHARS]
-        if not k_src:
-            a.pop("Einzelschadenklasse", None)   # pipegauge grades nothing yet: only a contractor's class is passed on
+        ours = obs.get("grade") if obs.get("grading_scheme") == "vsa-2023" else None
+        if isinstance(ours, str) and ours in EINZELSCHADENKLASSEN:
+            a["Einzelschadenklasse"] = ours      # pipegauge's VSA 2023 grade (docs/verdicts.md) over the contractor's
+        elif not k_src:
+            a.pop("Einzelschadenklasse", None)   # no grade of ours: only a contractor's class is passed on
         objects.append(k)
     if source:
         used = {o.tid for o in objects} | {o.tid for o in source.of("Datentraeger")}

@@ -40,6 +40,7 @@ from ..measurement.automatic import measurable_automatically, measure_automatic
 from ..measurement.marked import marked_quantity
 from ..measurement.quantity import MODELS, MarkedQuantity, QuantityResult, measure_quantity
 from ..measurement.wall import contour_under
+from .verdict_records import add_verdicts
 
 __all__ = ["InspectionResult", "measure_package", "file_sha256", "file_digests", "package_digest"]
 
@@ -221,6 +222,7 @@ def measure_package(folder: str | os.PathLike, *, certificates: str | os.PathLik
         except (PipegaugeError, ValueError) as exc:
             row.update(status="error", error=str(exc))
         result.measurements.append(row)
+    add_verdicts(result, header, observations, ingest.track)
     # what the image alone could not give is reported on its row, but the logged quantities decide the status
     n_bad = sum(r["status"] != "ok" for r in result.measurements if r["source"] == "marks")
     record.update(status="ok" if not problems and not n_bad else "partial",

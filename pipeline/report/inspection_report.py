@@ -28,6 +28,7 @@ from ..store import file_stem, read_table
 from .graphics import budget_bars, pipe_strip
 from .method import method_statement
 from .style import ACCENT, TABLE_STYLE, build_pdf, format_record, safe_text, styles
+from .verdict_text import grade_text, log_check_text, verdict_lines
 
 __all__ = ["render_inspection_report", "inspection_warnings", "report_file_name", "NEAR_EXPIRY_DAYS"]
 
@@ -116,6 +117,28 @@ def _header_block(i: dict) -> Table:
     return t
 
 
+def _verdict_block(i: dict, measurements: list[dict]) -> list:
+    """Page 1's verdicts: surveyed length, log check counts and disagreements, section grade with probability."""
+    lines = verdict_lines(i)
+    if not lines:
+        return []
+    rows = list(lines)
+    wrong = [m for m in measurements if m.get("log_check") == "disagrees"]
+    if wrong:
+        rows.append(("Log errors", "<br/>".join(
+            f"row {m['row']} {_label(m)} {safe_text(m['code'])}: logged {m['logged_value']:g} {m['unit']}, measured "
+            f"{safe_text(format_record(m))}, E_n {m['E_n']:.1f}" for m in wrong)))
+    t = Table([[_p(f"<b>{safe_text(k)}</b>"), _p(v if k == "Log errors" else safe_text(v, 800))] for k, v in rows],
+              colWidths=[24 * mm, 156 * mm])
+    t.setStyle(TableStyle(TABLE_STYLE[:2] + [("GRID", (0, 0), (-1, -1), 0.25, colors.grey),
+                                              ("BACKGROUND", (0, 0), (0, -1), ACCENT), ("VALIGN", (0, 0), (-1, -1), "TOP")]))
+    return [Paragraph("Verdicts", styles()["h2"]), t,
+            Paragraph("Log check: the contractor's value against the measurement, E_n = |logged − measured| / "
+                      "√(U95² + U_res²) with U_res from the logged value's step; E_n ≤ 1 agrees. Grades: "
+                      "VSA 2023 single-defect classes EZ0 (worst) to EZ4 with the probability of each class from "
+                      "the measurement's distribution.", styles()["small"])]
+
+
 def _delivered(o: dict) -> str:
     parts = []
     for q, unit in (("q1", "q1_unit"), ("q2", "q2_unit")):
@@ -125,11 +148,13 @@ def _delivered(o: dict) -> str:
 
 
 def _observation_table(observations: list[dict], by_row: dict[int, list[dict]]) -> Table:
-    head = ["Row", "m", "Code", "Description", "Clock", "Logged", "Measured (value ± U95 or [95 % interval])", "Remark"]
+    head = ["Row", "m", "Code", "Description", "Clock", "Logged", "Measured (value ± U95 or [95 % interval])",
+            "Log check", "Grade", "Remark"]
     rows = [[_p(h) for h in head]]
     for o in observations:
-        measured = []
+        measured, checks = [], []
         for m in by_row.get(o["row"], []):
+            checks.append(f"{_label(m)}: {safe_text(log_check_text(m), 200)}")
             if m["status"] == "ok":
                 flag = "" if m.get("confident") else " ⚠"
                 measured.append(f"{_label(m)}: {safe_text(format_record(m))}{flag}")
@@ -141,8 +166,12 @@ def _observation_table(observations: list[dict], by_row: dict[int, list[dict]]) 
         cont = "" if _missing(o.get("continuous")) or not o.get("continuous") else f" ({_txt(o['continuous'])})"
         rows.append([_p(str(o["row"])), _p(f"{o['distance_m']:.2f}" if not _missing(o.get("distance_m")) else ""),
                      _p(codes + cont), _p(safe_text(plain_description(o.get("code") or "", o.get("char1"), o.get("char2")))),
-                     _p(clock), _p(_delivered(o)), _p("<br/>".join(measured)), _p(_txt(o.get("remark"), 300))])
-    t = Table(rows, colWidths=[9 * mm, 11 * mm, 17 * mm, 36 * mm, 11 * mm, 20 * mm, 38 * mm, 38 * mm], repeatRows=1)
+                     _p(clock), _p(_delivered(o)), _p("<br/>".join(measured)), _p("<br/>".join(checks)),
+                     _p(safe_text(grade_text(o), 300) + (" · logged outside the surveyed range"
+                                                           if o.get("outside_survey") is True else "")),
+                     _p(_txt(o.get("remark"), 300))])
+    t = Table(rows, colWidths=[8 * mm, 10 * mm, 14 * mm, 25 * mm, 9 * mm, 15 * mm, 31 * mm, 28 * mm, 26 * mm, 14 * mm],
+              repeatRows=1)
     t.setStyle(TableStyle(TABLE_STYLE))
     return t
 
@@ -229,7 +258,7 @@ def render_inspection_report(data: str | os.PathLike, inspection_id: str, path: 
     st = styles()
     story = [Paragraph(f"Condition report: section {_txt(inspection.get('section_id'))} "
                        f"({_txt(inspection.get('start_node'))} → {_txt(inspection.get('finish_node'))})", st["title"]),
-             _header_block(inspection)]
+             _header_block(inspection), *_verdict_block(inspection, measurements)]
     warnings = inspection_warnings(inspection, measurements, today)
     story += [Paragraph("Warnings", st["h2"])]
     story += [Paragraph("• " + safe_text(w, 600), st["warning"]) for w in warnings[:MAX_REPORT_WARNINGS]] or [

@@ -15,15 +15,25 @@ from reportlab.platypus import Paragraph, Spacer, Table, TableStyle
 from .. import __version__
 from ..coding.codes import plain_description
 from ..store import read_table
+from ..grading import SCHEMES, scheme
 from .style import TABLE_STYLE, build_pdf, format_record, safe_text, styles
+from .verdict_text import grade_text, is_missing
 
-__all__ = ["render_night_summary", "worst_observations"]
+__all__ = ["render_night_summary", "worst_observations", "log_disagreements"]
+
+
+def _class_rank(scheme_key, cls) -> float:
+    """A class's place in its scheme, 0 the worst; inf when ungraded (ranked after every graded one)."""
+    if is_missing(cls) or is_missing(scheme_key) or scheme_key not in SCHEMES:
+        return math.inf
+    classes = scheme(scheme_key).classes
+    return classes.index(cls) if cls in classes else math.inf
 
 
 def worst_observations(measurements: pd.DataFrame, heights_mm: dict[str, float], n: int = 15) -> pd.DataFrame:
-    """The ``n`` measured quantities with the largest upper bound relative to the pipe: high / H for mm, high / 100 for %.
-
-    A ranking for attention, not a condition grade (grades follow the utility's own classification).
+    """The ``n`` measured quantities to look at first: by condition grade (the most probable class, then the worst
+    class with probability >= 5 %, then the probability of the most probable class), then, for equal or no grades, by
+    the upper bound relative to the pipe (high / H for mm, high / 100 for %).
     """
     ok = measurements[measurements.status == "ok"].copy()
     if ok.empty:
@@ -35,8 +45,21 @@ def worst_observations(measurements: pd.DataFrame, heights_mm: dict[str, float],
         H = heights_mm.get(r.inspection_id)
         return r.high / H if H and r.unit == "mm" else float("nan")
 
+    col = lambda name: ok[name] if name in ok else pd.Series([None] * len(ok), index=ok.index)  # noqa: E731
     ok["severity"] = [severity(r) for r in ok.itertuples()]
-    return ok[ok.severity.notna()].sort_values("severity", ascending=False).head(n)
+    ok["rank_grade"] = [_class_rank(k, c) for k, c in zip(col("grading_scheme"), col("grade"))]
+    ok["rank_likely"] = [_class_rank(k, c) for k, c in zip(col("grading_scheme"), col("grade_worst_likely"))]
+    ok["rank_p"] = -pd.to_numeric(col("grade_probability"), errors="coerce").fillna(0.0)
+    ok = ok[ok.severity.notna() | (ok.rank_grade < math.inf)]
+    return ok.sort_values(["rank_grade", "rank_likely", "rank_p", "severity"],
+                          ascending=[True, True, True, False], na_position="last").head(n)
+
+
+def log_disagreements(measurements: pd.DataFrame, n: int = 30) -> pd.DataFrame:
+    """The logged quantities the measurement contradicts (log check ``disagrees``), the largest E_n first."""
+    if "log_check" not in measurements or measurements.empty:
+        return measurements.iloc[0:0]
+    return measurements[measurements.log_check == "disagrees"].sort_values("E_n", ascending=False).head(n)
 
 
 def render_night_summary(rows: Sequence[dict], data: str | os.PathLike, path: str | os.PathLike, *,
@@ -67,22 +90,42 @@ def render_night_summary(rows: Sequence[dict], data: str | os.PathLike, path: st
     t = Table(table, colWidths=[32 * mm, 32 * mm, 14 * mm, 16 * mm, 14 * mm, 72 * mm], repeatRows=1)
     t.setStyle(TableStyle(TABLE_STYLE))
     story.append(t)
+    wrong = log_disagreements(measurements) if len(measurements) else pd.DataFrame()
+    story += [Paragraph("Contractor's log contradicted by the measurement", st["h2"]),
+              Paragraph("Logged values outside what the measurement allows: E_n = |logged − measured| / "
+                        "√(U95² + U_res²) > 1, the largest first.", st["small"]), Spacer(1, 1.5 * mm)]
+    if len(wrong):
+        table = [[Paragraph(h, st["cell"]) for h in ("Inspection", "Row", "Code", "Logged", "Measured (95 %)", "E_n")]]
+        for r in wrong.itertuples():
+            table.append([Paragraph(safe_text(r.inspection_id, 80), st["cell"]), Paragraph(str(r.row), st["cell"]),
+                          Paragraph(safe_text(f"{r.code} {r.char1 or ''} {r.quantity}"), st["cell"]),
+                          Paragraph(f"{r.logged_value:g} {r.unit}", st["cell"]),
+                          Paragraph(safe_text(format_record(r._asdict())), st["cell"]),
+                          Paragraph(f"{r.E_n:.1f}", st["cell"])])
+        t = Table(table, colWidths=[40 * mm, 10 * mm, 25 * mm, 25 * mm, 50 * mm, 20 * mm], repeatRows=1)
+        t.setStyle(TableStyle(TABLE_STYLE))
+        story.append(t)
+    else:
+        story.append(Paragraph("None.", st["body"]))
     heights = ({r.inspection_id: r.height_mm for r in inspections.itertuples() if not math.isnan(r.height_mm or math.nan)}
                if len(inspections) else {})
     worst = worst_observations(measurements, heights) if len(measurements) else pd.DataFrame()
     story += [Paragraph("Worst observations", st["h2"]),
-              Paragraph("Measured quantities ranked by their upper 95 % bound relative to the pipe (mm against the "
-                        "height H, % as such): where to look first, not a condition grade.", st["small"]),
+              Paragraph("Measured quantities ranked by condition grade (most probable class, then the worst class "
+                        "with probability >= 5 %), then by their upper 95 % bound relative to the pipe (mm against the "
+                        "height H, % as such).", st["small"]),
               Spacer(1, 1.5 * mm)]
     if len(worst):
-        table = [[Paragraph(h, st["cell"]) for h in ("Inspection", "Row", "Code", "Description", "Value (95 %)", "Upper bound")]]
+        table = [[Paragraph(h, st["cell"]) for h in ("Inspection", "Row", "Code", "Description", "Value (95 %)",
+                                                     "Upper bound", "Grade")]]
         for r in worst.itertuples():
             table.append([Paragraph(safe_text(r.inspection_id, 80), st["cell"]), Paragraph(str(r.row), st["cell"]),
                           Paragraph(safe_text(f"{r.code} {r.char1 or ''} {r.quantity}"), st["cell"]),
                           Paragraph(safe_text(plain_description(r.code, r.char1, r.char2)), st["cell"]),
-                          Paragraph(safe_text(format_record(r)), st["cell"]),
-                          Paragraph(f"{r.high:.3g} {r.unit}", st["cell"])])
-        t = Table(table, colWidths=[40 * mm, 10 * mm, 20 * mm, 50 * mm, 40 * mm, 20 * mm], repeatRows=1)
+                          Paragraph(safe_text(format_record(r._asdict())), st["cell"]),
+                          Paragraph(f"{r.high:.3g} {r.unit}", st["cell"]),
+                          Paragraph(safe_text(grade_text(r._asdict()), 200), st["cell"])])
+        t = Table(table, colWidths=[30 * mm, 8 * mm, 18 * mm, 34 * mm, 30 * mm, 17 * mm, 43 * mm], repeatRows=1)
         t.setStyle(TableStyle(TABLE_STYLE))
         story.append(t)
     else:

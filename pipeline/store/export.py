@@ -18,15 +18,22 @@ import pyarrow.parquet as pq
 
 from ..atomic import atomic_path
 from ..metrology.display import format_record
+from ..metrology.display import significant_step
 from .dataset import read_table, require_dataset
 
-__all__ = ["export_frame", "export_csv", "export_parquet", "spreadsheet_safe", "EXPORT_COLUMNS"]
+__all__ = ["export_frame", "export_csv", "export_parquet", "spreadsheet_safe", "EXPORT_COLUMNS", "display_columns"]
 
 EXPORT_COLUMNS = [
     "inspection_id", "inspection_date", "section_id", "start_node", "finish_node", "row", "distance_m", "code",
     "code_meaning", "char1", "char2", "quantity", "source", "value", "U95", "unit", "low", "high", "interval", "model",
     "clock_from", "clock_to", "chainage_m", "confident", "warnings", "status", "error", "remark",
     "result", "below_resolution",     # issue 20: the value as the report writes it (value ± U95 or [low, high])
+    # issue 21: the verdicts (docs/dataset.md), display roundings, provenance
+    "logged_value", "logged_resolution", "log_check", "log_difference", "E_n", "log_check_reason",
+    "grading_scheme", "grade", "grade_probability", "grade_worst_likely", "logged_grade", "grade_disagrees",
+    "grade_probabilities", "grade_status", "grade_reason", "outside_survey", "section_grade",
+    "value_display", "U95_display", "E_n_display", "grade_probability_display",
+    "certificate_id", "pipeline_version", "processed_at",
 ]
 _FORMULA_START = ("=", "+", "-", "@", "\t", "\r")
 
@@ -48,14 +55,36 @@ def export_frame(root: str | os.PathLike, start: dt.date | None = None, end: dt.
     require_dataset(root)
     m = read_table(root, "measurements", start=start, end=end).drop(columns=["distance_m"])
     o = read_table(root, "observations", start=start, end=end)[
-        ["inspection_id", "row", "distance_m", "code_meaning", "clock_from", "clock_to", "remark"]]
+        ["inspection_id", "row", "distance_m", "code_meaning", "clock_from", "clock_to", "remark", "outside_survey"]]
     o = o.drop_duplicates(["inspection_id", "row"], keep="first")
-    i = read_table(root, "inspections", start=start, end=end)[["inspection_id", "section_id", "start_node", "finish_node"]]
+    i = read_table(root, "inspections", start=start, end=end)[
+        ["inspection_id", "section_id", "start_node", "finish_node", "section_grade", "certificate_id",
+         "pipeline_version", "processed_at"]]
     out = (m.merge(o, on=["inspection_id", "row"], how="left", validate="many_to_one")
            .merge(i, on="inspection_id", how="left", validate="many_to_one"))
     out["result"] = [format_record(r) for r in out.to_dict("records")]
+    out = display_columns(out)
     return out.reindex(columns=EXPORT_COLUMNS).sort_values(["inspection_date", "inspection_id", "row", "quantity", "source"],
                                                            ignore_index=True)
+
+
+def _rounded(x: float, step: float) -> float | None:
+    return None if pd.isna(x) or pd.isna(step) else round(round(x / step) * step, 10)
+
+
+def display_columns(frame: pd.DataFrame) -> pd.DataFrame:
+    """Add the numbers rounded for display: value and U95 to U95's two significant digits (GUM 7.2.6), E_n to
+    0.01, the most probable class's probability to whole % [%]; class probabilities as text 'EZ1 0.55; ...'."""
+    out = frame.copy()
+    steps = out["U95"].map(lambda u: significant_step(u) if pd.notna(u) else float("nan"))
+    out["value_display"] = [_rounded(v, s) for v, s in zip(out["value"], steps)]
+    out["U95_display"] = [_rounded(u, s) for u, s in zip(out["U95"], steps)]
+    out["E_n_display"] = out["E_n"].round(2)
+    out["grade_probability_display"] = (100 * out["grade_probability"]).round(0)
+    out["grade_probabilities"] = out["grade_probabilities"].map(
+        lambda rows: None if rows is None or isinstance(rows, float)        # a missing list reads as None or NaN
+        else "; ".join(f"{r['grade']} {r['probability']:.3f}" for r in rows))
+    return out
 
 
 def export_csv(root: str | os.PathLike, path: str | os.PathLike, start: dt.date | None = None,

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import pyarrow as pa
 
-__all__ = ["TABLES", "SCHEMAS", "BUDGET_TYPE", "SCHEMA_VERSION"]
+__all__ = ["TABLES", "SCHEMAS", "BUDGET_TYPE", "GRADE_PROBABILITIES_TYPE", "SCHEMA_VERSION"]
 
 SCHEMA_VERSION = "3"
 
@@ -27,12 +27,52 @@ _KEY = [_f("inspection_id", pa.string(), doc="package id of the delivery"),
 # Schema 3: the store that wrote a row; a detail row counts only when its inspection's row names the same store.
 _WRITE = [_f("write_id", pa.string(), doc="the store (commit) that wrote this row; null in schema-2 files")]
 
+GRADE_PROBABILITIES_TYPE = pa.list_(pa.struct([_f("grade", pa.string()), _f("probability", pa.float64(), "1")]))
+
 BUDGET_TYPE = pa.list_(pa.struct([
     _f("label", pa.string()), _f("description", pa.string()), _f("estimate", pa.float64(), "input unit"),
     _f("u", pa.float64(), "input unit"), _f("distribution", pa.string()),
     _f("sensitivity", pa.float64(), "quantity unit / input unit"), _f("contribution", pa.float64(), "quantity unit"),
     _f("share", pa.float64(), "1", "share of u_c^2"),
 ]))
+
+# Issue 21, appended nullable (still schema 3: older files read them as null): verdicts (docs/dataset.md).
+_GRADE = [
+    _f("grading_scheme", pa.string(), doc="key of the grading scheme (pipeline.grading), e.g. vsa-2023"),
+    _f("grade_status", pa.string(), doc="graded | logged only | ungraded | unmeasured"),
+    _f("grade_reason", pa.string(), doc="why not graded from a measurement"),
+    _f("grade", pa.string(), doc="the most probable class (graded), else the logged value's class"),
+    _f("grade_probability", pa.float64(), "1", "probability of the most probable class"),
+    _f("grade_worst_likely", pa.string(), doc="the worst class with probability >= 5 %"),
+    _f("logged_grade", pa.string(), doc="the class of the contractor's logged value"),
+    _f("grade_disagrees", pa.bool_(), doc="the logged value's class has probability < 5 %"),
+    _f("grade_probabilities", GRADE_PROBABILITIES_TYPE, doc="probability of each class, summing to 1"),
+]
+_INSPECTION_VERDICTS = [
+    _f("survey_start_m", pa.float64(), "m", "first chainage of the video"),
+    _f("survey_end_m", pa.float64(), "m", "largest chainage of the video"),
+    _f("survey_complete", pa.bool_(), doc="the video reaches the header's section length"),
+    _f("finish_node_logged_m", pa.float64(), "m", "distance of the BCE row"),
+    _f("abandoned_at_m", pa.float64(), "m", "distance of the BDC row"),
+    _f("survey_rows_outside", pa.list_(pa.int32()), doc="log rows logged outside the surveyed range"),
+    _f("survey_statement", pa.string(), doc="the surveyed length in words"),
+    _f("grading_scheme", pa.string()), _f("section_grade", pa.string(), doc="worst single grade"),
+    _f("section_grade_probability", pa.float64(), "1", "probability that an observation is in that class or worse"),
+    _f("log_agrees", pa.int32()), _f("log_disagrees", pa.int32()), _f("log_undecided", pa.int32()),
+    _f("log_not_checked", pa.int32()),
+]
+_MEASUREMENT_VERDICTS = [
+    _f("logged_value", pa.float64(), "unit", "the contractor's logged value as a number"),
+    _f("logged_resolution", pa.float64(), "unit", "the step it was logged to"),
+    _f("log_check", pa.string(), doc="agrees | disagrees | undecided | not checked"),
+    _f("log_check_reason", pa.string()),
+    _f("log_difference", pa.float64(), "unit", "logged - measured"),
+    _f("E_n", pa.float64(), "1", "|logged - measured| / sqrt(U95^2 + U_res^2)"),
+] + _GRADE
+_OBSERVATION_VERDICTS = _GRADE + [
+    _f("grade_source", pa.string(), doc="the measurement graded: quantity and source"),
+    _f("outside_survey", pa.bool_(), doc="logged outside the surveyed range"),
+]
 
 INSPECTIONS = pa.schema(_KEY + [
     _f("section_id", pa.string(), doc="AAA"), _f("start_node", pa.string(), doc="AAD"),
@@ -58,7 +98,7 @@ INSPECTIONS = pa.schema(_KEY + [
     _f("n_problems", pa.int32()), _f("processed_at", pa.timestamp("us", tz="UTC")),
     _f("time_total_s", pa.float64(), "s"), _f("time_track_s", pa.float64(), "s"),
     _f("time_contour_s", pa.float64(), "s"), _f("time_measure_s", pa.float64(), "s"),
-] + _WRITE)
+] + _WRITE + _INSPECTION_VERDICTS)
 
 OBSERVATIONS = pa.schema(_KEY + [
     _f("row", pa.int32()), _f("distance_m", pa.float64(), "m"), _f("code", pa.string()),
@@ -67,7 +107,7 @@ OBSERVATIONS = pa.schema(_KEY + [
     _f("q2_unit", pa.string()), _f("clock_from", pa.int8(), "clock hour"), _f("clock_to", pa.int8(), "clock hour"),
     _f("at_joint", pa.bool_()), _f("continuous", pa.string()), _f("video_time_s", pa.float64(), "s"),
     _f("photo", pa.string()), _f("remark", pa.string()), _f("valid", pa.bool_()), _f("problems", pa.string()),
-] + _WRITE)
+] + _WRITE + _OBSERVATION_VERDICTS)
 
 MEASUREMENTS = pa.schema(_KEY + [
     _f("row", pa.int32()), _f("quantity", pa.string(), doc="Q1 | Q2"),
@@ -92,7 +132,7 @@ MEASUREMENTS = pa.schema(_KEY + [
     # whether it spans under 2 px in the image (only its upper bound `high` is measured)
     _f("extent", pa.string(), doc="around | along | tangent | section (docs/measurement.md)"),
     _f("below_resolution", pa.bool_()),
-] + _WRITE)
+] + _WRITE + _MEASUREMENT_VERDICTS)
 
 THUMBNAILS = pa.schema(_KEY + [
     _f("row", pa.int32()), _f("quantity", pa.string(), doc="Q1 | Q2"), _f("source", pa.string(), doc="marks | contour"),

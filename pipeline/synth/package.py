@@ -15,6 +15,7 @@ A package folder holds (formats in docs/formats.md):
 from __future__ import annotations
 
 import csv
+import io
 import json
 import math
 import multiprocessing
@@ -75,7 +76,7 @@ class PackageSpec:
     scene: Scene
     nominal_height_mm: float
     height_tolerance_mm: float
-    section_length_m: float
+    section_length_m: float | None     # [m]; None: the section ends where the survey does (samples: log, header, video agree)
     mount: CameraMount
     start_m: float
     speed_m_s: float
@@ -285,6 +286,43 @@ def _video_time(frame: int, fps: float) -> str:
     return f"{int(t // 3600):02d}:{int(t // 60 % 60):02d}:{t % 60:05.2f}"
 
 
+def _plan(spec: PackageSpec, cert: Certificate) -> dict:
+    """Everything of a package but its frames: the travel, the counter, the log, the marks and the truth of each row."""
+    rng = np.random.default_rng(spec.seed)
+    obs = _observations(spec)
+    chainage, spans, stops = plan_travel(spec, obs)
+    frame_of_stop = {round(s.chainage_m, 6): (a + b) // 2 for s, (a, b) in
+                     zip(sorted(stops, key=lambda s: s.chainage_m), spans)}
+    counter = counter_reading(chainage, spec.counter_scale_error, spec.counter_offset_m)
+    mount = spec.mount
+    yaw, pitch, roll = (math.radians(v) for v in (mount.yaw_deg, mount.pitch_deg, mount.roll_deg))
+
+    def pose_at(frame: int) -> CameraPose:
+        return CameraPose(mount.offset_mm[0], mount.offset_mm[1], 1000.0 * chainage[frame], yaw, pitch, roll)
+
+    rows, marks, truth_obs = _log_and_marks(spec, cert, obs, rng, frame_of_stop, counter, pose_at)
+    return {"chainage": chainage, "counter": counter, "rows": rows, "marks": marks, "truth_obs": truth_obs}
+
+
+def section_length(spec: PackageSpec, chainage: np.ndarray) -> float:
+    """The header's section length [m]: the spec's, or (None) where the survey ends, the camera's last true chainage."""
+    return spec.section_length_m if spec.section_length_m is not None else round(float(chainage[-1]), 2)
+
+
+def package_texts(spec: PackageSpec, cert: Certificate, plan: dict | None = None) -> dict[str, str]:
+    """The package's text files (observations.csv, marks.csv, header.json) as ``build_package`` writes them,
+    without rendering a frame."""
+    plan = plan or _plan(spec, cert)
+    texts = {}
+    for name, columns, rows in (("observations.csv", OBSERVATION_COLUMNS, plan["rows"]),
+                                ("marks.csv", MARK_COLUMNS, plan["marks"])):
+        buf = io.StringIO(newline="")
+        csv.writer(buf).writerows([columns, *rows])
+        texts[name] = buf.getvalue()
+    texts["header.json"] = json.dumps(_header(spec, section_length(spec, plan["chainage"])), indent=2) + "\n"
+    return texts
+
+
 def build_package(spec: PackageSpec, cert: Certificate, out_dir: str | os.PathLike,
                   progress: Callable[[str], None] | None = None, workers: int = 1) -> Path:
     """Render and write the package ``out_dir/<package_id>``; replaces an older one atomically.
@@ -292,31 +330,18 @@ def build_package(spec: PackageSpec, cert: Certificate, out_dir: str | os.PathLi
     workers : processes rendering frames in parallel (the files are the same for any number)
     """
     say = progress or (lambda message: None)
-    rng = np.random.default_rng(spec.seed)
     scene, pipe = spec.scene, spec.scene.pipe
-    obs = _observations(spec)
-
-    chainage, spans, stops = plan_travel(spec, obs)
-    frame_of_stop = {round(s.chainage_m, 6): (a + b) // 2 for s, (a, b) in
-                     zip(sorted(stops, key=lambda s: s.chainage_m), spans)}
-    counter = counter_reading(chainage, spec.counter_scale_error, spec.counter_offset_m)
-
-    mount = spec.mount
-    yaw, pitch, roll = (math.radians(v) for v in (mount.yaw_deg, mount.pitch_deg, mount.roll_deg))
+    plan = _plan(spec, cert)
+    chainage, counter, truth_obs, mount = plan["chainage"], plan["counter"], plan["truth_obs"], spec.mount
     overlay = Overlay(cert.image_width_px, cert.image_height_px, header_lines(spec))
-
-    def pose_at(frame: int) -> CameraPose:
-        return CameraPose(mount.offset_mm[0], mount.offset_mm[1], 1000.0 * chainage[frame], yaw, pitch, roll)
 
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     work = Path(tempfile.mkdtemp(prefix=f".{spec.package_id}.tmp-", dir=out_dir))
     try:
         (work / "truth").mkdir()
-        rows, marks, truth_obs = _log_and_marks(spec, cert, obs, rng, frame_of_stop, counter, pose_at)
-        _write_csv(work / "observations.csv", OBSERVATION_COLUMNS, rows)
-        _write_csv(work / "marks.csv", MARK_COLUMNS, marks)
-        (work / "header.json").write_text(json.dumps(_header(spec), indent=2) + "\n")
+        for name, text in package_texts(spec, cert, plan).items():
+            (work / name).write_text(text, encoding="utf-8")
         (work / "package.json").write_text(json.dumps({
             "format": PACKAGE_FORMAT, "format_version": 1, "package_id": spec.package_id,
             "certificate_id": cert.certificate_id, "video": "video.mp4", "header": "header.json",
@@ -396,7 +421,9 @@ def _log_and_marks(spec, cert, obs, rng, frame_of_stop, counter, pose_at):
         truth_obs.append({"row": n, "code": o.code, "char1": o.char1, "char2": o.char2, "feature": o.feature_id,
                           "frame": frame, "camera_chainage_m": round(pose.Z / 1000, 6),
                           "plane_z_mm": round(o.z_mm, 3), "quantities": qt})
-    rows.append([len(ordered) + 1, round(spec.section_length_m, 2), "BCE", "", "", "", "", "", "", "", "", "", "",
+    # the finish node where the spec puts it, or (no length given) where the counter reads at the video's end
+    finish_m = spec.section_length_m if spec.section_length_m is not None else float(counter[-1])
+    rows.append([len(ordered) + 1, round(finish_m, 2), "BCE", "", "", "", "", "", "", "", "", "", "",
                  _video_time(len(counter) - 1, spec.fps), "", spec.finish_node])
     return rows, marks, truth_obs
 
@@ -419,7 +446,7 @@ def _plane_truth(spec, cert, pose: CameraPose, z_plane: float) -> dict:
             "crown_px_ideal": px[0].round(4).tolist(), "invert_px_ideal": px[1].round(4).tolist()}
 
 
-def _header(spec: PackageSpec) -> dict:
+def _header(spec: PackageSpec, length_m: float) -> dict:
     pipe = spec.scene.pipe
     return {
         "format": HEADER_FORMAT, "format_version": 1,
@@ -428,7 +455,7 @@ def _header(spec: PackageSpec) -> dict:
         "shape": pipe.shape, "height_mm": spec.nominal_height_mm,
         "width_mm": round(pipe.width_mm * spec.nominal_height_mm / pipe.height_mm, 1),
         "height_tolerance_mm": spec.height_tolerance_mm, "material": pipe.material,
-        "pipe_unit_length_m": pipe.unit_length_mm / 1000, "section_length_m": spec.section_length_m,
+        "pipe_unit_length_m": pipe.unit_length_mm / 1000, "section_length_m": length_m,
         "inspection_date": spec.inspection_date, "contractor": spec.contractor,
         "longitudinal_reference": "start node wall",
     }

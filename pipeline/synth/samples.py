@@ -70,7 +70,7 @@ def sample_specs() -> list[tuple[PackageSpec, tuple[int, int]]]:
             Crack("crack-long", "longitudinal", 2650.0, 4.0, clock=10, length_mm=500.0),
             DisplacedJoint("joint-1", 1, 20.0, 10.0, clock=6),
         )),
-        nominal_height_mm=300, height_tolerance_mm=3, section_length_m=42.0,
+        nominal_height_mm=300, height_tolerance_mm=3, section_length_m=None,
         mount=CameraMount((0.0, -10.0)), start_m=0.3, speed_m_s=0.15, stop_s=3.0, view_distance_mm=700.0,
         seed=11, **common)
     harder = PackageSpec(
@@ -80,7 +80,7 @@ def sample_specs() -> list[tuple[PackageSpec, tuple[int, int]]]:
             Crack("crack-circ", "circumferential", 2350.0, 5.0, clock_from=9, clock_to=3),
             DisplacedJoint("joint-3", 3, 18.0, 8.0, clock=6),
         )),
-        nominal_height_mm=400, height_tolerance_mm=4, section_length_m=36.5,
+        nominal_height_mm=400, height_tolerance_mm=4, section_length_m=None,
         mount=CameraMount((35.0, -40.0), yaw_deg=3.0, pitch_deg=2.0, roll_deg=1.5),
         start_m=0.2, speed_m_s=0.15, stop_s=3.0, water_stop_m=0.3, view_distance_mm=800.0, seed=22,
         extra_stops=(Stop(1.2, 2.0),), counter_scale_error=0.006, counter_offset_m=-0.03, **common)
@@ -91,7 +91,7 @@ def sample_specs() -> list[tuple[PackageSpec, tuple[int, int]]]:
             Connection("lateral", 1550.0, 10, 200.0),
             Deposit("deposit", 1750.0, 2150.0, 15.0),
         )),
-        nominal_height_mm=600, height_tolerance_mm=5, section_length_m=55.0,
+        nominal_height_mm=600, height_tolerance_mm=5, section_length_m=None,
         mount=CameraMount((0.0, -100.0), pitch_deg=1.0), start_m=0.2, speed_m_s=0.1, stop_s=3.0, seed=33,
         view_distance_mm=900.0, water_stop_m=0.25, end_margin_m=0.3, noise=1.2, **common)
     return [(clean, (720, 576)), (harder, (720, 576)), (egg, (1280, 720))]

@@ -1,0 +1,150 @@
+"""Verdicts against known operator behaviour: the log check's false alarms and detections, grade probabilities.
+
+The quantities of ``benchmarks/measurement_coverage.py`` (the samples'
+logged ones and the generated ones, perspective model, measured through the
+whole chain) are given logs whose operator behaviour is known:
+
+* honest: the true value rounded to the logging resolution of its code
+  (``pipeline.verdicts.log_check.logging_resolution``);
+* wrong: the true value plus an error of s x max(U95, resolution), s in
+  ``ERROR_SIZES``, random sign, then rounded to the resolution.
+
+Prints the false-alarm rate on honest logs (target <= 5 %), the detection
+rate of logged errors larger than 2 U95 and larger than the resolution
+(target >= 90 %), and per size; then, for the graded quantities (VSA 2023),
+how often the true class has probability >= 5 % (target >= 95 %) and how
+often the most probable class and the honest log's class are the true one.
+
+The measurements are cached (``--cache``, JSON) so the verdicts can be
+recomputed without measuring again.
+
+    python benchmarks/verdicts.py [--per-frame 17] [--seed 7] [--cache verdict-cases.json]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+from pipeline.grading import LIKELY, applicable_bands, class_index, grade, scheme  # noqa: E402
+from pipeline.grading.probability import result_cdf  # noqa: E402
+from pipeline.verdicts.log_check import RESOLUTION, check_logged  # noqa: E402
+
+ERROR_SIZES = (0.5, 1.0, 2.0, 3.0, 5.0)
+_FIELDS = ("unit", "value", "u", "U95", "low", "high", "k", "mc_trials", "confident")
+
+
+def measured_cases(per_frame: int, seed: int, cache: Path | None) -> list[dict]:
+    """The measured quantities as plain records, from the cache when it exists."""
+    if cache and cache.exists():
+        return json.loads(cache.read_text())
+    from measurement_coverage import collect
+    cases = []
+    for s, pkg, kind, method, truth, res, code, char1, header in collect(per_frame, seed, models=("perspective",)):
+        if res is None:
+            continue
+        r = res["perspective"]
+        cases.append({"set": s, "package": pkg, "kind": kind, "method": method, "code": code, "char1": char1,
+                      "truth": truth, "height_mm": header.height_mm, "width_mm": header.width_mm,
+                      "material": header.material, **{f: getattr(r, f) for f in _FIELDS}})
+    for c in cases:
+        c["confident"] = bool(c["confident"])
+        c["k"] = None if c["k"] is None or math.isnan(c["k"]) else c["k"]
+    if cache:
+        cache.write_text(json.dumps(cases))
+    return cases
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--per-frame", type=int, default=17)
+    parser.add_argument("--seed", type=int, default=7)
+    parser.add_argument("--cache", type=Path, help="JSON file of the measured quantities (written if absent)")
+    args = parser.parse_args()
+    cases = measured_cases(args.per_frame, args.seed, args.cache)
+    report(cases, np.random.default_rng(args.seed))
+
+
+def _round(x: float, r: float) -> float:
+    return r * round(x / r)
+
+
+def log_checks(cases, rng) -> None:
+    """False alarms on honest logs, detections of wrong ones (module docstring)."""
+    honest, wrong = [], []          # (case, LogCheck, |logged - truth|, size)
+    for c in cases:
+        r = RESOLUTION[c["unit"]]
+        kw = dict(value=c["value"], U95=c["U95"], unit=c["unit"], confident=c["confident"])
+        logged = _round(c["truth"], r)
+        honest.append((c, check_logged(logged, c["unit"], **kw)))
+        for size in ERROR_SIZES:
+            e = rng.choice((-1.0, 1.0)) * size * max(c["U95"], r)
+            bad = _round(c["truth"] + e, r)
+            if c["unit"] == "%":
+                bad = min(max(bad, 0.0), 100.0)
+            wrong.append((c, check_logged(bad, c["unit"], **kw), bad, size, bad != logged))
+    alarms = [ch.verdict == "disagrees" for _, ch in honest]
+    conf = [ch.verdict == "disagrees" for c, ch in honest if c["confident"]]
+    print(f"honest logs (truth rounded: mm to {RESOLUTION['mm']:g} mm, % to {RESOLUTION['%']:g} %): "
+          f"{len(honest)} quantities of {len(set((c['code'], c['char1']) for c in cases))} code/characterisations; "
+          f"false alarms {100 * np.mean(alarms):.1f} % (target <= 5 %); among the {len(conf)} confident "
+          f"{100 * np.mean(conf):.1f} %; undecided {sum(ch.verdict == 'undecided' for _, ch in honest)}")
+    big = [(c, ch) for c, ch, bad, size, differs in wrong
+           if differs and abs(bad - c["truth"]) > 2 * c["U95"] + RESOLUTION[c["unit"]] / 2]
+    big_conf = [ch for c, ch in big if c["confident"]]
+    print(f"wrong logs, |logged - truth| > 2 U95 + r/2 (beyond the rounding): {len(big)}; detected (disagrees) "
+          f"{100 * np.mean([ch.verdict == 'disagrees' for _, ch in big]):.1f} % (target >= 90 %); among the "
+          f"{len(big_conf)} confident {100 * np.mean([ch.verdict == 'disagrees' for ch in big_conf]):.1f} %")
+    plain = [ch for c, ch, bad, size, differs in wrong if differs and abs(bad - c["truth"]) > 2 * c["U95"]]
+    print(f"wrong logs, |logged - truth| > 2 U95 and not the honest log: {len(plain)}; detected "
+          f"{100 * np.mean([ch.verdict == 'disagrees' for ch in plain]):.1f} %")
+    for size in ERROR_SIZES:
+        got = [(ch.verdict == "disagrees", c["confident"]) for c, ch, bad, sz, differs in wrong if sz == size and differs]
+        conf = [d for d, confident in got if confident]
+        print(f"  error {size:3.1f} x max(U95, r): detected {100 * np.mean([d for d, _ in got]):5.1f} % of {len(got)}; "
+              f"of the {len(conf)} confident {100 * np.mean(conf):5.1f} %")
+
+
+def grade_checks(cases) -> None:
+    """Grade probabilities against the true class."""
+    s = scheme()
+    true_likely, most_true, log_true, n = [], [], [], 0
+    per_unit: dict[str, list[tuple[bool, bool]]] = {}
+    for c in cases:
+        bands, _ = applicable_bands(s, c["code"], c["char1"], c["unit"], c["height_mm"], c["material"])
+        if not bands:
+            continue
+        cdf = result_cdf(c["value"], c["u"], c["low"], c["high"], c["k"])
+        g = grade(s, c["code"], c["char1"], unit=c["unit"], dn_mm=c["height_mm"], material=c["material"],
+                  logged=_round(c["truth"], RESOLUTION[c["unit"]]), cdf=cdf)
+        true = s.classes[class_index(bands, c["truth"], len(s.classes))]
+        true_likely.append(g.probabilities[true] >= LIKELY)
+        most_true.append(g.most_probable == true)
+        log_true.append(g.logged_class == true)
+        per_unit.setdefault(c["unit"], []).append((most_true[-1], log_true[-1]))
+        n += 1
+    print(f"\ngrades ({s.name}) of {n} graded quantities: the true class has probability >= {LIKELY:.0%} in "
+          f"{100 * np.mean(true_likely):.1f} % (target >= 95 %); the most probable class is the true one in "
+          f"{100 * np.mean(most_true):.1f} %, the honest rounded log's class in {100 * np.mean(log_true):.1f} %")
+    for unit, pairs in sorted(per_unit.items()):
+        m, lg = np.mean(pairs, axis=0)
+        print(f"  in {unit:2s} (logged to {RESOLUTION[unit]:g} {unit}): {len(pairs)} quantities, most probable class "
+              f"true {100 * m:.1f} %, honest log's class true {100 * lg:.1f} %")
+
+
+def report(cases, rng) -> None:
+    print(f"{len(cases)} measured quantities ({sum(c['set'] == 'logged' for c in cases)} logged in the samples), "
+          "perspective model")
+    log_checks(cases, rng)
+    grade_checks(cases)
+
+
+if __name__ == "__main__":
+    main()

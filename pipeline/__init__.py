@@ -11,4 +11,4 @@ Conventions used throughout (see docs/conventions.md):
   the top-left pixel, x to the right, y down (the OpenCV convention).
 """
 
-__version__ = "0.1.0"
+__version__ = "0.2.0"

@@ -175,7 +175,7 @@ def cmd_probe(args: argparse.Namespace) -> int:
 # -- measure / export -----------------------------------------------------------
 
 def cmd_measure(args: argparse.Namespace) -> int:
-    from pipeline.inspection import duplicate_claims
+    from pipeline.inspection import duplicate_claims, process_package
     from pipeline.store.lock import dataset_lock
     from pipeline.video.overlay_ocr import OverlayReader
 
@@ -187,19 +187,22 @@ def cmd_measure(args: argparse.Namespace) -> int:
     with dataset_lock(args.data):           # not while a run (or another measure) writes the same dataset
         reader = OverlayReader()
         for folder in (p for p in args.packages if Path(p) not in duplicates):
-            failed += _measure_one(folder, args, reader)
+            # the same path as a run's, input key included: a later run skips what measure stored
+            outcome = process_package(folder, args.data, model=args.model, certificates=args.certificates,
+                                      reader=reader, skip_known=False, keep_result=True,
+                                      progress=_say if args.verbose else None)
+            failed += outcome.status != "ok"
+            if outcome.result is None:
+                _say(f"{folder}: {outcome.status} ({outcome.error})")
+            else:
+                _print_measured(outcome.result, args)
     return EXIT_FAILED if failed else EXIT_OK
 
 
-def _measure_one(folder, args: argparse.Namespace, reader) -> int:
-    """Measure and store one package, print its quantities; returns 1 when it is not ok."""
-    from pipeline.inspection import measure_package
+def _print_measured(result, args: argparse.Namespace) -> None:
+    """What measure stored of one package: its status and problems (stderr), its quantities (stdout)."""
     from pipeline.report.verdict_text import json_safe, log_check_text, verdict_lines
-    from pipeline.store import write_inspection
 
-    result = measure_package(folder, certificates=args.certificates, model=args.model, reader=reader,
-                             progress=_say if args.verbose else None)
-    write_inspection(args.data, result.inspection, result.observations, result.measurements, result.thumbnails)
     rec = result.inspection
     _say(f"{rec['inspection_id']}: {rec['status']}" + (f" ({rec['error']})" if rec["error"] else "")
          + f"; stored in {args.data}")
@@ -208,7 +211,7 @@ def _measure_one(folder, args: argparse.Namespace, reader) -> int:
     if args.json:
         print(json.dumps(json_safe({"inspection": rec, "observations": result.observations,
                                     "measurements": result.measurements}), default=str, allow_nan=False))
-        return int(rec["status"] != "ok")
+        return
     for label, text in verdict_lines(rec):
         print(f"{rec['inspection_id']} {label}: {text}")
     for m in result.measurements:
@@ -220,7 +223,6 @@ def _measure_one(folder, args: argparse.Namespace, reader) -> int:
                   + f"; log: {log_check_text(m)}" + (f"; grade {m['grade']}" if m.get("grade") else ""))
         else:
             print(f"{rec['inspection_id']} row {m['row']:3d} {m['code']} {what}: not measured: {m['error']}")
-    return int(rec["status"] != "ok")
 
 
 # -- run / serve -----------------------------------------------------------------

@@ -34,7 +34,7 @@ from ..errors import PackageError, PipegaugeError, StoreError
 from ..report import render_inspection_report, report_file_name
 from ..store import stored_input_key, write_inspection
 from ..video.overlay_ocr import OverlayReader
-from .measure import file_digests, file_sha256, measure_package, package_digest
+from .measure import InspectionResult, file_digests, file_sha256, measure_package, package_digest
 
 __all__ = ["PackageOutcome", "discover_packages", "duplicate_claims", "input_key", "process_package", "refused_outcome",
            "CERTIFICATES_FOLDER"]
@@ -54,6 +54,8 @@ class PackageOutcome:
     processed: bool = True  # False: unchanged since the run that stored it (status and error are that run's)
     refused: bool = False   # True: not read nor stored (a duplicate id, a link out of the inbox); status failed
     worker: str = field(default_factory=lambda: f"{socket.gethostname()}:{os.getpid()}")
+    # the records as measured, when the caller asked to keep them (never across process boundaries)
+    result: InspectionResult | None = field(default=None, repr=False, compare=False)
 
     def as_row(self) -> dict:
         return {"package": Path(self.folder).name, "inspection_id": self.inspection_id, "status": self.status,
@@ -125,13 +127,14 @@ def input_key(manifest: PackageManifest | None, digests: dict[str, str], certifi
 def process_package(folder: str | os.PathLike, out: str | os.PathLike, *, model: str = "perspective",
                     certificates: str | os.PathLike | None = None, reader: OverlayReader | None = None,
                     skip_known: bool = True, reports: str | os.PathLike | None = None,
-                    progress: Callable[[str], None] | None = None) -> PackageOutcome:
+                    progress: Callable[[str], None] | None = None, keep_result: bool = False) -> PackageOutcome:
     """Measure one package and store its records in the dataset ``out``; never raises for a bad package.
 
     reports : folder for the package's PDF condition report, rendered from the
     dataset (also for a skipped package whose report is missing).
     skip_known : skip the package when ``out`` holds it with the same input key; the
     outcome then repeats the stored status and error, with ``processed`` False.
+    keep_result : the outcome carries the measured records (``result``), for a caller that prints them.
     Errors writing the dataset (OSError) do raise: they may be transient.
     """
     t0 = time.perf_counter()
@@ -169,7 +172,7 @@ def process_package(folder: str | os.PathLike, out: str | os.PathLike, *, model:
         result.measurements = []
     error = _render(out, rec["inspection_id"], reports)
     return PackageOutcome(str(folder), rec["inspection_id"], rec["status"], _joined(rec["error"], error),
-                          len(result.measurements), time.perf_counter() - t0)
+                          len(result.measurements), time.perf_counter() - t0, result=result if keep_result else None)
 
 
 # What a failed inspection's record keeps when its full record cannot be stored.

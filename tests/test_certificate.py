@@ -173,3 +173,20 @@ def test_input_set_of_independent_parameters_has_no_joint_group():
     inputs = cert.input_set(("f", "cx", "cy", "k3"))
     assert inputs.labels == ("f", "cx", "cy") and inputs.constants == {"k3": 0.0}
     assert not inputs.correlated
+
+
+def test_format_1_reference_files_keep_reading(tmp_path):
+    """tests/data/certificate-v1: what format 1 wrote reads to the same calibration, whatever the code becomes."""
+    from pathlib import Path
+
+    refs = Path(__file__).resolve().parent / "data" / "certificate-v1"
+    pixel = load_certificate(refs / "pixel-convention.json")
+    assert json.loads((refs / "pixel-convention.json").read_text())["format_version"] == 1
+    assert pixel.convention == "pixel" and pixel.certificate_id == "PAPER-2020-T1"
+    assert pixel.value("f") == pytest.approx(4.2739 / 0.0065) and pixel.value("k3") == 0.0
+    assert pixel.value("k1") == -8.917e-10 and pixel.parameters["p1"].u == 9.3e-10
+    opencv_doc = json.loads((refs / "opencv-convention.json").read_text())
+    opencv = load_certificate(refs / "opencv-convention.json")
+    assert opencv.convention == "opencv" and opencv.value("fx") == opencv_doc["intrinsics"]["fx"]["value"]
+    assert opencv.to_dict() == opencv_doc                       # written by format 1, read and written back unchanged
+    assert load_certificate(pixel.save(tmp_path / "again.json")).to_dict() == pixel.to_dict()

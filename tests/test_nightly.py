@@ -3,9 +3,7 @@
 from __future__ import annotations
 
 import json
-import os
 import shutil
-import signal
 import subprocess
 import sys
 import time
@@ -15,60 +13,23 @@ import pyarrow.parquet as pq
 import pytest
 
 from pipeline.store import read_table
+from processes import base_env, free_port, stop, wait_for
 
 ROOT = Path(__file__).resolve().parent.parent
 SAMPLES = ROOT / "sample_videos"
 GOOD = ("S01-circular-clean", "S02-circular-water-offset")
 
 
-@pytest.fixture(scope="session")
-def prefect_home(tmp_path_factory) -> Path:
-    """One Prefect home for the session: its database is migrated once, not by every run."""
-    return tmp_path_factory.mktemp("prefect-home")
-
-
-def _base_env(prefect_home: Path) -> dict:
-    e = dict(os.environ, PREFECT_HOME=str(prefect_home), DO_NOT_TRACK="1", PREFECT_SERVER_ANALYTICS_ENABLED="false")
-    e.pop("PREFECT_API_URL", None)
-    return e
-
-
-@pytest.fixture(scope="session")
-def prefect_server(prefect_home, tmp_path_factory):
-    """A real Prefect server on loopback for the session (`prefect server start`): the runs use it through
-    PREFECT_API_URL instead of starting an embedded server each (docs/operations.md)."""
-    import urllib.request
-
-    env = _base_env(prefect_home)
-    api = f"http://127.0.0.1:{_free_port()}/api"
-    log = tmp_path_factory.mktemp("prefect-server") / "server.txt"
-    server = subprocess.Popen([str(Path(sys.executable).parent / "prefect"), "server", "start", "--host", "127.0.0.1",
-                               "--port", api.split(":")[-1].split("/")[0]], env=env, stdout=log.open("w"),
-                              stderr=subprocess.STDOUT, start_new_session=True)
-
-    def healthy() -> bool:
-        try:
-            return urllib.request.urlopen(f"{api}/health", timeout=2).status == 200
-        except OSError:
-            return False
-
-    try:
-        _wait_for(healthy, "the Prefect server", 300)
-        yield api
-    finally:
-        _stop(server)
-
-
 @pytest.fixture
 def env(prefect_home, prefect_server) -> dict:
     """The environment of a run that uses the session's Prefect server."""
-    return dict(_base_env(prefect_home), PREFECT_API_URL=prefect_server)
+    return dict(base_env(prefect_home), PREFECT_API_URL=prefect_server)
 
 
 @pytest.fixture
 def embedded_env(prefect_home) -> dict:
     """The environment of a run in the default embedded mode (no PREFECT_API_URL: it starts its own server)."""
-    return _base_env(prefect_home)
+    return base_env(prefect_home)
 
 
 def _flow_run_names(api: str) -> list[str]:
@@ -229,7 +190,7 @@ def test_usage_errors_exit_2(tmp_path, env):
     inside = _pipegauge("run", str(inbox), "--out", str(inbox / "out"), env=env)
     assert inside.returncode == 2 and "inside the inbox" in inside.stderr
     assert _pipegauge("run", str(inbox), env=env).returncode == 2          # --out missing
-    port = _free_port()                                                     # nothing listens there
+    port = free_port()                                                     # nothing listens there
     nowhere = _pipegauge("run", str(inbox), "--out", str(tmp_path / "out"), "--dask", f"tcp://127.0.0.1:{port}", env=env)
     assert nowhere.returncode == 1 and f"cannot reach the Dask scheduler at tcp://127.0.0.1:{port}" in nowhere.stderr
     assert "Traceback" not in nowhere.stderr
@@ -260,7 +221,7 @@ def test_a_run_killed_mid_way_then_rerun(tmp_path, embedded_env):
     assert rerun.returncode == 0, rerun.stderr
     assert f"stopped the embedded Prefect server (pid {server}) left running by an interrupted run" in rerun.stderr
     assert "2 ok, 0 partial, 0 failed; 1 processed, 1 unchanged" in rerun.stderr
-    _wait_for(lambda: not _alive(server), "the left-over server to end", 30)
+    wait_for(lambda: not _alive(server), "the left-over server to end", 30)
     assert not pid_file.exists()
     _assert_dataset_sound(out / "dataset")
     inspections = read_table(out / "dataset", "inspections")
@@ -287,33 +248,6 @@ def test_run_on_a_local_dask_cluster_with_two_workers(tmp_path, env):
     assert (m.source == "marks").sum() == 12 and (m.source == "contour").sum() == 2    # S01's BAA, S02's BDD
 
 
-def _free_port() -> int:
-    import socket
-
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
-
-
-def _wait_for(check, what: str, timeout: float = 180):
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
-        if check():
-            return
-        time.sleep(1)
-    raise AssertionError(f"timed out waiting for {what}")
-
-
-def _stop(proc: subprocess.Popen) -> None:
-    if proc.poll() is None:
-        os.killpg(proc.pid, signal.SIGTERM)
-        try:
-            proc.wait(timeout=30)
-        except subprocess.TimeoutExpired:
-            os.killpg(proc.pid, signal.SIGKILL)
-            proc.wait()
-
-
 def test_served_deployment_on_a_real_prefect_server(tmp_path, env):
     """pipegauge serve on the session's Prefect server (`prefect server start` on loopback), a triggered run, its
     outputs."""
@@ -332,7 +266,7 @@ def test_served_deployment_on_a_real_prefect_server(tmp_path, env):
         def inspect() -> subprocess.CompletedProcess:
             return subprocess.run([prefect, "deployment", "inspect", name], env=env, capture_output=True, text=True)
 
-        _wait_for(lambda: inspect().returncode == 0, "the served deployment")
+        wait_for(lambda: inspect().returncode == 0, "the served deployment")
         assert "0 2 * * *" in inspect().stdout                    # the nightly schedule is registered
         run = subprocess.run([prefect, "deployment", "run", name, "--watch", "--watch-timeout", "600"], env=env,
                              capture_output=True, text=True, timeout=700)
@@ -342,7 +276,7 @@ def test_served_deployment_on_a_real_prefect_server(tmp_path, env):
         assert inspections.inspection_id.tolist() == ["S02-circular-water-offset"] and inspections.status[0] == "ok"
     finally:
         if serve is not None:
-            _stop(serve)
+            stop(serve)
 
 
 def test_only_transient_errors_are_retried():

@@ -16,7 +16,7 @@ from pipeline.synth.overlay import Overlay, chainage_text
 from pipeline.video.chainage_track import fit_track
 from pipeline.video.glyphs import GlyphTemplates, segment_glyphs
 from pipeline.video.ingest import MASK_FRAMES, ingest_chainage
-from pipeline.video.overlay_ocr import OverlayRead, OverlayReader, parse_chainage
+from pipeline.video.overlay_ocr import OverlayRead, parse_chainage
 from pipeline.video.reader import check_integrity, iter_frames, probe_video
 from pipeline.camera.undistort import Undistorter
 
@@ -25,11 +25,6 @@ SAMPLES = ROOT / "sample_videos"
 DATA = Path(__file__).resolve().parent / "data"
 REAL = DATA / "real_frames"
 PACKAGES = ["S01-circular-clean", "S02-circular-water-offset", "S03-egg-concrete"]
-
-
-@pytest.fixture(scope="module")
-def reader():
-    return OverlayReader()
 
 
 @pytest.mark.parametrize("name, expected", [("0001", 5.52), ("0002", 7.74), ("0003", 15.46), ("0004", 20.66)])

@@ -85,7 +85,7 @@ def styles() -> dict[str, ParagraphStyle]:
                                 keepWithNext=1),
         "h2": ParagraphStyle("h2", parent=base, fontName=FONT_BOLD, fontSize=11, leading=14, spaceBefore=8,
                              spaceAfter=3, keepWithNext=1),
-        "h3": ParagraphStyle("h3", parent=base, fontName=FONT_BOLD, fontSize=9, leading=11.5, spaceBefore=2,
+        "h3": ParagraphStyle("h3", parent=base, fontName=FONT_BOLD, fontSize=9.5, leading=12, spaceBefore=2,
                              spaceAfter=1.5, keepWithNext=1),
         "body": base,
         "small": ParagraphStyle("small", parent=base, fontSize=7.5, leading=9.5),

@@ -87,7 +87,7 @@ def pipe_strip(observations: Sequence[dict], span_m: tuple[float, float], measur
     styles()                                 # registers the fonts
     start, end = span_m
     length = max(end - start, 1e-6)
-    left, right = 14 * mm, width - 2 * mm
+    left, right = 14 * mm, width - 4 * mm
     placed = sorted([o for o in observations if _finite(o.get("distance_m"))],
                     key=lambda o: (o["distance_m"], o.get("row") or 0))
     x_of = lambda m: left + (right - left) * (min(max(m, start), end) - start) / length  # noqa: E731
@@ -95,7 +95,7 @@ def pipe_strip(observations: Sequence[dict], span_m: tuple[float, float], measur
     widths = [stringWidth(t, FONT_BOLD, _LABEL_SIZE) + 1.0 for t in texts]
     centres, rows = spread_labels([x_of(float(o["distance_m"])) for o in placed], widths, 0.0, width)
     n_rows = max(rows, default=-1) + 1
-    bottom = 12 * mm
+    bottom = 10 * mm
     top = bottom + band
     height = top + 3.0 + n_rows * _ROW + 1.0
     d = Drawing(width, height)

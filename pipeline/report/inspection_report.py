@@ -5,7 +5,7 @@ right), header block, warnings (plain sentences with the action, each
 once), pipe strip over the surveyed range, observation table (EN 13508-2
 text, every quantity as value ± U95 with unit or its interval), detail pages
 with two or three measured quantities each (thumbnail with contour and
-marks, key numbers, bars, budget table with units), and the method
+marks, key numbers, budget table with units), and the method
 statement. Layout: docs/reports.md.
 """
 

@@ -133,7 +133,7 @@ def render_night_summary(rows: Sequence[dict], data: str | os.PathLike, path: st
                           Paragraph(safe_text(format_record(r._asdict())), st["cell"]),
                           Paragraph(f"{r.high:.3g} {r.unit}", st["cell"]),
                           Paragraph(safe_text(grade_text(r._asdict()), 200), st["cell"])])
-        t = Table(table, colWidths=[30 * mm, 8 * mm, 18 * mm, 34 * mm, 30 * mm, 17 * mm, 43 * mm], repeatRows=1)
+        t = Table(table, colWidths=[37 * mm, 8 * mm, 19 * mm, 30 * mm, 27 * mm, 15 * mm, 44 * mm], repeatRows=1)
         t.setStyle(TableStyle(TABLE_STYLE))
         story.append(t)
     else:

@@ -341,7 +341,8 @@ def render_inspection_report(data: str | os.PathLike, inspection_id: str, path: 
               pipe_strip(observations, span, set(by_row)),
               Paragraph(f"Unrolled wall over the surveyed range {span[0]:g}-{span[1]:g} m: clock position 12 (crown) "
                         "at the top, 6 (invert) in the middle; measured observations in red"
-                        + (f"; rows {', '.join(map(str, beyond))} lie outside this range and stand at its edge"
+                        + (f"; {'rows' if len(beyond) > 1 else 'row'} {', '.join(map(str, beyond))} "
+                           f"{'lie' if len(beyond) > 1 else 'lies'} outside this range and stand at its edge"
                            if beyond else "") + ".", st["small"]),
               Spacer(1, 2 * mm),
               _observation_table(observations[:MAX_REPORT_OBSERVATIONS], by_row),

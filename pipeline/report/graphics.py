@@ -90,7 +90,7 @@ def pipe_strip(observations: Sequence[dict], span_m: tuple[float, float], measur
     left, right = 14 * mm, width - 4 * mm
     placed = sorted([o for o in observations if _finite(o.get("distance_m"))],
                     key=lambda o: (o["distance_m"], o.get("row") or 0))
-    x_of = lambda m: left + (right - left) * (min(max(m, start), end) - start) / length  # noqa: E731
+    x_of = lambda m: left + (right - left) * ((min(max(m, start), end) - start) / length)  # noqa: E731
     texts = [str(o.get("code") or "?")[:5] for o in placed]
     widths = [stringWidth(t, FONT_BOLD, _LABEL_SIZE) + 1.0 for t in texts]
     centres, rows = spread_labels([x_of(float(o["distance_m"])) for o in placed], widths, 0.0, width)

@@ -131,3 +131,19 @@ def test_a_profile_change_part_way_is_refused_at_the_start_accepted(tmp_path):
     assert [[str(p) for p in o.problems] for o in obs] == [[], [], [
         "observations.csv row 2, field 'code': AEC (change of profile (VSA-KEK)) at 12.5 m changes the section "
         "part-way, which pipegauge does not apply; deliver the section as two packages split at 12.5 m"], []]
+
+
+def test_descriptions_read_as_en13508_text():
+    from pipeline.coding.codes import plain_description
+
+    assert plain_description("BAB", "B", "A") == "crack, longitudinal"            # the characterisation names the defect
+    assert plain_description("BAB", "C", "B") == "open crack, circumferential"
+    assert plain_description("BCA", "A", "A") == "connection, fitting, open"
+    assert plain_description("BCA", "C", "A") == "connection, open"               # no text in the notes for C: left out
+    assert plain_description("BAF", "B", "D") == "surface damage, spalling, chemical at the water line"
+    assert plain_description("XYZ") == "unknown code XYZ"
+    # no placeholder survives: every text is a characterisation, never the word for its kind
+    placeholders = {"type", "defect", "repair", "obstacle", "flow", "reason", "cause", "position", "change"}
+    for spec in CODES.values():
+        for table in (spec.char1, spec.char2):
+            assert not placeholders & set(table.values()), (spec.code, table)

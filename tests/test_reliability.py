@@ -78,14 +78,17 @@ def test_a_log_over_the_row_limit_is_refused_whole_before_it_is_parsed(tmp_path,
 def test_the_pipe_strip_spans_the_section_whatever_distance_is_logged():
     from reportlab.graphics.shapes import String
 
-    from pipeline.report.graphics import pipe_strip
+    from pipeline.report.graphics import pipe_strip, strip_span
 
     start = time.perf_counter()
-    drawing = pipe_strip([{"row": 1, "distance_m": 1e308, "code": "BAB"}, {"row": 2, "distance_m": float("nan"),
-                          "code": "BAC"}, {"row": 3, "distance_m": 2.0, "code": "BDB"}], 42.0, set())
-    ticks = [s for s in drawing.contents if isinstance(s, String) and s.text.replace(".", "").isdigit()]
-    assert len(ticks) <= 13 + 5                       # distance ticks and the clock labels
-    assert all(math.isfinite(getattr(s, "x", 0.0)) for s in drawing.contents)
+    observations = [{"row": 1, "distance_m": 1e308, "code": "BAB"}, {"row": 2, "distance_m": float("nan"),
+                     "code": "BAC"}, {"row": 3, "distance_m": 2.0, "code": "BDB"}]
+    for span in (strip_span(observations, None, None, 42.0), strip_span(observations, 0.0, 1e308, 42.0),
+                 strip_span(observations, None, None, None)):
+        drawing = pipe_strip(observations, span, set())
+        ticks = [s for s in drawing.contents if isinstance(s, String) and s.text.replace(".", "").isdigit()]
+        assert len(ticks) <= 13 + 5                   # distance ticks and the clock labels
+        assert all(math.isfinite(getattr(s, "x", 0.0)) for s in drawing.contents)
     assert time.perf_counter() - start < 60           # a bound against the hang, not a speed claim
 
 

@@ -121,7 +121,9 @@ def test_warnings_for_confidence_status_and_certificate():
     w = inspection_warnings(inspection, measurements, today=dt.date(2026, 11, 27))
     assert any("Status partial" in x for x in w)
     assert any("marks.csv row 3" in x for x in w)
-    assert any("Row 10 Q1" in x and "low-confidence" in x for x in w)
+    low = [x for x in w if x.startswith("Row 10,")]
+    assert len(low) == 1 and "uncertain by about 2 %" in low[0] and "Action: treat the value as indicative" in low[0]
+    assert "p_H" not in low[0]                               # the code's words stay in the dataset
     assert any("expires on 2026-12-01, within 30 days" in x for x in w)
     inspection["certificate_valid_until"] = dt.date(2026, 11, 1)
     assert any("had expired" in x for x in inspection_warnings(inspection, measurements, dt.date(2026, 11, 27)))

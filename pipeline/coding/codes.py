@@ -89,6 +89,11 @@ _CRACK_WIDTH = {"A": "around", "B": "axial"}
 
 _AREA = _q("%", "reduction of the cross-sectional area")
 _CRACK_CHARS = {"A": "surface crack", "B": "crack", "C": "open crack"}
+# Characterisation texts from ../shared/EN13508-2-notes.md, section 2.2 (DWA/ISYBAU tables, VSA-KEK 2020); a
+# letter the code allows whose text the notes do not give maps to "" and is left out of the description.
+_SURFACE = {"A": "increased roughness", "B": "spalling", "C": "aggregate visible", "D": "aggregate projecting",
+            "E": "aggregate missing", "F": "reinforcement visible", "G": "reinforcement projecting",
+            "H": "reinforcement corroded", "I": "missing wall", "J": "corrosion products", "K": "bulge", "Z": "other"}
 _CRACK_SHAPES = {"A": "longitudinal", "B": "circumferential", "C": "complex", "D": "spiral", "E": "star"}
 
 _TABLE = (
@@ -101,49 +106,57 @@ _TABLE = (
     Code("BAD", "defective brickwork", {"A": "displaced bricks", "B": "missing bricks", "C": "dropped invert", "D": "collapsed"},
          q1={"C": _q("mm", "drop of the invert")}),
     Code("BAE", "missing mortar", q1={ANY: _q("mm", "depth of the missing mortar")}),
-    Code("BAF", "surface damage", {c: "surface damage" for c in "ABCDEFGHIJKZ"}, {c: "cause" for c in "ABCDEZ"}),
+    Code("BAF", "surface damage", _SURFACE, {"A": "mechanical", "B": "chemical", "C": "chemical above the water line",
+                                          "D": "chemical at the water line", "E": "chemical below the water line",
+                                          "Z": "other cause"}),
     Code("BAG", "intruding connection", q1={ANY: _q("%", "intrusion, % of the pipe height", "intrusion")},
          continuous=False),
-    Code("BAH", "defective connection", {c: "defect" for c in "ABCDEZ"}, continuous=False),
-    Code("BAI", "intruding sealing material", {"A": "sealing ring", "Z": "other"}, {c: "position" for c in "ABCD"},
+    Code("BAH", "defective connection", {"A": "position incorrect", "B": "protrudes partly", "C": "incomplete",
+                                     "D": "damaged", "E": "blocked", "Z": "other"}, continuous=False),
+    Code("BAI", "intruding sealing material", {"A": "sealing ring", "Z": "other"},
+         {"A": "intruding", "B": "hanging above the axis", "C": "hanging below the axis", "D": "broken"},
          q1={"Z": _AREA}, continuous=False),
     Code("BAJ", "displaced joint", {"A": "longitudinal", "B": "radial", "C": "angular"},
          q1={"A": _q("mm", "longitudinal displacement (gap)", "axial"),
              "B": _q("mm", "radial displacement (step)", "step"),
              "C": _q("deg", "angular displacement")}, continuous=False),
-    Code("BAK", "lining defect", {c: "defect" for c in "ABCDEFGZ"}),
-    Code("BAL", "defective repair", {c: "defect" for c in "ABCDZ"}),
+    Code("BAK", "lining defect", {"A": "detached", "B": "discoloured", "C": "defective end", "D": "wrinkled",
+                              "E": "blistered", "F": "service cut defective", "G": "", "Z": "other"}),
+    Code("BAL", "defective repair", {"A": "wall missing", "B": "hole", "C": "failed patch", "D": "", "Z": "other"}),
     Code("BAM", "weld failure", {"A": "longitudinal", "B": "circumferential", "C": "spiral"}),
     Code("BAN", "porous pipe"),
     Code("BAO", "soil visible through defect", continuous=False),
     Code("BAP", "void visible through defect", continuous=False),
     Code("BBA", "roots", {"A": "tap root", "B": "fine roots", "C": "complex roots"}, q1={ANY: _AREA}),
     Code("BBB", "attached deposits", {"A": "encrustation", "B": "grease", "C": "fouling", "Z": "other"}, q1={ANY: _AREA}),
-    Code("BBC", "settled deposits", {"A": "fine", "B": "coarse", "C": "hard or compacted", "Z": "other"},
+    Code("BBC", "settled deposits", {"A": "fine (sand)", "B": "coarse (gravel)", "C": "hard or compacted", "Z": "other"},
          q1={ANY: _q("%", "reduction of the cross-sectional area", "deposit_area")}),
     Code("BBD", "ingress of soil", {"A": "sand", "B": "peat", "C": "fine material", "D": "coarse material", "Z": "other"},
          q1={ANY: _AREA}),
-    Code("BBE", "other obstacles", {c: "obstacle" for c in "ABCDEFGHZ"}, q1={ANY: _AREA}),
+    Code("BBE", "other obstacles", {**{c: "" for c in "ABCDEFGH"}, "Z": "other"}, q1={ANY: _AREA}),
     Code("BBF", "infiltration", {"A": "seeping", "B": "dripping", "C": "running", "D": "gushing"}),
     Code("BBG", "exfiltration"),
     Code("BBH", "vermin", {"A": "rat", "B": "cockroach", "Z": "other"}, {"A": "in pipe", "B": "in connection", "C": "in joint", "Z": "other"},
          q1={ANY: _q("count", "number of animals")}, continuous=False),
-    Code("BCA", "connection", {c: "type" for c in "ABCDEFGZ"}, {"A": "open", "B": "closed"},
+    Code("BCA", "connection", {"A": "fitting", "B": "junction", **{c: "" for c in "CDEFG"}, "Z": "other"},
+         {"A": "open", "B": "closed"},
          q1={ANY: _q("mm", "height of the opening (around the pipe)", "around")},
          q2={ANY: _q("mm", "width of the opening (along the pipe)", "axial")}, continuous=False),
-    Code("BCB", "point repair", {c: "repair" for c in "ABCDEFGHIZ"}),
+    Code("BCB", "point repair", {"A": "pipe replaced", **{c: "" for c in "BCDEFGHI"}, "Z": "other"}),
     Code("BCC", "curvature", {"A": "left", "B": "right"}, {"A": "up", "B": "down"},
          q1={ANY: _q("deg", "angle of the bend")}),
     Code("BCD", "start node", continuous=False),
     Code("BCE", "finish node", continuous=False),
     Code("BDA", "general photograph", continuous=False),
     # VSA-KEK codes the kind of a general remark (BDBA start of the survey ... BDBM); EN 13508-2 has none
-    Code("BDB", "general remark", {c: "kind of remark (VSA-KEK)" for c in "ABCDEFGHIJKLM"}, continuous=False,
+    Code("BDB", "general remark", {c: "" for c in "ABCDEFGHIJKLM"}, continuous=False,
          char1_optional=True),
-    Code("BDC", "survey abandoned", {c: "reason" for c in "ABCZ"}, continuous=False),
+    Code("BDC", "survey abandoned", {"A": "obstruction", "B": "water level too high", "C": "equipment failure",
+                                 "Z": "other reason"}, continuous=False),
     Code("BDD", "water level", {"A": "clear", "B": "discontinued", "C": "turbid", "D": "coloured", "E": "turbid and coloured"},
          q1={ANY: _q("%", "water level, % of the vertical dimension", "water_level")}),
-    Code("BDE", "flow from incoming pipe", {c: "flow" for c in "ABCDEY"}, q1={ANY: _q("%", "flow, % of the incoming pipe's height")},
+    Code("BDE", "flow from incoming pipe", {**{c: "" for c in "ABCDE"}, "Y": "misconnection"},
+         q1={ANY: _q("%", "flow, % of the incoming pipe's height")},
          continuous=False),
     Code("BDF", "atmosphere", {"A": "oxygen deficiency", "B": "hydrogen sulphide", "C": "methane", "Z": "other"}),
     Code("BDG", "loss of vision", {"A": "camera under water", "B": "silt", "C": "steam", "Z": "other"}),
@@ -153,9 +166,9 @@ _TABLE = (
 # or material letter of the VSA catalogue; AEF gives the new pipe unit length. Q1 units are VSA's usage as read in
 # that transfer (AEC 300 for a 300 mm profile, AEF 2000 for 2 m units) [uncertain: not in EN 13508-2].
 _TABLE += (
-    Code("AEC", "change of profile (VSA-KEK)", {"X": "change"}, {c: "new profile" for c in "ABCDEFGH"},
+    Code("AEC", "change of profile (VSA-KEK)", {"X": ""}, {c: "" for c in "ABCDEFGH"},
          q1={ANY: _q("mm", "height of the new profile")}, continuous=False, changes_geometry=True),
-    Code("AED", "change of material (VSA-KEK)", {"X": "change"}, {c: "new material" for c in "ABCDEFGHIJKLMNOPQRSTUVWX"},
+    Code("AED", "change of material (VSA-KEK)", {"X": ""}, {c: "" for c in "ABCDEFGHIJKLMNOPQRSTUVWX"},
          continuous=False),
     Code("AEF", "new pipe unit length (VSA-KEK)", q1={ANY: _q("mm", "length of the new pipe units")}, continuous=False,
          changes_geometry=True),
@@ -170,13 +183,22 @@ def code_spec(code: str) -> Code | None:
 
 
 def plain_description(code: str, char1: str | None = None, char2: str | None = None) -> str:
-    """An observation in words for people who do not read codes, e.g. BAB B B -> 'crack: crack, circumferential'."""
+    """An observation in EN 13508-2 words: BAB B A -> 'crack, longitudinal', BCA A A -> 'connection, fitting, open'.
+
+    A characterisation that names the defect itself replaces the code's name (BAB C: 'open crack'); one whose
+    text the table lacks is left out.
+    """
     spec = CODES.get(code)
     if spec is None:
         return f"unknown code {code}"
-    details = [spec.char1.get(char1 or ""), spec.char2.get(char2 or "")]
-    details = [d for d in details if d]
-    return spec.name + (": " + ", ".join(details) if details else "")
+    first = spec.char1.get(char1 or "")
+    parts = [first if first and spec.name in first else spec.name]
+    if first and spec.name not in first:
+        parts.append(first)
+    second = spec.char2.get(char2 or "")
+    if second:
+        parts.append(second)
+    return ", ".join(parts)
 
 
 def quantification(code: str, which: str, char1: str) -> Quantification | None:

@@ -1,9 +1,12 @@
 """The condition report of one inspection, rendered from the stored dataset alone (reportlab).
 
-Sections: header block, pipe strip, observation table (EN 13508-2 codes in
-words, every quantity as value ± U95 with unit and coverage), one block per
-measured quantity (thumbnail with contour and marks, key numbers, budget
-table and bars), warnings, and the method statement. Layout: docs/reports.md.
+Sections: verdicts (what is wrong, how sure, did the contractor code it
+right), header block, warnings (plain sentences with the action, each
+once), pipe strip over the surveyed range, observation table (EN 13508-2
+text, every quantity as value ± U95 with unit or its interval), detail pages
+with two or three measured quantities each (thumbnail with contour and
+marks, key numbers, budget table with units), and the method
+statement. Layout: docs/reports.md.
 """
 
 from __future__ import annotations
@@ -18,17 +21,20 @@ import numpy as np
 import pandas as pd
 from reportlab.lib import colors
 from reportlab.lib.units import mm
-from reportlab.platypus import (Image, KeepTogether, Paragraph, Spacer, Table, TableStyle)
+from reportlab.platypus import Image, KeepTogether, Paragraph, Spacer, Table, TableStyle
 
 from .. import __version__
 from ..coding.codes import plain_description
 from ..errors import StoreError
 from ..limits import MAX_REPORT_OBSERVATIONS, MAX_REPORT_QUANTITIES, MAX_REPORT_WARNINGS
 from ..store import file_stem, read_table
-from .graphics import budget_bars, pipe_strip
+from ..metrology.display import format_record     # the one place a value and its interval are written
+from ..pdf import FRAME_WIDTH, build_pdf, cell, grid_table, key_value_table, safe_text, styles
+from .graphics import pipe_strip, strip_span
 from .method import method_statement
-from .style import ACCENT, TABLE_STYLE, build_pdf, format_record, safe_text, styles
+from .style import number
 from .verdict_text import grade_text, log_check_text, verdict_lines
+from .warning_text import measurement_warnings
 
 __all__ = ["render_inspection_report", "inspection_warnings", "report_file_name", "NEAR_EXPIRY_DAYS"]
 
@@ -48,8 +54,7 @@ def _txt(v, limit: int = 400) -> str:
     return "" if _missing(v) else safe_text(v, limit)
 
 
-def _p(text: str, style: str = "cell") -> Paragraph:
-    return Paragraph(text, styles()[style])
+_p = cell
 
 
 def _coverage(m: dict) -> str:
@@ -59,7 +64,9 @@ def _coverage(m: dict) -> str:
 
 
 def inspection_warnings(inspection: dict, measurements: list[dict], today: dt.date) -> list[str]:
-    """Plain-language warnings: status, input problems, low-confidence contours, certificate validity."""
+    """Plain sentences, each once and with the action to take: status, input problems, low-confidence or
+    unmeasured quantities (one per observation and problem; the technical reasons stay in the dataset),
+    certificate validity."""
     out = []
     if inspection.get("status") != "ok":
         out.append(f"Status {inspection.get('status')}: {inspection.get('error') or 'see below'}.")
@@ -67,12 +74,7 @@ def inspection_warnings(inspection: dict, measurements: list[dict], today: dt.da
         out.append(f"Input problem: {problem}")
     for warning in inspection.get("warnings") if inspection.get("warnings") is not None else []:
         out.append(f"Check: {warning}.")
-    for m in measurements:
-        if m.get("status") == "ok" and not m.get("confident"):
-            out.append(f"Row {m['row']} {m['quantity']} ({m['code']}): low-confidence contour or plane: "
-                       f"{m.get('warnings') or 'see the contour'}; treat the value with care.")
-        elif m.get("status") != "ok":
-            out.append(f"Row {m['row']} {m['quantity']} ({m['code']}): not measured: {m.get('error')}")
+    out += measurement_warnings(measurements, _name)
     valid = inspection.get("certificate_valid_until")
     when = inspection.get("inspection_date")
     if not _missing(valid):
@@ -85,7 +87,13 @@ def inspection_warnings(inspection: dict, measurements: list[dict], today: dt.da
         elif valid < today:
             out.append(f"Certificate {inspection.get('certificate_id')} has expired since ({valid}); it was valid for "
                        "this inspection, but the camera needs recalibration before further use.")
-    return out
+    return list(dict.fromkeys(out))         # each once
+
+
+def _name(m: dict) -> str:
+    """An observation named for a reader: 'BAA A, deformation, vertical'."""
+    codes = " ".join(str(v) for v in (m.get("code"), m.get("char1"), m.get("char2")) if not _missing(v) and v)
+    return f"{codes}, {plain_description(m.get('code') or '', m.get('char1'), m.get('char2'))}"
 
 
 def _header_block(i: dict) -> Table:
@@ -111,10 +119,7 @@ def _header_block(i: dict) -> Table:
         ("Package", f"{_txt(i.get('inspection_id'))}, SHA-256 "
                     + (f"{_txt(i['package_sha256'][:16])}…" if isinstance(i.get("package_sha256"), str) else "not computed")),
     ]
-    t = Table([[_p(f"<b>{k}</b>"), _p(v)] for k, v in rows], colWidths=[24 * mm, 156 * mm])
-    t.setStyle(TableStyle(TABLE_STYLE[:2] + [("GRID", (0, 0), (-1, -1), 0.25, colors.grey),
-                                              ("BACKGROUND", (0, 0), (0, -1), ACCENT)]))
-    return t
+    return key_value_table(rows)
 
 
 def _verdict_block(i: dict, measurements: list[dict]) -> list:
@@ -128,10 +133,7 @@ def _verdict_block(i: dict, measurements: list[dict]) -> list:
         rows.append(("Log errors", "<br/>".join(
             f"row {m['row']} {_label(m)} {safe_text(m['code'])}: logged {m['logged_value']:g} {m['unit']}, measured "
             f"{safe_text(format_record(m))}, E_n {m['E_n']:.1f}" for m in wrong)))
-    t = Table([[_p(f"<b>{safe_text(k)}</b>"), _p(v if k == "Log errors" else safe_text(v, 800))] for k, v in rows],
-              colWidths=[24 * mm, 156 * mm])
-    t.setStyle(TableStyle(TABLE_STYLE[:2] + [("GRID", (0, 0), (-1, -1), 0.25, colors.grey),
-                                              ("BACKGROUND", (0, 0), (0, -1), ACCENT), ("VALIGN", (0, 0), (-1, -1), "TOP")]))
+    t = key_value_table([(safe_text(k), v if k == "Log errors" else safe_text(v, 800)) for k, v in rows])
     return [Paragraph("Verdicts", styles()["h2"]), t,
             Paragraph("Log check: the contractor's value against the measurement, E_n = |logged − measured| / "
                       "√(U95² + U_res²) with U_res from the logged value's step; E_n ≤ 1 agrees. Grades: "
@@ -148,9 +150,10 @@ def _delivered(o: dict) -> str:
 
 
 def _observation_table(observations: list[dict], by_row: dict[int, list[dict]]) -> Table:
+    """Every logged row in EN 13508-2 text with its measured values; a remark takes a row of its own under it."""
     head = ["Row", "m", "Code", "Description", "Clock", "Logged", "Measured (value ± U95 or [95 % interval])",
-            "Log check", "Grade", "Remark"]
-    rows = [[_p(h) for h in head]]
+            "Log check", "Grade"]
+    rows, spans = [[_p(h) for h in head]], []
     for o in observations:
         measured, checks = [], []
         for m in by_row.get(o["row"], []):
@@ -164,55 +167,121 @@ def _observation_table(observations: list[dict], by_row: dict[int, list[dict]]) 
             "" if _missing(o.get("clock_to")) else f"–{int(o['clock_to'])}")
         codes = " ".join(_txt(v) for v in (o.get("code"), o.get("char1"), o.get("char2")) if not _missing(v) and v)
         cont = "" if _missing(o.get("continuous")) or not o.get("continuous") else f" ({_txt(o['continuous'])})"
-        rows.append([_p(str(o["row"])), _p(f"{o['distance_m']:.2f}" if not _missing(o.get("distance_m")) else ""),
+        rows.append([_p(str(o["row"]), "number"),
+                     _p(f"{o['distance_m']:.2f}" if not _missing(o.get("distance_m")) else "", "number"),
                      _p(codes + cont), _p(safe_text(plain_description(o.get("code") or "", o.get("char1"), o.get("char2")))),
                      _p(clock), _p(_delivered(o)), _p("<br/>".join(measured)), _p("<br/>".join(checks)),
                      _p(safe_text(grade_text(o), 300) + (" · logged outside the surveyed range"
-                                                           if o.get("outside_survey") is True else "")),
-                     _p(_txt(o.get("remark"), 300))])
-    t = Table(rows, colWidths=[8 * mm, 10 * mm, 14 * mm, 25 * mm, 9 * mm, 15 * mm, 31 * mm, 28 * mm, 26 * mm, 14 * mm],
-              repeatRows=1)
-    t.setStyle(TableStyle(TABLE_STYLE))
-    return t
+                                                           if o.get("outside_survey") is True else ""))])
+        remark = _txt(o.get("remark"), 400)
+        if remark:
+            rows.append(["", _p(f"<i>Remark:</i> {remark}")] + [""] * (len(head) - 2))
+            spans.append(len(rows) - 1)
+    extra = [("TOPPADDING", (0, 0), (-1, -1), 1.2), ("BOTTOMPADDING", (0, 0), (-1, -1), 1.8)]
+    for r in spans:
+        extra += [("SPAN", (1, r), (-1, r)), ("LINEABOVE", (1, r), (-1, r), 0.25, colors.white)]
+    return grid_table(rows, [8 * mm, 10 * mm, 15 * mm, 28 * mm, 9 * mm, 15 * mm, 36 * mm, 31 * mm, 28 * mm], extra,
+                      split_rows=True)
+
+
+# Units of the budget's inputs (pipeline/measurement/quantity.py: its docstring names them); an input not listed
+# here is shown without a unit.
+_INPUT_UNITS = {"H": "mm", "p_H": "px", "p_X": "px", "xa": "px", "ya": "px", "xb": "px", "yb": "px", "xo": "px",
+                "yo": "px", "ox": "H", "oy": "H", "yaw": "rad", "pitch": "rad", "roll": "rad", "wall": "1",
+                "certificate": "1", "across": "mm"}
+_SCALES = ("wall", "certificate")   # relative factors, 1 at the nominal wall and at the certificate's own parameters
+
+
+def _budget_table(m: dict, budget: list[dict]) -> Table:
+    """The budget with units and fixed-width numbers (the inputs' descriptions: :func:`_input_legend`)."""
+    head = ["Input", "Estimate", "u", "Unit", "Dist.", "c_i", f"|c_i| u [{safe_text(m['unit'])}]"]
+    rows = [[_p(h, "tiny") for h in head]]
+    for b in budget:
+        label = str(b["label"])
+        rows.append([_p(_txt(label), "tiny"), _p(number(b["estimate"], 4), "tiny number"),
+                     _p(number(b["u"]), "tiny number"), _p(safe_text(_input_unit(label, m["unit"])), "tiny"),
+                     _p(_txt(_distribution(b["distribution"]), 40), "tiny"),
+                     _p(number(b["sensitivity"]), "tiny number"), _p(number(abs(b["contribution"])), "tiny number")])
+    return grid_table(rows, _BUDGET_WIDTHS, [("TOPPADDING", (0, 0), (-1, -1), 0.3),
+                                             ("BOTTOMPADDING", (0, 0), (-1, -1), 0.8),
+                                             ("LEFTPADDING", (0, 0), (-1, -1), 1.5),
+                                             ("RIGHTPADDING", (0, 0), (-1, -1), 1.5)])
+
+
+_BUDGET_WIDTHS = [13 * mm, 14 * mm, 11.5 * mm, 6 * mm, 13.5 * mm, 11 * mm, 12 * mm]
+
+
+def _input_unit(label: str, unit: str) -> str:
+    return unit if label == "approximation" else _INPUT_UNITS.get(label, "")
+
+
+def _joint_note(m: dict, budget: list[dict]) -> list[Paragraph]:
+    """A line when correlated (joint) inputs' contributions add up to more than u_c, which then needs saying."""
+    joint = [b for b in budget if "joint" in str(b["distribution"])]
+    squares = sum(float(b["contribution"]) ** 2 for b in budget if _finite(b.get("contribution")))
+    if not (joint and _finite(m.get("u")) and squares > float(m["u"]) ** 2):
+        return []
+    return [_p(f"{', '.join(safe_text(b['label']) for b in joint)} (the camera pose) are correlated and partly "
+               f"cancel: the contributions' squares add up to more than u_c² (√Σ = {number(squares ** 0.5)}, "
+               f"u_c = {number(m['u'])} {safe_text(m['unit'])}, which includes the correlation).", "tiny")]
+
+
+def _input_legend(measurements: list[dict]) -> str:
+    """The budgets' inputs named once for the report, from the dataset's own descriptions: 'xa [px] mark a, x ...'."""
+    seen: dict[str, dict[str, None]] = {}
+    for m in measurements:
+        for b in (m.get("budget") if m.get("budget") is not None else []):
+            seen.setdefault(str(b["label"]), {})[str(b["description"]).replace(" [mm]", "")] = None
+    out = []
+    for label, descriptions in seen.items():
+        unit = _input_unit(label, "the quantity's unit")
+        out.append(f"<b>{safe_text(label)}</b>{f' [{safe_text(unit)}]' if unit else ''} "
+                   + " or ".join(safe_text(d) for d in descriptions))
+    return "; ".join(out)
+
+
+def _distribution(text: str) -> str:
+    """A budget line's distribution in one short word: normal, rectangular, joint (jointly normal), nuisance."""
+    name = str(text).split("(x=")[0].strip()
+    return "joint" if "joint" in name else name
+
+
+def _finite(v) -> bool:
+    return isinstance(v, (int, float)) and math.isfinite(v)
+
+
+_THUMB = 50 * mm        # thumbnail width: the marks (3 px circles at 360 px) stay visible
 
 
 def _quantity_block(m: dict, thumbnail: bytes | None) -> KeepTogether:
-    codes = " ".join(_txt(v) for v in (m["code"], m.get("char1"), m.get("char2")) if not _missing(v) and v)
+    """One measured quantity in about a quarter of a page: thumbnail, budget table and key numbers side by side."""
     source = " (from the image alone, no marks)" if _source(m) == "contour" else ""
-    title = _p(f"<b>Row {m['row']} {m['quantity']}{source}: {codes}, "
-               f"{safe_text(plain_description(m['code'], m.get('char1'), m.get('char2')))}</b>", "body")
+    title = Paragraph(f"Row {m['row']} {m['quantity']}{source}: {safe_text(_name(m))}", styles()["h3"])
     if m["status"] != "ok":
         return KeepTogether([title, _p(f"Not measured: {_txt(m.get('error'))}", "warning"), Spacer(1, 3 * mm)])
     facts = [
-        ("Value (95 %)", safe_text(format_record(m))),
-        ("Standard u", f"{m['u']:.3g} {m['unit']}"),
+        ("Result", safe_text(format_record(m)) + " (95 %)"),
+        ("u", f"{m['u']:.3g} {m['unit']} (standard)"),
+        ("Logged", "-" if _missing(m.get("operator_value")) else f"{m['operator_value']:g} {m['unit']} (contractor)"),
         ("Coverage", _coverage(m)),
         ("Method", f"{_txt(m['method'])}, {_txt(m['model'])} model; seed {m['mc_seed']}"),
         ("Frame", f"{m['frame']} at chainage {m['chainage_m']:.2f} ± {1.96 * m['u_chainage_m']:.2f} m (U95)"),
         ("p_H, SC", f"{m['p_H_px']:.1f} ± {m['u_p_H_px']:.1f} px (u); SC {m['SC_mm_per_px']:.3f} mm/px"),
         ("Models", f"perspective {m['perspective_value']:.4g}, orthographic {m['orthographic_value']:.4g} {m['unit']}"),
-        ("Logged", "" if _missing(m.get("operator_value")) else f"{m['operator_value']:g} {m['unit']} (contractor)"),
     ]
-    if not m.get("confident"):
-        facts.append(("Warning", _txt(m.get("warnings")) or "low confidence"))
-    fact_table = Table([[_p(f"<b>{k}</b>"), _p(v)] for k, v in facts], colWidths=[21 * mm, 99 * mm])
-    fact_table.setStyle(TableStyle([("VALIGN", (0, 0), (-1, -1), "TOP"), ("LEFTPADDING", (0, 0), (-1, -1), 1.5),
-                                    ("TOPPADDING", (0, 0), (-1, -1), 0.5), ("BOTTOMPADDING", (0, 0), (-1, -1), 0.5)]))
-    image = Image(io.BytesIO(thumbnail), width=56 * mm, height=56 * mm * 0.8, kind="proportional") if thumbnail else _p("(no thumbnail)")
-    top = Table([[image, fact_table]], colWidths=[60 * mm, 120 * mm])
-    top.setStyle(TableStyle([("VALIGN", (0, 0), (-1, -1), "TOP"), ("LEFTPADDING", (0, 0), (-1, -1), 0)]))
+    side = FRAME_WIDTH - _THUMB - sum(_BUDGET_WIDTHS) - 3 * mm
+    fact_table = Table([[_p(f"<b>{k}</b>", "tiny"), _p(v, "tiny")] for k, v in facts], colWidths=[13 * mm, side - 13 * mm])
+    fact_table.setStyle(TableStyle([("VALIGN", (0, 0), (-1, -1), "TOP"), ("LEFTPADDING", (0, 0), (-1, -1), 0),
+                                    ("RIGHTPADDING", (0, 0), (-1, -1), 1), ("TOPPADDING", (0, 0), (-1, -1), 0.3),
+                                    ("BOTTOMPADDING", (0, 0), (-1, -1), 0.3)]))
+    image = (Image(io.BytesIO(thumbnail), width=_THUMB, height=_THUMB * 0.8, kind="proportional") if thumbnail
+             else _p("(no thumbnail)"))
     budget = list(m["budget"]) if m.get("budget") is not None else []
-    head = ["Input", "Description", "Estimate", "u", "Distribution", "c_i", f"|c_i| u [{m['unit']}]"]
-    rows = [[_p(h) for h in head]] + [[
-        _p(_txt(b["label"])), _p(_txt(b["description"])), _p(f"{b['estimate']:.5g}"), _p(f"{b['u']:.3g}"),
-        _p(_txt(str(b["distribution"]).split("(x=")[0], 40)), _p(f"{b['sensitivity']:.3g}"),
-        _p(f"{abs(b['contribution']):.3g}")] for b in budget]
-    table = Table(rows, colWidths=[15 * mm, 47 * mm, 15 * mm, 14 * mm, 16 * mm, 13 * mm, 13 * mm], repeatRows=1)
-    table.setStyle(TableStyle(TABLE_STYLE + [("TOPPADDING", (0, 0), (-1, -1), 0.8),
-                                              ("BOTTOMPADDING", (0, 0), (-1, -1), 1.2)]))
-    bottom = Table([[table, budget_bars(budget, m["u"], m["unit"], width=46 * mm)]], colWidths=[135 * mm, 45 * mm])
-    bottom.setStyle(TableStyle([("VALIGN", (0, 0), (-1, -1), "TOP"), ("LEFTPADDING", (0, 0), (-1, -1), 0)]))
-    return KeepTogether([title, Spacer(1, 1.5 * mm), top, Spacer(1, 1.5 * mm), bottom, Spacer(1, 5 * mm)])
+    top = Table([[image, _budget_table(m, budget), fact_table]],
+                colWidths=[_THUMB + 1.5 * mm, sum(_BUDGET_WIDTHS) + 1.5 * mm, side])
+    top.setStyle(TableStyle([("VALIGN", (0, 0), (-1, -1), "TOP"), ("LEFTPADDING", (0, 0), (-1, -1), 0),
+                             ("RIGHTPADDING", (0, 0), (-1, -1), 0)]))
+    return KeepTogether([title, top, *_joint_note(m, budget), Spacer(1, 3 * mm)])
 
 
 def _label(m: dict) -> str:
@@ -258,29 +327,44 @@ def render_inspection_report(data: str | os.PathLike, inspection_id: str, path: 
     st = styles()
     story = [Paragraph(f"Condition report: section {_txt(inspection.get('section_id'))} "
                        f"({_txt(inspection.get('start_node'))} → {_txt(inspection.get('finish_node'))})", st["title"]),
-             _header_block(inspection), *_verdict_block(inspection, measurements)]
+             *_verdict_block(inspection, measurements), Paragraph("Inspection", st["h2"]), _header_block(inspection)]
     warnings = inspection_warnings(inspection, measurements, today)
     story += [Paragraph("Warnings", st["h2"])]
     story += [Paragraph("• " + safe_text(w, 600), st["warning"]) for w in warnings[:MAX_REPORT_WARNINGS]] or [
         Paragraph("None.", st["body"])]
     story += _more(len(warnings) - MAX_REPORT_WARNINGS, "warnings", "the inspection's problems in the dataset")
+    span = strip_span(observations, inspection.get("survey_start_m"), inspection.get("survey_end_m"),
+                      inspection.get("section_length_m"))
+    beyond = [o["row"] for o in observations if _finite(o.get("distance_m"))
+              and not span[0] - 1e-9 <= o["distance_m"] <= span[1] + 1e-9]
     story += [Paragraph("Observations along the section", st["h2"]),
-              pipe_strip(observations, inspection.get("section_length_m") or 0.0, set(by_row)),
-              Paragraph("Unrolled wall: clock position 12 (crown) at the top, 6 (invert) in the middle; measured "
-                        "observations in red.", st["small"]),
+              pipe_strip(observations, span, set(by_row)),
+              Paragraph(f"Unrolled wall over the surveyed range {span[0]:g}-{span[1]:g} m: clock position 12 (crown) "
+                        "at the top, 6 (invert) in the middle; measured observations in red"
+                        + (f"; {'rows' if len(beyond) > 1 else 'row'} {', '.join(map(str, beyond))} "
+                           f"{'lie' if len(beyond) > 1 else 'lies'} outside this range and stand at its edge"
+                           if beyond else "") + ".", st["small"]),
               Spacer(1, 2 * mm),
               _observation_table(observations[:MAX_REPORT_OBSERVATIONS], by_row),
               *_more(len(observations) - MAX_REPORT_OBSERVATIONS, "observations", "the export"),
               Paragraph("Every measured value is given as value ± U95 (expanded uncertainty, 95 % coverage) with its "
                         "unit, or as value [low, high] when its 95 % interval lies unevenly about it, or as "
                         "&lt; high when the feature spans under 2 px in the image (below resolution: only its upper "
-                        "bound is measured); ⚠ marks a low-confidence measurement (see Warnings).", st["small"])]
+                        "bound is measured); ⚠ marks a low-confidence measurement (see Warnings); \"(image)\": "
+                        "measured from the image alone, without the contractor's marks.", st["small"])]
     if measurements:
-        story.append(Paragraph("Measured quantities and their uncertainty budgets", st["h2"]))
+        story += [Paragraph("Measured quantities and their uncertainty budgets", st["h2"]),
+                  Paragraph("Each budget lists its inputs with estimate and standard uncertainty u in the unit "
+                            "column, the distribution (joint: jointly normal), the sensitivity c_i in the quantity's "
+                            "unit per input unit, and the contribution |c_i| u in the quantity's unit. Inputs: "
+                            + _input_legend(measurements[:MAX_REPORT_QUANTITIES]) + ". <i>wall</i> and "
+                            "<i>certificate</i> are scale factors, 1 at the nominal wall and at the certificate's own "
+                            "parameters, their u relative (0.01 = 1 %); <i>across</i> is listed but no part of the "
+                            "value (c_i = 0).", st["small"])]
         story += [_quantity_block(m, thumbs.get((m["row"], m["quantity"], _source(m))))
                   for m in measurements[:MAX_REPORT_QUANTITIES]]
         story += _more(len(measurements) - MAX_REPORT_QUANTITIES, "measured quantities", "the export")
-    story += [Paragraph("Method", st["h2"])] + [Paragraph(p, st["small"]) for p in method_statement(inspection.get("model"))]
+    story += [Paragraph("Method", st["h2"])] + [Paragraph(p, st["tiny"]) for p in method_statement(inspection.get("model"))]
 
     return build_pdf(story, path, title=f"Condition report {inspection_id}",
                      footer=f"pipegauge {__version__} · inspection {inspection_id[:60]} · "

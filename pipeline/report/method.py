@@ -50,5 +50,6 @@ def method_statement(model: str | None) -> list[str]:
             "95 % interval and U95 its largest distance from the value. Seeds are fixed per quantity, so a re-run "
             "repeats every trial."]
     budget = ["Budgets list each input's estimate, standard uncertainty, distribution and sensitivity c_i "
-              "(linearised model); the bars compare |c_i| u(x_i) with the combined standard uncertainty u_c."]
+              "(linearised model) and its contribution |c_i| u(x_i), to compare with the combined standard "
+              "uncertainty u_c."]
     return common + specific + budget + [VALIDATION]

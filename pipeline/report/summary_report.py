@@ -16,7 +16,8 @@ from .. import __version__
 from ..coding.codes import plain_description
 from ..store import read_table
 from ..grading import SCHEMES, scheme
-from .style import TABLE_STYLE, build_pdf, format_record, safe_text, styles
+from ..metrology.display import format_record     # the one place a value and its interval are written
+from ..pdf import TABLE_STYLE, build_pdf, safe_text, styles
 from .verdict_text import grade_text, is_missing
 
 __all__ = ["render_night_summary", "worst_observations", "log_disagreements"]
@@ -53,6 +54,13 @@ def worst_observations(measurements: pd.DataFrame, heights_mm: dict[str, float],
     ok = ok[ok.severity.notna() | (ok.rank_grade < math.inf)]
     return ok.sort_values(["rank_grade", "rank_likely", "rank_p", "severity"],
                           ascending=[True, True, True, False], na_position="last").head(n)
+
+
+def _quantity(r) -> str:
+    """Code, characterisation and quantity of a measurement row, tagged "(image)" when measured from the image alone
+    (its marked twin of the same row may hold a different value)."""
+    tag = " (image)" if getattr(r, "source", None) == "contour" else ""
+    return f"{r.code} {r.char1 or ''} {r.quantity}{tag}"
 
 
 def log_disagreements(measurements: pd.DataFrame, n: int = 30) -> pd.DataFrame:
@@ -98,7 +106,7 @@ def render_night_summary(rows: Sequence[dict], data: str | os.PathLike, path: st
         table = [[Paragraph(h, st["cell"]) for h in ("Inspection", "Row", "Code", "Logged", "Measured (95 %)", "E_n")]]
         for r in wrong.itertuples():
             table.append([Paragraph(safe_text(r.inspection_id, 80), st["cell"]), Paragraph(str(r.row), st["cell"]),
-                          Paragraph(safe_text(f"{r.code} {r.char1 or ''} {r.quantity}"), st["cell"]),
+                          Paragraph(safe_text(_quantity(r)), st["cell"]),
                           Paragraph(f"{r.logged_value:g} {r.unit}", st["cell"]),
                           Paragraph(safe_text(format_record(r._asdict())), st["cell"]),
                           Paragraph(f"{r.E_n:.1f}", st["cell"])])
@@ -120,12 +128,12 @@ def render_night_summary(rows: Sequence[dict], data: str | os.PathLike, path: st
                                                      "Upper bound", "Grade")]]
         for r in worst.itertuples():
             table.append([Paragraph(safe_text(r.inspection_id, 80), st["cell"]), Paragraph(str(r.row), st["cell"]),
-                          Paragraph(safe_text(f"{r.code} {r.char1 or ''} {r.quantity}"), st["cell"]),
+                          Paragraph(safe_text(_quantity(r)), st["cell"]),
                           Paragraph(safe_text(plain_description(r.code, r.char1, r.char2)), st["cell"]),
                           Paragraph(safe_text(format_record(r._asdict())), st["cell"]),
                           Paragraph(f"{r.high:.3g} {r.unit}", st["cell"]),
                           Paragraph(safe_text(grade_text(r._asdict()), 200), st["cell"])])
-        t = Table(table, colWidths=[30 * mm, 8 * mm, 18 * mm, 34 * mm, 30 * mm, 17 * mm, 43 * mm], repeatRows=1)
+        t = Table(table, colWidths=[37 * mm, 8 * mm, 19 * mm, 30 * mm, 27 * mm, 15 * mm, 44 * mm], repeatRows=1)
         t.setStyle(TableStyle(TABLE_STYLE))
         story.append(t)
     else:

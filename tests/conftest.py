@@ -1,7 +1,9 @@
-"""Fixtures shared by the whole test session: one OCR reader, one Prefect home and one Prefect server."""
+"""Fixtures shared by the whole test session: one OCR reader, the samples measured once, one Prefect server."""
 
 from __future__ import annotations
 
+import datetime as dt
+import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -49,3 +51,23 @@ def prefect_server(prefect_home, tmp_path_factory):
         yield api
     finally:
         stop(server)
+
+
+@pytest.fixture(scope="session")
+def sample_night(tmp_path_factory) -> Path:
+    """The three sample packages measured once for the session into one dataset, as a run would (``process_package``),
+    with their reports and a night's summary. Tests that only read these results share them."""
+    from pipeline.inspection import process_package
+    from pipeline.report import render_night_summary
+
+    samples = Path(__file__).resolve().parent.parent / "sample_videos"
+    root = tmp_path_factory.mktemp("sample-night")
+    shutil.copytree(samples / "certificates", root / "inbox" / "certificates")
+    rows = []
+    for name in ("S01-circular-clean", "S02-circular-water-offset", "S03-egg-concrete"):
+        shutil.copytree(samples / name, root / "inbox" / name, ignore=shutil.ignore_patterns("truth"))
+        outcome = process_package(root / "inbox" / name, root / "dataset", reports=root / "reports")
+        rows.append({"package": name, "inspection_id": name, "status": outcome.status, "quantities": 0,
+                     "error": "", "processed": True})
+    render_night_summary(rows, root / "dataset", root / "reports" / "summary.pdf", night=dt.date(2026, 11, 30))
+    return root

@@ -291,13 +291,13 @@ def test_a_transfer_over_the_size_cap_is_refused_before_parsing(tmp_path):
 
 # -- a whole run: hostile and good transfer packages, and the round trip --------
 
-def test_a_sample_delivered_as_a_transfer_measures_bit_for_bit_as_its_csv_package(tmp_path, ili_models, capsys):
+def test_a_sample_delivered_as_a_transfer_measures_bit_for_bit_as_its_csv_package(tmp_path, ili_models, capsys,
+                                                                                   sample_night):
     """S02 as a 2019 transfer measures to exactly the CSV package's values; a hostile package in the same
     `measure` run fails with its reason while the other completes; the dataset's export passes the validator."""
     import pandas as pd
 
-    from pipeline.inspection import measure_package
-    from pipeline.store import read_table, write_inspection
+    from pipeline.store import read_table
 
     sample = "S02-circular-water-offset"
     inbox = tmp_path / "inbox"
@@ -318,16 +318,15 @@ def test_a_sample_delivered_as_a_transfer_measures_bit_for_bit_as_its_csv_packag
     assert "refused: the file declares a DTD or entities" in stored.loc["hostile", "error"]
     assert stored.loc[sample, "status"] == "ok"
 
-    csv_result = measure_package(SAMPLES / sample, certificates=SAMPLES / "certificates")
-    write_inspection(tmp_path / "csv-dataset", csv_result.inspection, csv_result.observations, csv_result.measurements,
-                     csv_result.thumbnails)
+    csv_dataset = sample_night / "dataset"          # the CSV package, measured once for the session
     keys = ["row", "quantity", "source", "value", "u", "U95", "low", "high", "p_H_px", "operator_value", "status",
             "confident", "budget"]
-    tables = [read_table(root, "measurements").sort_values(["row", "quantity", "source"], ignore_index=True)[keys]
-              for root in (tmp_path / "csv-dataset", data)]
+    tables = [read_table(root, "measurements", inspection_ids=[sample]).sort_values(["row", "quantity", "source"], ignore_index=True)[keys]
+              for root in (csv_dataset, data)]
     assert len(tables[0]) >= 5 and (tables[0]["status"] == "ok").sum() >= 5
     pd.testing.assert_frame_equal(tables[1], tables[0], check_exact=True)      # bit for bit
-    obs = [read_table(root, "observations").drop(columns=["inspection_date", "write_id"]) for root in (tmp_path / "csv-dataset", data)]
+    obs = [read_table(root, "observations", inspection_ids=[sample]).drop(columns=["inspection_date", "write_id"])
+           for root in (csv_dataset, data)]
     pd.testing.assert_frame_equal(obs[1], obs[0], check_exact=True)
 
     out = tmp_path / "transfers"

@@ -8,9 +8,7 @@ each character's box and font size.
 
 from __future__ import annotations
 
-import datetime as dt
 import re
-import shutil
 from pathlib import Path
 
 import numpy as np
@@ -18,9 +16,8 @@ import pypdfium2 as pdfium
 import pypdfium2.raw as pdfium_c
 import pytest
 
-from pipeline.inspection import process_package
 from pipeline.metrology.display import format_record
-from pipeline.report import render_inspection_report, render_night_summary
+from pipeline.report import render_inspection_report
 from pipeline.report.example import example_inspection
 from pipeline.report.style import number
 from pipeline.store import read_table, write_inspection
@@ -108,25 +105,10 @@ def _budget_numbers(measurements) -> set[str]:
     return out
 
 
-@pytest.fixture(scope="module")
-def samples(tmp_path_factory):
-    """The three sample packages measured into one dataset, with their reports and the night's summary."""
-    root = tmp_path_factory.mktemp("samples")
-    shutil.copytree(SAMPLES / "certificates", root / "inbox" / "certificates")
-    rows = []
-    for name in PACKAGES:
-        shutil.copytree(SAMPLES / name, root / "inbox" / name, ignore=shutil.ignore_patterns("truth"))
-        outcome = process_package(root / "inbox" / name, root / "dataset", reports=root / "reports")
-        rows.append({"package": name, "inspection_id": name, "status": outcome.status, "quantities": 0,
-                     "error": "", "processed": True})
-    render_night_summary(rows, root / "dataset", root / "reports" / "summary.pdf", night=dt.date(2026, 11, 30))
-    return root
-
-
 @pytest.mark.parametrize("name", PACKAGES)
-def test_sample_reports_lay_out_cleanly(samples, name):
-    pages = _check_layout(samples / "reports" / f"{name}.pdf")
-    m = read_table(samples / "dataset", "measurements", inspection_ids=[name])
+def test_sample_reports_lay_out_cleanly(sample_night, name):
+    pages = _check_layout(sample_night / "reports" / f"{name}.pdf")
+    m = read_table(sample_night / "dataset", "measurements", inspection_ids=[name])
     lines = _lines(pages)
     _assert_numbers_whole(lines, _budget_numbers(m))
     flat = " ".join(" ".join(lines).split())
@@ -136,14 +118,14 @@ def test_sample_reports_lay_out_cleanly(samples, name):
         assert len(pages) <= S01_PAGES_BEFORE // 2, len(pages)
 
 
-def test_sample_summary_lays_out_cleanly(samples):
-    pages = _check_layout(samples / "reports" / "summary.pdf")
+def test_sample_summary_lays_out_cleanly(sample_night):
+    pages = _check_layout(sample_night / "reports" / "summary.pdf")
     flat = " ".join(_lines(pages))
     assert "Worst observations" in flat
 
 
-def test_sample_warnings_are_plain_and_said_once(samples):
-    text = [t for page in _pages(samples / "reports" / "S01-circular-clean.pdf") for *_, t in page["boxes"]]
+def test_sample_warnings_are_plain_and_said_once(sample_night):
+    text = [t for page in _pages(sample_night / "reports" / "S01-circular-clean.pdf") for *_, t in page["boxes"]]
     flat = " ".join(" ".join(text).split())
     warnings = flat.split("Warnings", 1)[1].split("Observations along the section", 1)[0]
     sentences = [s.strip() for s in warnings.split("•") if s.strip()]

@@ -117,8 +117,12 @@ def test_hostile_remarks_render_safely(tmp_path):
 def test_warnings_for_confidence_status_and_certificate():
     inspection, _, measurements, _ = example_inspection(n_observations=10)
     inspection.update(status="partial", error="1 input problem(s)", problems=["marks.csv row 3: outside the frame"],
-                      certificate_valid_until=dt.date(2026, 12, 1))
+                      certificate_valid_until=dt.date(2026, 12, 1),
+                      warnings=["the overlay says vitrified clay but the header's material is concrete"])
     w = inspection_warnings(inspection, measurements, today=dt.date(2026, 11, 27))
+    # every warning says what to do
+    assert all("Action:" in x or "recalibrat" in x for x in w), [x for x in w if "Action:" not in x]
+    assert any("overlay and the section header disagree" in x and "vitrified clay" in x for x in w)
     assert any("Status partial" in x for x in w)
     assert any("marks.csv row 3" in x for x in w)
     low = [x for x in w if x.startswith("Row 10,")]

@@ -69,11 +69,13 @@ def inspection_warnings(inspection: dict, measurements: list[dict], today: dt.da
     certificate validity."""
     out = []
     if inspection.get("status") != "ok":
-        out.append(f"Status {inspection.get('status')}: {inspection.get('error') or 'see below'}.")
+        out.append(f"Status {inspection.get('status')}: {inspection.get('error') or 'see below'}. Action: correct "
+                   "the delivery as the problems below say and deliver it again; the next night measures it anew.")
     for problem in inspection.get("problems") if inspection.get("problems") is not None else []:
-        out.append(f"Input problem: {problem}")
+        out.append(f"Input problem: {problem}. Action: ask the contractor to correct this row or field.")
     for warning in inspection.get("warnings") if inspection.get("warnings") is not None else []:
-        out.append(f"Check: {warning}.")
+        out.append(f"The video's overlay and the section header disagree: {warning}. Action: check which one is "
+                   "right; a wrong header (height, shape, material) changes every measured value.")
     out += measurement_warnings(measurements, _name)
     valid = inspection.get("certificate_valid_until")
     when = inspection.get("inspection_date")

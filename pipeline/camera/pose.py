@@ -58,11 +58,22 @@ def camera_rotation(yaw: float, pitch: float, roll: float) -> np.ndarray:
 def camera_rotations(yaw, pitch, roll) -> np.ndarray:
     """R_wc (n, 3, 3) for arrays of angles (n,) [rad]: ``camera_rotation`` for many poses at once."""
     yaw, pitch, roll = np.broadcast_arrays(*(np.atleast_1d(np.asarray(a, float)) for a in (yaw, pitch, roll)))
-    cy, sy, cp, sp, cr, sr = np.cos(yaw), np.sin(yaw), np.cos(pitch), np.sin(pitch), np.cos(-roll), np.sin(-roll)
-    one, zero = np.ones_like(yaw), np.zeros_like(yaw)
-    Ry = np.stack([np.stack([cy, zero, sy], -1), np.stack([zero, one, zero], -1), np.stack([-sy, zero, cy], -1)], -2)
-    Rx = np.stack([np.stack([one, zero, zero], -1), np.stack([zero, cp, -sp], -1), np.stack([zero, sp, cp], -1)], -2)
-    Rz = np.stack([np.stack([cr, -sr, zero], -1), np.stack([sr, cr, zero], -1), np.stack([zero, zero, one], -1)], -2)
+    # filled in place rather than stacked from rows: the same factors (so the same products, bit for bit) at
+    # half the cost, which Monte Carlo draws of 10^5 poses notice
+    shape = yaw.shape + (3, 3)
+    Ry, Rx, Rz = np.zeros(shape), np.zeros(shape), np.zeros(shape)
+    Ry[..., 0, 0] = Ry[..., 2, 2] = np.cos(yaw)
+    Ry[..., 0, 2] = np.sin(yaw)
+    Ry[..., 2, 0] = -Ry[..., 0, 2]
+    Ry[..., 1, 1] = 1.0
+    Rx[..., 1, 1] = Rx[..., 2, 2] = np.cos(pitch)
+    Rx[..., 2, 1] = np.sin(pitch)
+    Rx[..., 1, 2] = -Rx[..., 2, 1]
+    Rx[..., 0, 0] = 1.0
+    Rz[..., 0, 0] = Rz[..., 1, 1] = np.cos(-roll)
+    Rz[..., 1, 0] = np.sin(-roll)
+    Rz[..., 0, 1] = -Rz[..., 1, 0]
+    Rz[..., 2, 2] = 1.0
     return Ry @ Rx @ Rz @ _BASE
 
 

@@ -58,23 +58,24 @@ def camera_rotation(yaw: float, pitch: float, roll: float) -> np.ndarray:
 def camera_rotations(yaw, pitch, roll) -> np.ndarray:
     """R_wc (n, 3, 3) for arrays of angles (n,) [rad]: ``camera_rotation`` for many poses at once."""
     yaw, pitch, roll = np.broadcast_arrays(*(np.atleast_1d(np.asarray(a, float)) for a in (yaw, pitch, roll)))
-    # filled in place rather than stacked from rows: the same factors (so the same products, bit for bit) at
-    # half the cost, which Monte Carlo draws of 10^5 poses notice
+    # Bit for bit the product Ry Rx Rz diag(1, -1, 1) of the scalar version, at a quarter of the cost of stacking
+    # three matrices and multiplying them (Monte Carlo draws of 10^5 poses notice): each element of Ry Rx is a
+    # single product (the other terms are exact zeros); (Ry Rx) Rz stays a matmul, whose fused multiply-adds
+    # decide the last bit; the base only negates the second column.
     shape = yaw.shape + (3, 3)
-    Ry, Rx, Rz = np.zeros(shape), np.zeros(shape), np.zeros(shape)
-    Ry[..., 0, 0] = Ry[..., 2, 2] = np.cos(yaw)
-    Ry[..., 0, 2] = np.sin(yaw)
-    Ry[..., 2, 0] = -Ry[..., 0, 2]
-    Ry[..., 1, 1] = 1.0
-    Rx[..., 1, 1] = Rx[..., 2, 2] = np.cos(pitch)
-    Rx[..., 2, 1] = np.sin(pitch)
-    Rx[..., 1, 2] = -Rx[..., 2, 1]
-    Rx[..., 0, 0] = 1.0
+    cy, sy, cp, sp = np.cos(yaw), np.sin(yaw), np.cos(pitch), np.sin(pitch)
+    M = np.empty(shape)
+    M[..., 0, 0], M[..., 0, 1], M[..., 0, 2] = cy, sy * sp, sy * cp
+    M[..., 1, 0], M[..., 1, 1], M[..., 1, 2] = 0.0, cp, -sp
+    M[..., 2, 0], M[..., 2, 1], M[..., 2, 2] = -sy, cy * sp, cy * cp
+    Rz = np.zeros(shape)
     Rz[..., 0, 0] = Rz[..., 1, 1] = np.cos(-roll)
     Rz[..., 1, 0] = np.sin(-roll)
     Rz[..., 0, 1] = -Rz[..., 1, 0]
     Rz[..., 2, 2] = 1.0
-    return Ry @ Rx @ Rz @ _BASE
+    R = M @ Rz
+    R[..., :, 1] *= -1.0
+    return R
 
 
 @dataclass(frozen=True)

@@ -1,15 +1,16 @@
 """A night's video: one section surveyed end to end, measured by ``pipegauge measure``, against decoding alone.
 
 Renders (once, into ``--dir``; reused while its files are there) a 300 mm
-concrete sewer of 37.5 m surveyed end to end at 720x576 and 25 fps: about
-6.5 minutes of video with 25 logged observations of varied codes (cracks
-around and along, laterals and intruding ones, displaced joints, a
-deformation, a deposit, the water level), a stop at each, an extra stop and
-a short reversal (the crawler backs up 0.6 m and drives on). With
+concrete sewer of 34.4 m surveyed end to end at 720x576 and 25 fps: 9409
+frames (6.3 minutes) with 28 coded observations of varied codes (cracks
+around and along, laterals and intruding ones, a displaced joint's gap and
+step, a deformation, a deposit, the water level), a stop at each, an extra
+stop and a short reversal (the crawler backs up 0.6 m and drives on). With
 ``--codec h264`` the package is also delivered as H.264 (PyAV,
 ``pipeline/synth/delivery.py``) and that copy is measured.
 
-Prints, measured in one run: the decode-only time (a ``cv2`` grab loop),
+Prints, measured in one run: the decode-only time (a ``cv2`` grab loop, the
+fastest of three: two before the measurement, one after),
 ``pipegauge measure`` wall and CPU time (a child process, start-up
 included) and their ratios to decode-only; the track alone (its
 ``time_track_s``) against decode-only; the contour time per observation
@@ -138,8 +139,10 @@ def main() -> None:
     truth = json.loads((package / "truth" / "truth.json").read_text())
     true_value = {(o["row"], q["quantity"]): q["true_value"] for o in truth["observations"] for q in o["quantities"]}
 
-    t_decode = decode_only(package / "video.mp4")
+    # the fastest of three, one of them after the measurement: the machine's other load only ever adds time
+    t_decode = min(decode_only(package / "video.mp4") for _ in range(2))
     wall, cpu, records = measure(package, args.code)
+    t_decode = min(t_decode, decode_only(package / "video.mp4"))
     rec = records["inspection"]
     ok = [m for m in records["measurements"] if m["status"] == "ok"]
     marked = [m for m in ok if m["source"] == "marks"]
@@ -149,8 +152,8 @@ def main() -> None:
     print(f"{package.name} ({rec['video_frames']} frames, {rec['video_frames'] / rec['video_fps'] / 60:.1f} min, "
           f"{args.codec or 'MPEG-4 as written'}{', code of ' + str(args.code) if args.code else ''}): {rec['n_observations']} log rows, "
           f"{len(frames)} observation frames, {len(ok)} quantities measured ({len(marked)} marked, "
-          f"U95 holds the truth for {held})")
-    print(f"  decode only (grab loop) {t_decode:.1f} s")
+          f"U95 holds the truth for {held}); status {rec['status']}" + (f" ({'; '.join(rec['problems'])})" if rec.get('problems') else ""))
+    print(f"  decode only (grab loop, fastest of 3) {t_decode:.1f} s")
     print(f"  measure: wall {wall:.1f} s = {wall / t_decode:.1f} x decode-only "
           f"(target <= {3 if args.codec == 'h264' else 4}); CPU {cpu:.1f} s = {cpu / t_decode:.1f} x decode-only")
     print(f"  track {rec['time_track_s']:.1f} s = {rec['time_track_s'] / t_decode:.2f} x decode-only (target <= 1.5); "

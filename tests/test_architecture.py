@@ -87,3 +87,5 @@ def test_the_library_never_loads_prefect_and_the_models_load_no_video_stack():
     models = _loaded_after("import pipeline.measurement, pipeline.camera, pipeline.metrology")
     assert not {m for m in models if m.startswith(("pipeline.video", "pipeline.report", "pipeline.synth", "rapidocr",
                                                    "reportlab", "onnxruntime"))}
+    # scipy.stats costs a second at every start-up for two quantiles that scipy.special gives
+    assert not {m for m in everything | models if m.startswith("scipy.stats")}

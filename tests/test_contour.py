@@ -244,3 +244,34 @@ def test_pose_and_depth_fit_reaches_scipy_least_squares_solution(loss):
     assert np.allclose(ours.fun, ref.fun, atol=1e-5)
     if loss == "linear":
         assert np.allclose(ours.jac, ref.jac, rtol=1e-4, atol=1e-3 * np.abs(ref.jac).max())
+
+
+def test_windows_fitted_while_decoding_equal_the_fits_one_after_another_and_keep_the_ideal_frames():
+    from pipeline.contour.consensus import reconcile_windows
+    from pipeline.contour.detect import contour_from_candidates, frame_candidates, wall_u_from_tolerance
+    from pipeline.video.ingest import ingest_chainage
+    from pipeline.video.pipe_contour import contours_at_frames, overlay_mask_of, window_frames
+    from pipeline.video.reader import read_frame
+
+    folder = SAMPLES / "S03-egg-concrete"
+    truth, _, cert = _truth(folder)
+    video = folder / "video.mp4"
+    und = Undistorter(cert, cert.image_width_px, cert.image_height_px)
+    ingest = ingest_chainage(video)
+    mask = overlay_mask_of(ingest.spread_frames.values(), und)
+    frames = sorted({o["frame"] for o in truth["observations"] if o.get("quantities")})
+    kept: dict = {}
+    got = contours_at_frames(video, frames, ingest.track, und, "egg", height_mm=600, tolerance_mm=5, mask=mask,
+                             ideal_frames=kept)
+    windows = {f: window_frames(ingest.track, f) for f in frames}
+    grays = read_ideal_grays(video, {i for w in windows.values() for i in w}, und)
+    one_by_one = {f: contour_from_candidates([frame_candidates(grays[i], mask) for i in w], und.K, "egg",
+                                             wall_u=wall_u_from_tolerance(600, 5)) for f, w in windows.items()}
+    expected = reconcile_windows(one_by_one, windows)
+    assert set(got) == set(expected) == set(frames) and len(frames) > 1
+    for f in frames:
+        assert np.array_equal(got[f].view.pose, expected[f].view.pose)
+        assert np.array_equal(got[f].covariance, expected[f].covariance)
+        assert got[f].problems == expected[f].problems and got[f].rms_px == expected[f].rms_px
+    assert set(kept) == set(frames)
+    assert all(np.array_equal(kept[f], und.frame(read_frame(video, f))) for f in frames)

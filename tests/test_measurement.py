@@ -14,7 +14,8 @@ from pipeline.contour import PipeView
 from pipeline.contour.result import PipeContour, Ring
 from pipeline.measurement import MarkedQuantity, measure_quantity, value_from_image_ratio, value_from_points
 from pipeline.measurement.methods import METHODS, reference_dimension
-from pipeline.measurement.rays import marked_points
+from pipeline.camera.pose import camera_rotation, camera_rotations
+from pipeline.measurement.rays import marked_points, plane_point, ray_directions, wall_point
 from pipeline.profiles import level_tables
 from pipeline.camera.undistort import Undistorter
 
@@ -47,6 +48,40 @@ def test_perspective_model_reproduces_the_true_values_from_noise_free_marks(pack
             # a gap's far edge lies on the displaced pipe, off the nominal wall: grazing rays magnify that
             rel = 0.1 if method == "axial" else 0.01
             assert v == pytest.approx(q["true_value"], rel=rel, abs=0.3), (o["row"], o["code"], method)
+
+
+
+def test_rotations_of_many_poses_are_each_poses_rotation_bit_for_bit():
+    yaw, pitch, roll = np.random.default_rng(3).normal(0.0, 0.3, (3, 200))
+    R = camera_rotations(yaw, pitch, roll)
+    assert all(np.array_equal(R[i], camera_rotation(yaw[i], pitch[i], roll[i])) for i in range(200))
+
+
+@pytest.mark.parametrize("surfaces", [("wall", "wall"), ("wall", "plane"), ("plane", "wall"), ("plane", "plane")])
+def test_marked_points_with_one_rotation_per_draw_set_are_those_of_each_ray_bit_for_bit(surfaces):
+    rng = np.random.default_rng(5)
+    n = 1000
+    pose = dict(ox=rng.normal(0, 0.02, n), oy=rng.normal(-0.05, 0.02, n), yaw=rng.normal(0.02, 0.01, n),
+                pitch=rng.normal(0.01, 0.01, n), roll=rng.normal(0.0, 0.01, n))
+    K = dict(fx=380.0, fy=380.0, cx=362.0, cy=286.0)
+    xa, ya, xb, yb, xo, yo = (rng.normal(m, 0.5, n) for m in (300.0, 120.0, 420.0, 130.0, 360.0, 100.0))
+    Pa, Pb = marked_points(surfaces, "circular", xa, ya, xb, yb, **K, **pose, anchor=(xo, yo))
+    angles = (pose["yaw"], pose["pitch"], pose["roll"])
+    da, db = (ray_directions(x, y, *K.values(), *angles) for x, y in ((xa, ya), (xb, yb)))
+    ox, oy = pose["ox"], pose["oy"]
+    if surfaces == ("plane", "plane"):
+        t = wall_point(ray_directions(xo, yo, *K.values(), *angles), ox, oy, "circular")[:, 2]
+        expected = plane_point(da, ox, oy, t), plane_point(db, ox, oy, t)
+    elif surfaces == ("wall", "wall"):
+        expected = wall_point(da, ox, oy, "circular"), wall_point(db, ox, oy, "circular")
+    elif surfaces == ("wall", "plane"):
+        wa = wall_point(da, ox, oy, "circular")
+        expected = wa, plane_point(db, ox, oy, wa[:, 2])
+    else:
+        wb = wall_point(db, ox, oy, "circular")
+        expected = plane_point(da, ox, oy, wb[:, 2]), wb
+    assert np.isfinite(Pa).any() and np.isfinite(Pb).any()
+    assert np.array_equal(Pa, expected[0], equal_nan=True) and np.array_equal(Pb, expected[1], equal_nan=True)
 
 
 def test_orthographic_model_is_the_papers_eqs_12_13():

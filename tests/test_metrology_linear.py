@@ -56,6 +56,15 @@ def test_welch_satterthwaite_and_student_k():
     assert coverage_factor(math.inf) == pytest.approx(1.95996, abs=1e-5)
 
 
+@pytest.mark.parametrize("p", [0.95, 0.99, 0.6827])
+def test_coverage_factor_is_scipy_stats_quantile_bit_for_bit(p):
+    from scipy import stats
+
+    dofs = [1.0, 2.0, 3.5, 4.0, 16.0, 49.7, 1e3, 1e6, 1e12]
+    assert [coverage_factor(d, p) for d in dofs] == [float(stats.t.ppf(0.5 * (1 + p), d)) for d in dofs]
+    assert coverage_factor(math.inf, p) == float(stats.norm.ppf(0.5 * (1 + p)))
+
+
 def test_fixed_coverage_factor():
     lin = propagate_linear(weighted_sum, INPUTS, k=2.0)
     assert lin.U == pytest.approx(2.0 * lin.u)

@@ -112,3 +112,17 @@ def test_a_joint_inside_a_deformed_stretch_is_drawn_deformed_also_when_it_is_dis
 
     z = 2490.0        # the socket face before joint 1, inside the deformed stretch
     assert near(R * (1 + e), R * (1 - e), z) > 3 * near(R, R, z)
+
+
+def test_a_stop_with_a_reversal_backs_up_and_drives_on():
+    from pipeline.synth.trajectory import Stop, travel
+
+    plain, plain_spans = travel(0.0, 2.0, 0.1, [Stop(1.0, 1.0)], 25.0)
+    back, spans = travel(0.0, 2.0, 0.1, [Stop(1.0, 1.0, back_m=0.3)], 25.0)
+    assert spans == plain_spans                           # the halt's frames, where the observation's marks are
+    first, last = spans[0]
+    after = back[last + 1:]
+    turn = int(np.argmin(after))
+    assert after[turn] == pytest.approx(0.7, abs=0.005)   # backed up 0.3 m
+    assert np.all(np.diff(after[:turn + 1]) < 0) and np.all(np.diff(after[turn:]) >= 0)
+    assert len(back) > len(plain) and back[-1] == pytest.approx(plain[-1])

@@ -58,12 +58,24 @@ def camera_rotation(yaw: float, pitch: float, roll: float) -> np.ndarray:
 def camera_rotations(yaw, pitch, roll) -> np.ndarray:
     """R_wc (n, 3, 3) for arrays of angles (n,) [rad]: ``camera_rotation`` for many poses at once."""
     yaw, pitch, roll = np.broadcast_arrays(*(np.atleast_1d(np.asarray(a, float)) for a in (yaw, pitch, roll)))
-    cy, sy, cp, sp, cr, sr = np.cos(yaw), np.sin(yaw), np.cos(pitch), np.sin(pitch), np.cos(-roll), np.sin(-roll)
-    one, zero = np.ones_like(yaw), np.zeros_like(yaw)
-    Ry = np.stack([np.stack([cy, zero, sy], -1), np.stack([zero, one, zero], -1), np.stack([-sy, zero, cy], -1)], -2)
-    Rx = np.stack([np.stack([one, zero, zero], -1), np.stack([zero, cp, -sp], -1), np.stack([zero, sp, cp], -1)], -2)
-    Rz = np.stack([np.stack([cr, -sr, zero], -1), np.stack([sr, cr, zero], -1), np.stack([zero, zero, one], -1)], -2)
-    return Ry @ Rx @ Rz @ _BASE
+    # Bit for bit the product Ry Rx Rz diag(1, -1, 1) of the scalar version, at a quarter of the cost of stacking
+    # three matrices and multiplying them (Monte Carlo draws of 10^5 poses notice): each element of Ry Rx is a
+    # single product (the other terms are exact zeros); (Ry Rx) Rz stays a matmul, whose fused multiply-adds
+    # decide the last bit; the base only negates the second column.
+    shape = yaw.shape + (3, 3)
+    cy, sy, cp, sp = np.cos(yaw), np.sin(yaw), np.cos(pitch), np.sin(pitch)
+    M = np.empty(shape)
+    M[..., 0, 0], M[..., 0, 1], M[..., 0, 2] = cy, sy * sp, sy * cp
+    M[..., 1, 0], M[..., 1, 1], M[..., 1, 2] = 0.0, cp, -sp
+    M[..., 2, 0], M[..., 2, 1], M[..., 2, 2] = -sy, cy * sp, cy * cp
+    Rz = np.zeros(shape)
+    Rz[..., 0, 0] = Rz[..., 1, 1] = np.cos(-roll)
+    Rz[..., 1, 0] = np.sin(-roll)
+    Rz[..., 0, 1] = -Rz[..., 1, 0]
+    Rz[..., 2, 2] = 1.0
+    R = M @ Rz
+    R[..., :, 1] *= -1.0
+    return R
 
 
 @dataclass(frozen=True)

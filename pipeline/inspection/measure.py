@@ -172,7 +172,7 @@ def measure_package(folder: str | os.PathLike, *, certificates: str | os.PathLik
     t0 = time.perf_counter()
     say(f"{manifest.package_id}: pipe contours at {len(frames)} frame(s)")
     contours = contours_at_frames(manifest.video, frames, ingest.track, und, header.shape, height_mm=header.height_mm,
-                                  tolerance_mm=header.height_tolerance_mm, mask=mask)
+                                  tolerance_mm=header.height_tolerance_mm, mask=mask, ideal_frames=ideal_frames)
     t_contour = time.perf_counter() - t0
 
     def under(obs: Observation, contour):
@@ -180,7 +180,7 @@ def measure_package(folder: str | os.PathLike, *, certificates: str | os.PathLik
                              height_mm=header.height_mm)
 
     def ideal(frame: int) -> np.ndarray:
-        if frame not in ideal_frames:
+        if frame not in ideal_frames:        # kept by the contours' pass; a seek only for a frame it did not reach
             ideal_frames[frame] = und.frame(read_frame(manifest.video, frame))
         return ideal_frames[frame]
 

@@ -21,9 +21,13 @@ __all__ = ["ray_directions", "wall_point", "plane_point", "marked_points"]
 
 def ray_directions(x, y, fx, fy, cx, cy, yaw, pitch, roll) -> np.ndarray:
     """World directions (n, 3) of the rays through ideal points (x, y) [px]; angles [rad]."""
+    return _directions(x, y, fx, fy, cx, cy, camera_rotations(yaw, pitch, roll))
+
+
+def _directions(x, y, fx, fy, cx, cy, R: np.ndarray) -> np.ndarray:
+    """``ray_directions`` with the rotations R_wc (n or 1, 3, 3) given."""
     x, y, fx, fy, cx, cy = np.broadcast_arrays(*(np.atleast_1d(np.asarray(v, float)) for v in (x, y, fx, fy, cx, cy)))
     dc = np.stack([(x - cx) / fx, (y - cy) / fy, np.ones_like(x)], axis=-1)
-    R = camera_rotations(yaw, pitch, roll)
     return np.einsum("nij,nj->ni", np.broadcast_to(R, (len(dc), 3, 3)), dc)
 
 
@@ -55,12 +59,13 @@ def marked_points(surfaces: tuple[str, str], shape: str, xa, ya, xb, yb, *, fx, 
                   ox, oy, yaw, pitch, roll, wall=1.0, anchor=None) -> tuple[np.ndarray, np.ndarray]:
     """Pipe coordinates (n, 3) [H] of marks a and b, each on the wall or in the other's cross-section;
     both ("plane", "plane") in the cross-section through ``anchor`` = (x, y) [px], a wall point."""
-    da = ray_directions(xa, ya, fx, fy, cx, cy, yaw, pitch, roll)
-    db = ray_directions(xb, yb, fx, fy, cx, cy, yaw, pitch, roll)
+    R = camera_rotations(yaw, pitch, roll)       # once per draw set: every ray of a trial shares its camera
+    da = _directions(xa, ya, fx, fy, cx, cy, R)
+    db = _directions(xb, yb, fx, fy, cx, cy, R)
     if surfaces == ("plane", "plane"):
         if anchor is None:
             raise ValueError("two points off the wall need an anchor on the wall to fix their cross-section")
-        t = wall_point(ray_directions(*anchor, fx, fy, cx, cy, yaw, pitch, roll), ox, oy, shape, wall)[:, 2]
+        t = wall_point(_directions(*anchor, fx, fy, cx, cy, R), ox, oy, shape, wall)[:, 2]
         return plane_point(da, ox, oy, t), plane_point(db, ox, oy, t)
     if surfaces == ("wall", "wall"):
         return wall_point(da, ox, oy, shape, wall), wall_point(db, ox, oy, shape, wall)

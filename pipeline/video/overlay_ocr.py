@@ -43,13 +43,20 @@ class OverlayRead:
 
 
 class OverlayReader:
-    """Finds and reads the chainage of an on-screen display."""
+    """Finds and reads the chainage of an on-screen display.
 
-    def __init__(self) -> None:
+    threads : onnxruntime threads per OCR model [threads]. One suits a batch
+        worker: a read of the small chainage crop is too short to share, and
+        onnxruntime's default (a thread per core, spinning) doubled each
+        read's CPU for the same text while the decoder wanted that core.
+    """
+
+    def __init__(self, threads: int = 1) -> None:
         logging.getLogger("RapidOCR").setLevel(logging.WARNING)
         from rapidocr import RapidOCR  # heavy import, only when reading overlays
 
-        self.engine = RapidOCR()
+        self.engine = RapidOCR(params={"EngineConfig.onnxruntime.intra_op_num_threads": threads,
+                                       "EngineConfig.onnxruntime.inter_op_num_threads": threads})
 
     def lines(self, frame: np.ndarray) -> list[tuple[str, tuple[int, int, int, int], float]]:
         """All text in a frame: (text, box (x0, y0, x1, y1) [px], score), top to bottom."""

@@ -9,7 +9,9 @@ it) are fitted with one pose (``pipeline.contour.detect_contour``).
 from __future__ import annotations
 
 import os
+from collections import defaultdict
 from collections.abc import Iterable, Iterator
+from concurrent.futures import Future, ThreadPoolExecutor
 
 import cv2
 import numpy as np
@@ -74,34 +76,57 @@ def _read_forward(path: str | os.PathLike, frames: Iterable[int], convert) -> It
             return
 
 
-def _candidates_of(path: str | os.PathLike, frames: Iterable[int], undistorter: Undistorter,
-                   mask: np.ndarray | None) -> dict:
-    """``frame_candidates`` of the given frames, worked on in THREADS threads while the next frames decode."""
-    def work(sample):
-        index, frame = sample
-        return index, frame_candidates(_gray(undistorter.frame(frame)), mask)
-
-    return dict(ordered_map(work, _read_forward(path, frames, lambda f: f), workers=THREADS, waiting=2 * THREADS))
-
-
 def contours_at_frames(path: str | os.PathLike, frames: Iterable[int], track: ChainageTrack, undistorter: Undistorter,
-                       shape: str, *, height_mm: float, tolerance_mm: float,
-                       mask: np.ndarray | None = None) -> dict[int, PipeContour]:
+                       shape: str, *, height_mm: float, tolerance_mm: float, mask: np.ndarray | None = None,
+                       ideal_frames: dict[int, np.ndarray] | None = None) -> dict[int, PipeContour]:
     """The pipe contours of several frames of one video, checked against one another
     (``pipeline.contour.consensus.reconcile_windows``: the mount does not move, so the fits must agree).
 
     Each frame's contour is fitted to the rings of the frames around it along
     the chainage (``window_frames``). The video is read once, forward, for
     all windows, and each frame's ridge points are found once however many
-    windows share it.
+    windows share it (in THREADS threads while the next frames decode). A
+    window's pose is fitted, in one more thread, as soon as the ridge points
+    of its last frame are found, while decoding goes on.
 
     shape, height_mm, tolerance_mm : from the section header (the wall's
     departure from the nominal profile enters u(p_H)).
+    ideal_frames : when given, receives the ideal (undistorted) BGR image of
+    each of ``frames`` (for thumbnails: no seeking back into the video).
     """
     windows = {frame: window_frames(track, frame) for frame in sorted(set(frames))}
-    candidates = _candidates_of(path, {i for w in windows.values() for i in w}, undistorter, mask)
     wall_u = wall_u_from_tolerance(height_mm, tolerance_mm)
-    contours = {frame: contour_from_candidates([candidates[i] for i in order if i in candidates], undistorter.K, shape,
-                                               wall_u=wall_u)
-                for frame, order in windows.items()}
+    users: dict[int, list[int]] = defaultdict(list)       # frame -> the windows it belongs to
+    for frame, order in windows.items():
+        for i in order:
+            users[i].append(frame)
+    missing = {frame: set(order) for frame, order in windows.items()}
+    candidates: dict[int, object] = {}
+
+    def work(sample):
+        index, bgr = sample
+        ideal = undistorter.frame(bgr)
+        if ideal_frames is not None and index in windows:
+            ideal_frames[index] = ideal
+        return index, frame_candidates(_gray(ideal), mask)
+
+    def fit(frame: int) -> PipeContour:
+        return contour_from_candidates([candidates[i] for i in windows[frame] if i in candidates], undistorter.K, shape,
+                                       wall_u=wall_u)
+
+    # the fits are mostly Python (they hold the GIL), decoding and ridge points mostly not: one fitting thread
+    # keeps the second core busy while the decoder runs; each fit sees exactly the candidates it saw before
+    with ThreadPoolExecutor(max_workers=1) as fitter:
+        fits: dict[int, Future] = {}
+        for index, found in ordered_map(work, _read_forward(path, users, lambda f: f), workers=THREADS,
+                                        waiting=2 * THREADS):
+            candidates[index] = found
+            for frame in users[index]:
+                missing[frame].discard(index)
+                if not missing[frame]:
+                    fits[frame] = fitter.submit(fit, frame)
+        for frame in windows:
+            if frame not in fits:          # a window frame that did not decode: fitted with the frames there are
+                fits[frame] = fitter.submit(fit, frame)
+        contours = {frame: fits[frame].result() for frame in windows}
     return reconcile_windows(contours, windows)

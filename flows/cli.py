@@ -16,11 +16,9 @@ import sys
 from pathlib import Path
 from typing import Callable, Sequence
 
-
 from flows.console import say as _say
 from pipeline import __version__
 from pipeline.errors import PipegaugeError
-from pipeline.metrology.display import format_record
 
 EXIT_OK, EXIT_FAILED, EXIT_USAGE = 0, 1, 2
 
@@ -201,6 +199,7 @@ def cmd_measure(args: argparse.Namespace) -> int:
 
 def _print_measured(result, args: argparse.Namespace) -> None:
     """What measure stored of one package: its status and problems (stderr), its quantities (stdout)."""
+    from pipeline.metrology.display import format_record
     from pipeline.report.verdict_text import json_safe, log_check_text, verdict_lines
 
     rec = result.inspection

@@ -53,5 +53,4 @@ def _naming(exc: OSError, path: Path, tmp: Path | None = None) -> OSError:
     message = exc.strerror or str(exc)
     if tmp is not None:
         message = message.replace(str(tmp), str(path))
-    named = OSError(exc.errno, message, str(path))
-    return named
+    return OSError(exc.errno, message, str(path))

@@ -93,7 +93,7 @@ def _read_table(path: Path, required: tuple[str, ...], what: str, max_rows: int)
     try:
         size = path.stat().st_size
         if size > MAX_CSV_BYTES:
-            raise ObservationLogError(f"{path}: {size:,} bytes; pipegauge reads a {what} of at most "
+            raise ObservationLogError(f"{path}: {size:,} bytes; pipegauge reads {_a(what)} of at most "
                                       f"{MAX_CSV_BYTES:,} bytes (docs/operations.md, input limits); check the file")
         with path.open(newline="", encoding="utf-8-sig") as fh:
             reader = csv.DictReader(fh)
@@ -101,9 +101,7 @@ def _read_table(path: Path, required: tuple[str, ...], what: str, max_rows: int)
             rows = []
             for raw in reader:
                 if len(rows) == max_rows:
-                    raise ObservationLogError(
-                        f"{path}: more than {max_rows:,} rows; pipegauge reads a {what} of at most {max_rows:,} "
-                        "rows (docs/operations.md, input limits); deliver one file per pipe section")
+                    raise _too_many(path, what, max_rows)
                 rows.append(raw)
     except FileNotFoundError:
         raise ObservationLogError(f"{path}: the {what} is missing; the package must hold it (docs/formats.md)") from None
@@ -114,6 +112,15 @@ def _read_table(path: Path, required: tuple[str, ...], what: str, max_rows: int)
         raise ObservationLogError(f"{path}: missing column(s) {', '.join(missing)}; "
                                   f"the header line must name {', '.join(required)} (docs/formats.md)")
     return rows
+
+
+def _too_many(file, what: str, limit: int) -> ObservationLogError:
+    return ObservationLogError(f"{file}: more than {limit:,} rows; pipegauge reads {_a(what)} of at most {limit:,} "
+                               "rows (docs/operations.md, input limits); deliver one file per pipe section")
+
+
+def _a(what: str) -> str:
+    return ("an " if what[:1] in "aeiou" else "a ") + what
 
 
 def finite_number(text: str) -> float | None:
@@ -162,10 +169,8 @@ def parse_log_rows(rows, file: str, section_length_m: float, field_names: dict[s
     observations: list[Observation] = []
     seen: dict[int, str] = {}
     for where, raw in rows:
-        if len(observations) >= MAX_LOG_ROWS:
-            raise ObservationLogError(f"{file}: more than {MAX_LOG_ROWS:,} rows; pipegauge reads an observation log "
-                                      f"of at most {MAX_LOG_ROWS:,} rows (docs/operations.md, input limits); "
-                                      "deliver one file per pipe section")
+        if len(observations) >= MAX_LOG_ROWS:       # a transfer's records; a CSV file stops in _read_table
+            raise _too_many(file, "observation log", MAX_LOG_ROWS)
         f = {k: (raw.get(k) or "").strip() for k in LOG_COLUMNS}
         problems: list[RowProblem] = []
         label = f"row {_clip(f['row'], 20)}" if f["row"] and not raw.get("ref") else where

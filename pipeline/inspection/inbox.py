@@ -40,7 +40,6 @@ __all__ = ["PackageOutcome", "discover_packages", "duplicate_claims", "input_key
            "CERTIFICATES_FOLDER"]
 
 
-
 @dataclass(frozen=True)
 class PackageOutcome:
     """What became of one package in a run (plain values, so it crosses process boundaries)."""

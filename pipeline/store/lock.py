@@ -14,7 +14,7 @@ from ..errors import StoreError
 __all__ = ["dataset_lock", "remove_stale_temporaries"]
 
 LOCK_NAME = ".pipegauge.lock"
-_held: dict[Path, int] = {}         # locks this process holds, by folder: how many times entered
+_held: set[Path] = set()            # the folders whose lock this process holds
 _held_guard = threading.Lock()
 
 
@@ -31,26 +31,18 @@ def dataset_lock(root: str | os.PathLike) -> Iterator[Path]:
     root.mkdir(parents=True, exist_ok=True)
     key = root.resolve()
     with _held_guard:
-        if key in _held:
-            _held[key] += 1
-            reentered = True
-        else:
-            reentered = False
-    if reentered:
-        try:
-            yield root
-        finally:
-            with _held_guard:
-                _held[key] -= 1
+        reentered = key in _held
+    if reentered:               # an inner entry ends before the outer one, which releases the lock
+        yield root
         return
     with _locked(root):
         with _held_guard:
-            _held[key] = 1
+            _held.add(key)
         try:
             yield root
         finally:
             with _held_guard:
-                del _held[key]
+                _held.discard(key)
 
 
 @contextlib.contextmanager

@@ -116,6 +116,7 @@ def grade_checks(cases) -> None:
     """Grade probabilities against the true class."""
     s = scheme()
     true_likely, most_true, log_true, n = [], [], [], 0
+    stated, happened = [], []                 # every class's probability, and whether it was the true class
     per_unit: dict[str, list[tuple[bool, bool]]] = {}
     for c in cases:
         bands, _ = applicable_bands(s, c["code"], c["char1"], c["unit"], c["height_mm"], c["material"])
@@ -128,6 +129,8 @@ def grade_checks(cases) -> None:
         true_likely.append(g.probabilities[true] >= LIKELY)
         most_true.append(g.most_probable == true)
         log_true.append(g.logged_class == true)
+        stated += list(g.probabilities.values())
+        happened += [cls == true for cls in g.probabilities]
         per_unit.setdefault(c["unit"], []).append((most_true[-1], log_true[-1]))
         n += 1
     print(f"\ngrades ({s.name}) of {n} graded quantities: the true class has probability >= {LIKELY:.0%} in "
@@ -137,6 +140,18 @@ def grade_checks(cases) -> None:
         m, lg = np.mean(pairs, axis=0)
         print(f"  in {unit:2s} (logged to {RESOLUTION[unit]:g} {unit}): {len(pairs)} quantities, most probable class "
               f"true {100 * m:.1f} %, honest log's class true {100 * lg:.1f} %")
+    reliability(np.array(stated), np.array(happened))
+
+
+def reliability(p: np.ndarray, hit: np.ndarray) -> None:
+    """Are the class probabilities right? Among the classes given probability p, the true one should be about p."""
+    print(f"  reliability of the {len(p)} class probabilities (stated -> how often that class was the true one):")
+    for lo, hi in ((0.0, 0.05), (0.05, 0.2), (0.2, 0.4), (0.4, 0.6), (0.6, 0.8), (0.8, 0.95), (0.95, 1.0001)):
+        m = (p >= lo) & (p < hi)
+        if m.any():
+            print(f"    p in [{lo:.2f}, {min(hi, 1):.2f}{']' if hi > 1 else ')'}: {m.sum():4d} classes, mean stated "
+                  f"{p[m].mean():.3f}, true {hit[m].mean():.3f}")
+    print(f"    Brier score {np.mean((p - hit) ** 2) * len(p) / hit.sum():.3f} per quantity (0 is perfect)")
 
 
 def report(cases, rng) -> None:

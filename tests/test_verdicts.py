@@ -38,9 +38,17 @@ def test_bad_logged_values_are_not_checked_with_the_reason(logged, unit, why):
     assert c.verdict == "not checked" and why in c.reason
 
 
-def test_a_measurement_that_is_not_confident_is_undecided_even_far_from_the_log():
-    c = check_logged(100.0, "mm", value=20.0, U95=1.0, unit="mm", confident=False)
-    assert c.verdict == "undecided" and c.E_n > 1
+def test_a_measurement_that_is_not_confident_vouches_for_no_log_and_disagrees_only_beyond_the_guard_band():
+    # U95 3 mm, logged in whole mm: U_res = 0.475 mm, sqrt(U95^2 + U_res^2) = 3.0374 mm
+    near = check_logged(25.0, "mm", value=20.0, U95=3.0, unit="mm", confident=False)       # E_n 1.65
+    assert near.verdict == "undecided" and near.E_n == pytest.approx(5.0 / 3.0374, abs=1e-4)
+    same = check_logged(20.0, "mm", value=20.0, U95=3.0, unit="mm", confident=False)       # E_n 0: still no "agrees"
+    assert same.verdict == "undecided"
+    far = check_logged(27.0, "mm", value=20.0, U95=3.0, unit="mm", confident=False)        # E_n 2.30
+    assert far.verdict == "disagrees" and far.E_n == pytest.approx(7.0 / 3.0374, abs=1e-4)
+    assert "guard band" in far.reason
+    trusted = check_logged(25.0, "mm", value=20.0, U95=3.0, unit="mm", confident=True)
+    assert trusted.verdict == "disagrees" and "guard band" not in trusted.reason
 
 
 def test_a_survey_that_stops_early_gives_its_range_and_flags_the_rows_beyond_it():

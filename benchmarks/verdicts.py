@@ -35,7 +35,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from pipeline.grading import LIKELY, applicable_bands, class_index, grade, scheme  # noqa: E402
 from pipeline.grading.probability import result_cdf  # noqa: E402
-from pipeline.verdicts.log_check import RESOLUTION, check_logged  # noqa: E402
+from pipeline.verdicts.log_check import RESOLUTION, UNTRUSTED_GUARD, check_logged  # noqa: E402
 
 ERROR_SIZES = (0.5, 1.0, 2.0, 3.0, 5.0)
 _FIELDS = ("unit", "value", "u", "U95", "low", "high", "k", "mc_trials", "confident")
@@ -96,6 +96,12 @@ def log_checks(cases, rng) -> None:
           f"{len(honest)} quantities of {len(set((c['code'], c['char1']) for c in cases))} code/characterisations; "
           f"false alarms {100 * np.mean(alarms):.1f} % (target <= 5 %); among the {len(conf)} confident "
           f"{100 * np.mean(conf):.1f} %; undecided {sum(ch.verdict == 'undecided' for _, ch in honest)}")
+    untrusted = np.array([abs(c["value"] - c["truth"]) / c["U95"] for c in cases if not c["confident"]])
+    if untrusted.size:
+        print(f"  the {untrusted.size} measurements not confident: truth inside U95 {100 * np.mean(untrusted <= 1):.1f} %, "
+              f"largest |measured - truth| / U95 {untrusted.max():.2f}; their honest logs called wrong "
+              f"{sum(ch.verdict == 'disagrees' for c, ch in honest if not c['confident'])} "
+              f"(they say 'disagrees' only beyond E_n > {UNTRUSTED_GUARD:g})")
     big = [(c, ch) for c, ch, bad, size, differs in wrong
            if differs and abs(bad - c["truth"]) > 2 * c["U95"] + RESOLUTION[c["unit"]] / 2]
     big_conf = [ch for c, ch in big if c["confident"]]

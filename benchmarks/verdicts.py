@@ -108,6 +108,12 @@ def log_checks(cases, rng) -> None:
     print(f"wrong logs, |logged - truth| > 2 U95 + r/2 (beyond the rounding): {len(big)}; detected (disagrees) "
           f"{100 * np.mean([ch.verdict == 'disagrees' for _, ch in big]):.1f} % (target >= 90 %); among the "
           f"{len(big_conf)} confident {100 * np.mean([ch.verdict == 'disagrees' for ch in big_conf]):.1f} %")
+    # The same logs if the measurements not confident were trusted like the others (E_n > 1, no guard band).
+    def as_trusted(c, lv):
+        return check_logged(lv, c["unit"], value=c["value"], U95=c["U95"], unit=c["unit"]).verdict
+    print(f"  were the measurements not confident decided at E_n > 1: false alarms on their honest logs "
+          f"{100 * np.mean([as_trusted(c, ch.logged) == 'disagrees' for c, ch in honest if not c['confident']]):.1f} %, "
+          f"detection {100 * np.mean([as_trusted(c, ch.logged) == 'disagrees' for c, ch in big]):.1f} %")
     plain = [ch for c, ch, bad, size, differs in wrong if differs and abs(bad - c["truth"]) > 2 * c["U95"]]
     print(f"wrong logs, |logged - truth| > 2 U95 and not the honest log: {len(plain)}; detected "
           f"{100 * np.mean([ch.verdict == 'disagrees' for ch in plain]):.1f} %")

@@ -158,3 +158,11 @@ def test_the_nightly_summary_ranks_defects_by_grade_not_by_size_and_lists_contra
     m = pd.DataFrame([{**r, "inspection_id": "X", "status": "ok", "grading_scheme": "vsa-2023"} for r in rows])
     assert list(worst_observations(m, {"X": 300.0}).row) == [4, 2, 3, 1]
     assert list(log_disagreements(m).row) == [3, 2]
+
+
+def test_the_reports_log_check_text_says_why_a_check_is_undecided():
+    from pipeline.report.verdict_text import log_check_text
+    row = {"unit": "mm", "logged_value": 25.0, "log_difference": 5.0, "E_n": 1.65}
+    assert log_check_text({**row, "log_check": "undecided"}) == \
+        "undecided (contour not trusted; logged 25 mm, +5 mm, E_n 1.65)"
+    assert log_check_text({**row, "log_check": "disagrees"}) == "disagrees (logged 25 mm, +5 mm, E_n 1.65)"

@@ -52,7 +52,8 @@ def log_check_text(m: Mapping) -> str:
         return "not checked"
     unit = m.get("unit") or ""
     if verdict in ("disagrees", "agrees", "undecided") and not is_missing(m.get("E_n")):
-        return (f"{verdict} (logged {float(m['logged_value']):g} {unit}, {float(m['log_difference']):+.3g} {unit}, "
+        why = "contour not trusted; " if verdict == "undecided" else ""
+        return (f"{verdict} ({why}logged {float(m['logged_value']):g} {unit}, {float(m['log_difference']):+.3g} {unit}, "
                 f"E_n {float(m['E_n']):.2f})")
     return f"{verdict} ({m.get('log_check_reason') or ''})"
 

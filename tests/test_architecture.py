@@ -12,7 +12,7 @@ PIPELINE = ROOT / "pipeline"
 
 # Floor of each room; a module may import its own room and the rooms of lower floors only.
 FLOORS = {
-    "errors": 0, "limits": 0, "atomic": 0, "text": 0, "pdf": 0, "worker": 0, "__init__": 0,   # the ground
+    "errors": 0, "limits": 0, "atomic": 0, "text": 0, "pdf": 0, "__init__": 0,   # the ground: pipeline/*.py
     "metrology": 1, "profiles": 1,                                        # maths
     "camera": 2,                                                          # the camera and its models
     "coding": 3, "store": 3, "grading": 3,                                # formats; grading schemes as data

@@ -1,7 +1,6 @@
 """Pipe contour: the camera-in-pipe model against the renderer's truth, and detection on a sample video."""
 
 import csv
-import os
 import json
 from pathlib import Path
 
@@ -13,7 +12,6 @@ from pipeline.camera import load_certificate
 from pipeline.contour import PipeView, detect_contour
 from pipeline.contour.ridges import static_overlay_mask
 from pipeline.profiles import exit_table, profile_polygon, ray_to_wall
-from pipeline.worker import WorkerProcess
 from pipeline.video.pipe_contour import read_ideal_grays
 from pipeline.video.reader import iter_frames
 from pipeline.camera.undistort import Undistorter
@@ -248,8 +246,7 @@ def test_pose_and_depth_fit_reaches_scipy_least_squares_solution(loss):
         assert np.allclose(ours.jac, ref.jac, rtol=1e-4, atol=1e-3 * np.abs(ref.jac).max())
 
 
-def test_windows_fitted_while_decoding_equal_the_fits_one_after_another_and_keep_the_ideal_frames(monkeypatch):
-    import pipeline.video.pipe_contour as pipe_contour
+def test_windows_fitted_while_decoding_equal_the_fits_one_after_another_and_keep_the_ideal_frames():
     from pipeline.contour.consensus import reconcile_windows
     from pipeline.contour.detect import contour_from_candidates, frame_candidates, wall_u_from_tolerance
     from pipeline.video.ingest import ingest_chainage
@@ -278,19 +275,3 @@ def test_windows_fitted_while_decoding_equal_the_fits_one_after_another_and_keep
         assert got[f].problems == expected[f].problems and got[f].rms_px == expected[f].rms_px
     assert set(kept) == set(frames)
     assert all(np.array_equal(kept[f], und.frame(read_frame(video, f))) for f in frames)
-
-    # the fits ran in a worker process; if it dies (here at its first call), they are fitted here, the same
-    assert pipe_contour.FIT_PROCESS == ((os.cpu_count() or 1) > 1)
-
-    class DyingWorker(WorkerProcess):
-        def submit(self, fn, /, *args, **kwargs):
-            if not hasattr(self, "killed"):
-                self.killed = super().submit(os.getpid).result(timeout=30)
-                os.kill(self.killed, 9)
-            return super().submit(fn, *args, **kwargs)
-
-    monkeypatch.setattr(pipe_contour, "pose_fitter", DyingWorker)
-    again = contours_at_frames(video, frames, ingest.track, und, "egg", height_mm=600, tolerance_mm=5, mask=mask)
-    for f in frames:
-        assert np.array_equal(again[f].view.pose, got[f].view.pose)
-        assert np.array_equal(again[f].covariance, got[f].covariance)

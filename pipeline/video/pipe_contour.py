@@ -11,8 +11,7 @@ from __future__ import annotations
 import os
 from collections import defaultdict
 from collections.abc import Iterable, Iterator
-from concurrent.futures import Executor, Future, ThreadPoolExecutor
-from concurrent.futures.process import BrokenProcessPool
+from concurrent.futures import Future, ThreadPoolExecutor
 
 import cv2
 import numpy as np
@@ -25,14 +24,12 @@ from .beside_decoding import ordered_map
 from .chainage_track import ChainageTrack
 from .reader import FrameScan, iter_frames, probe_video
 from ..camera.undistort import Undistorter
-from ..worker import WorkerProcess
 
 __all__ = ["overlay_mask", "overlay_mask_of", "window_frames", "read_ideal_grays", "contours_at_frames"]
 
 SPAN_M = 2.0       # travel either side of the frame whose rings are used [m]
 STEP_M = 0.1       # chainage step between those frames [m]
 THREADS = min(4, os.cpu_count() or 1)   # frames whose ridge points are found at once (OpenCV and NumPy release the GIL)
-FIT_PROCESS = (os.cpu_count() or 1) > 1  # fit the poses in a process of their own (``pose_fitter``)
 
 
 def _gray(frame: np.ndarray) -> np.ndarray:
@@ -79,23 +76,6 @@ def _read_forward(path: str | os.PathLike, frames: Iterable[int], convert) -> It
             return
 
 
-def pose_fitter() -> Executor:
-    """The one worker that fits the windows' poses while this process decodes.
-
-    The fits are mostly small NumPy operations driven by Python, which hold
-    the GIL: in a thread they take turns with the decoding and the ridge
-    points; in a process of their own (``pipeline.worker``) they run on the
-    second core, with the same code, so the same numbers. A thread on one
-    core, or when no process can be started.
-    """
-    if FIT_PROCESS:
-        try:
-            return WorkerProcess()
-        except OSError:
-            pass
-    return ThreadPoolExecutor(max_workers=1)
-
-
 def contours_at_frames(path: str | os.PathLike, frames: Iterable[int], track: ChainageTrack, undistorter: Undistorter,
                        shape: str, *, height_mm: float, tolerance_mm: float, mask: np.ndarray | None = None,
                        ideal_frames: dict[int, np.ndarray] | None = None) -> dict[int, PipeContour]:
@@ -128,42 +108,25 @@ def contours_at_frames(path: str | os.PathLike, frames: Iterable[int], track: Ch
         ideal = undistorter.frame(bgr)
         if ideal_frames is not None and index in windows:
             ideal_frames[index] = ideal
-        found = frame_candidates(_gray(ideal), mask)
-        found.curve_fits(shape)        # once per frame here, however many windows (and fits elsewhere) share it
-        return index, found
+        return index, frame_candidates(_gray(ideal), mask)
 
-    def window(frame: int) -> list:
-        return [candidates[i] for i in windows[frame] if i in candidates]
+    def fit(frame: int) -> PipeContour:
+        return contour_from_candidates([candidates[i] for i in windows[frame] if i in candidates], undistorter.K, shape,
+                                       wall_u=wall_u)
 
-    # each fit sees exactly the candidates it saw when the fits ran one after another
-    with pose_fitter() as fitter:
+    # the fits are mostly Python (they hold the GIL), decoding and ridge points mostly not: one fitting thread
+    # keeps the second core busy while the decoder runs; each fit sees exactly the candidates it saw before
+    with ThreadPoolExecutor(max_workers=1) as fitter:
         fits: dict[int, Future] = {}
-
-        def submit(frame: int) -> None:
-            try:
-                fits[frame] = fitter.submit(contour_from_candidates, window(frame), undistorter.K, shape, wall_u=wall_u)
-            except (OSError, RuntimeError, BrokenProcessPool):     # no process could start: fitted here
-                fits[frame] = Future()
-                fits[frame].set_result(contour_from_candidates(window(frame), undistorter.K, shape, wall_u=wall_u))
-
         for index, found in ordered_map(work, _read_forward(path, users, lambda f: f), workers=THREADS,
                                         waiting=2 * THREADS):
             candidates[index] = found
             for frame in users[index]:
                 missing[frame].discard(index)
                 if not missing[frame]:
-                    submit(frame)
+                    fits[frame] = fitter.submit(fit, frame)
         for frame in windows:
             if frame not in fits:          # a window frame that did not decode: fitted with the frames there are
-                submit(frame)
-        contours = {frame: _result(fits[frame], lambda f=frame: contour_from_candidates(
-            window(f), undistorter.K, shape, wall_u=wall_u)) for frame in windows}
+                fits[frame] = fitter.submit(fit, frame)
+        contours = {frame: fits[frame].result() for frame in windows}
     return reconcile_windows(contours, windows)
-
-
-def _result(future: Future, again) -> PipeContour:
-    """The fit's result; computed here if its process died (killed for memory, say), the same numbers."""
-    try:
-        return future.result()
-    except BrokenProcessPool:
-        return again()

@@ -17,6 +17,7 @@ import os
 import time
 import zlib
 from collections import defaultdict
+from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Callable
@@ -43,6 +44,8 @@ from ..measurement.wall import contour_under
 from .verdict_records import add_verdicts
 
 __all__ = ["InspectionResult", "measure_package", "file_sha256", "file_digests", "package_digest"]
+
+QUANTITY_THREADS = min(2, os.cpu_count() or 1)     # quantities whose Monte Carlo runs at once
 
 
 @dataclass
@@ -184,28 +187,43 @@ def measure_package(folder: str | os.PathLike, *, certificates: str | os.PathLik
             ideal_frames[frame] = und.frame(read_frame(manifest.video, frame))
         return ideal_frames[frame]
 
-    for frame in sorted(by_frame):
-        for m in by_frame[frame]:
-            obs = by_row[m.row]
-            row = _measurement_base(obs, m, ingest.track, model)
+    # the Monte Carlo runs of the quantities are independent (each its own seed) and mostly large NumPy operations
+    # that release the GIL: two at once use both cores; results are assembled in the marks' order
+    jobs: list[tuple[dict, Mark, MarkedQuantity | None, Future | None]] = []
+    t0 = time.perf_counter()
+    with ThreadPoolExecutor(max_workers=QUANTITY_THREADS) as pool:
+        for frame in sorted(by_frame):
+            for m in by_frame[frame]:
+                obs = by_row[m.row]
+                row = _measurement_base(obs, m, ingest.track, model)
+                marked = future = None
+                try:
+                    if obs.problems:
+                        raise MeasurementError(f"row {obs.row} of the log is invalid: "
+                                               + "; ".join(p.message for p in obs.problems))
+                    bad = check_marks_in_frame(m, info.width, info.height, info.frame_count, manifest.marks.name)
+                    if bad:
+                        problems += [str(p) for p in bad]
+                        raise MeasurementError("; ".join(str(p) for p in bad))
+                    marked = marked_quantity(obs, m, und, cert)
+                    future = pool.submit(measure_quantity, marked, under(obs, contours[frame]), cert,
+                                         H=header.height_mm, tolerance=header.height_tolerance_mm, model=model,
+                                         seed=_seed(manifest.package_id, obs.row, m.quantity))
+                except (PipegaugeError, ValueError) as exc:
+                    row.update(status="error", error=str(exc))
+                jobs.append((row, m, marked, future))
+        for _, _, _, future in jobs:
+            if future is not None:
+                future.exception()           # wait; raised below, in order
+    t_measure = time.perf_counter() - t0
+    for row, m, marked, future in jobs:
+        if future is not None:
             try:
-                if obs.problems:
-                    raise MeasurementError(f"row {obs.row} of the log is invalid: " + "; ".join(p.message for p in obs.problems))
-                bad = check_marks_in_frame(m, info.width, info.height, info.frame_count, manifest.marks.name)
-                if bad:
-                    problems += [str(p) for p in bad]
-                    raise MeasurementError("; ".join(str(p) for p in bad))
-                t0 = time.perf_counter()
-                marked = marked_quantity(obs, m, und, cert)
-                res = measure_quantity(marked, under(obs, contours[frame]), cert, H=header.height_mm,
-                                       tolerance=header.height_tolerance_mm,
-                                       model=model, seed=_seed(manifest.package_id, obs.row, m.quantity))
-                t_measure += time.perf_counter() - t0
-                row.update(_quantity_fields(res))
-                result.thumbnails.append(_thumbnail(ideal(frame), contours[frame], marked, m.row, m.frame, "marks"))
+                row.update(_quantity_fields(future.result()))
+                result.thumbnails.append(_thumbnail(ideal(m.frame), contours[m.frame], marked, m.row, m.frame, "marks"))
             except (PipegaugeError, ValueError) as exc:
                 row.update(status="error", error=str(exc))
-            result.measurements.append(row)
+        result.measurements.append(row)
     for r, frame in sorted(automatic.items()):
         obs = by_row[r]
         row = _automatic_base(obs, frame, ingest.track, model)

@@ -143,15 +143,17 @@ def grade_checks(cases) -> None:
         log_true.append(g.logged_class == true)
         stated += list(g.probabilities.values())
         happened += [cls == true for cls in g.probabilities]
-        per_unit.setdefault(c["unit"], []).append((most_true[-1], log_true[-1]))
+        value_true = s.classes[class_index(bands, c["value"], len(s.classes))] == true
+        per_unit.setdefault(c["unit"], []).append((most_true[-1], log_true[-1], value_true))
         n += 1
     print(f"\ngrades ({s.name}) of {n} graded quantities: the true class has probability >= {LIKELY:.0%} in "
           f"{100 * np.mean(true_likely):.1f} % (target >= 95 %); the most probable class is the true one in "
           f"{100 * np.mean(most_true):.1f} %, the honest rounded log's class in {100 * np.mean(log_true):.1f} %")
     for unit, pairs in sorted(per_unit.items()):
-        m, lg = np.mean(pairs, axis=0)
+        m, lg, v = np.mean(pairs, axis=0)
         print(f"  in {unit:2s} (logged to {RESOLUTION[unit]:g} {unit}): {len(pairs)} quantities, most probable class "
-              f"true {100 * m:.1f} %, honest log's class true {100 * lg:.1f} %")
+              f"true {100 * m:.1f} %, honest log's class true {100 * lg:.1f} % (the measured value's class "
+              f"{100 * v:.1f} %)")
     reliability(np.array(stated), np.array(happened))
 
 

@@ -69,7 +69,8 @@ def ring_peaks(view: PipeView, pts: np.ndarray, frame_of: np.ndarray, width: flo
     counts = np.bincount(np.floor((lt - lo) / width).astype(int)).astype(float)
     smooth = np.convolve(counts, [0.25, 0.5, 0.25], mode="same")
     padded = np.pad(smooth, 3)
-    window_max = np.max(np.lib.stride_tricks.sliding_window_view(padded, 7), axis=1)   # max over i-3..i+3
+    # max over i-3..i+3 as seven shifted arrays: exact like any max, and far cheaper than reducing a strided view
+    window_max = np.maximum.reduce([padded[k:k + len(smooth)] for k in range(7)])
     peaks = np.nonzero((smooth >= MIN_RING_POINTS / 3) & (smooth == window_max))[0]
     out = []
     for i in peaks:

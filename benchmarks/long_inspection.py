@@ -22,7 +22,8 @@ MPEG-4 codec, <= 3 x for H.264; track <= 1.5 x decode-only.
     python benchmarks/long_inspection.py [--dir /tmp/pipegauge-long] [--codec h264] [--workers 2] [--code DIR]
 
 ``--code DIR`` measures with the pipeline of another checkout (the child
-process gets ``PYTHONPATH=DIR``), e.g. the code before a change:
+process puts DIR first on ``sys.path``, ahead of the current directory and
+the editable install), e.g. the code before a change:
 ``git archive 5c67bf1 | tar -x -C /tmp/before``; the rest of the run (the
 package, the decode-only loop) stays the same.
 
@@ -111,8 +112,10 @@ def as_delivered(package: Path, codec: str | None) -> Path:
 def measure(package: Path, code: Path | None = None) -> tuple[float, float, dict]:
     """(wall [s], CPU [s] of the child, its JSON records) of ``pipegauge measure`` on one package, with the
     pipeline of the checkout ``code`` (default: the installed one)."""
-    env = {**os.environ, "DO_NOT_TRACK": "1", **({"PYTHONPATH": str(code.resolve())} if code else {})}
-    command = [sys.executable, "-c", "import sys; from flows.cli import main; sys.exit(main())"]
+    env = {**os.environ, "DO_NOT_TRACK": "1"}
+    # the checkout first on sys.path: before the current directory ('' for -c), which may hold another checkout
+    first = f"sys.path.insert(0, {str(code.resolve())!r}); " if code else ""
+    command = [sys.executable, "-c", f"import sys; {first}from flows.cli import main; sys.exit(main())"]
     with tempfile.TemporaryDirectory(prefix="pipegauge-long-data-") as data:
         before = resource.getrusage(resource.RUSAGE_CHILDREN)
         t0 = time.perf_counter()

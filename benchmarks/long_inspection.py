@@ -43,13 +43,16 @@ import tempfile
 import time
 from pathlib import Path
 
-from pipeline.synth.delivery import CODECS, delivered
-from pipeline.synth.package import CameraMount, PackageSpec, build_package
-from pipeline.synth.samples import sample_certificate
-from pipeline.synth.scene import Connection, Crack, Deformation, Deposit, DisplacedJoint, Pipe, Scene
-from pipeline.synth.trajectory import Stop
+# --stages runs the pipeline in this process: with the command line's one OpenBLAS thread (flows/cli.py)
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
-from ingest import decode_only   # benchmarks/ingest.py, the same grab loop
+from pipeline.synth.delivery import CODECS, delivered  # noqa: E402
+from pipeline.synth.package import CameraMount, PackageSpec, build_package  # noqa: E402
+from pipeline.synth.samples import sample_certificate  # noqa: E402
+from pipeline.synth.scene import Connection, Crack, Deformation, Deposit, DisplacedJoint, Pipe, Scene  # noqa: E402
+from pipeline.synth.trajectory import Stop  # noqa: E402
+
+from ingest import decode_only  # noqa: E402 (benchmarks/ingest.py, the same grab loop)
 
 PACKAGE_ID = "L01-long-section"
 BLOCK_MM = 7500.0        # three pipe units: each block holds one of each kind of observation
@@ -129,6 +132,52 @@ def measure(package: Path, code: Path | None = None) -> tuple[float, float, dict
     return wall, cpu, json.loads(out.stdout.strip().splitlines()[-1])
 
 
+def decode_only_cpu(path: Path) -> tuple[float, float]:
+    """(wall [s], CPU [s] of this process, the decoder's threads included) of the grab loop."""
+    w, c = time.perf_counter(), time.process_time()
+    decode_only(path)
+    return time.perf_counter() - w, time.process_time() - c
+
+
+def stages(package: Path) -> None:
+    """Wall and CPU [s] of each stage of ``measure_package`` run in this process: the stages run one after
+    another, so the process's CPU over a stage (all its threads) is the stage's."""
+    import pipeline.inspection.measure as conductor
+    from pipeline.video.pipe_contour import window_frames
+    spent: dict[str, tuple[float, float]] = {}
+    windows: set[int] = set()
+
+    def timed(name, fn):
+        def run(*args, **kwargs):
+            w, c = time.perf_counter(), time.process_time()
+            try:
+                return fn(*args, **kwargs)
+            finally:
+                spent[name] = (time.perf_counter() - w, time.process_time() - c)
+        return run
+
+    def contours(video, frames, track, *args, **kwargs):
+        windows.update(i for f in frames for i in window_frames(track, f))
+        return contours_at_frames(video, frames, track, *args, **kwargs)
+
+    ingest_chainage, contours_at_frames = conductor.ingest_chainage, conductor.contours_at_frames
+    conductor.ingest_chainage = timed("track", ingest_chainage)
+    conductor.contours_at_frames = timed("contours", contours)
+    try:
+        w, c = time.perf_counter(), time.process_time()
+        conductor.measure_package(package)
+        total = (time.perf_counter() - w, time.process_time() - c)
+    finally:
+        conductor.ingest_chainage, conductor.contours_at_frames = ingest_chainage, contours_at_frames
+    decode = min((decode_only_cpu(package / "video.mp4") for _ in range(3)), key=lambda t: t[0])
+    rest = (total[0] - spent["track"][0] - spent["contours"][0], total[1] - spent["track"][1] - spent["contours"][1])
+    print(f"  stages in one process (wall / CPU, all threads): decode only {decode[0]:.1f} / {decode[1]:.1f} s; "
+          f"measure_package {total[0]:.1f} / {total[1]:.1f} s: track {spent['track'][0]:.1f} / "
+          f"{spent['track'][1]:.1f} s, contours {spent['contours'][0]:.1f} / {spent['contours'][1]:.1f} s "
+          f"({len(windows)} window frames, {1000 * spent['contours'][1] / max(len(windows), 1):.1f} ms of CPU each), "
+          f"Monte Carlo and the rest {rest[0]:.1f} / {rest[1]:.1f} s")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--dir", type=Path, default=Path(tempfile.gettempdir()) / "pipegauge-long",
@@ -136,6 +185,9 @@ def main() -> None:
     parser.add_argument("--codec", choices=sorted(CODECS), help="measure the package re-encoded (default: as written)")
     parser.add_argument("--workers", type=int, default=os.cpu_count() or 1, help="processes rendering frames")
     parser.add_argument("--code", type=Path, help="measure with the pipeline of this checkout (default: this one)")
+    parser.add_argument("--stages", action="store_true",
+                        help="also run this checkout's measure_package in this process and print each stage's "
+                             "wall and CPU time")
     args = parser.parse_args()
     args.dir.mkdir(parents=True, exist_ok=True)
     package = as_delivered(rendered(args.dir, args.workers), args.codec)
@@ -165,6 +217,8 @@ def main() -> None:
           f"{rec['time_measure_s'] / max(len(ok), 1):.2f} s per quantity; "
           f"the rest (start-up, hashing, thumbnails, verdicts, storing) "
           f"{wall - rec['time_track_s'] - rec['time_contour_s'] - rec['time_measure_s']:.1f} s")
+    if args.stages:
+        stages(package)
 
 
 if __name__ == "__main__":

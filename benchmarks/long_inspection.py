@@ -143,9 +143,20 @@ def stages(package: Path) -> None:
     """Wall and CPU [s] of each stage of ``measure_package`` run in this process: the stages run one after
     another, so the process's CPU over a stage (all its threads) is the stage's."""
     import pipeline.inspection.measure as conductor
+    import pipeline.video.pipe_contour as pass_
     from pipeline.video.pipe_contour import window_frames
     spent: dict[str, tuple[float, float]] = {}
     windows: set[int] = set()
+    thread_cpu = {"ridge points": 0.0, "pose fits": 0.0}      # summed over the threads that ran them
+
+    def on_thread(name, fn):
+        def run(*args, **kwargs):
+            c = time.thread_time()
+            try:
+                return fn(*args, **kwargs)
+            finally:
+                thread_cpu[name] += time.thread_time() - c
+        return run
 
     def timed(name, fn):
         def run(*args, **kwargs):
@@ -161,20 +172,25 @@ def stages(package: Path) -> None:
         return contours_at_frames(video, frames, track, *args, **kwargs)
 
     ingest_chainage, contours_at_frames = conductor.ingest_chainage, conductor.contours_at_frames
+    frame_candidates, contour_from_candidates = pass_.frame_candidates, pass_.contour_from_candidates
     conductor.ingest_chainage = timed("track", ingest_chainage)
     conductor.contours_at_frames = timed("contours", contours)
+    pass_.frame_candidates = on_thread("ridge points", frame_candidates)
+    pass_.contour_from_candidates = on_thread("pose fits", contour_from_candidates)
     try:
         w, c = time.perf_counter(), time.process_time()
         conductor.measure_package(package)
         total = (time.perf_counter() - w, time.process_time() - c)
     finally:
         conductor.ingest_chainage, conductor.contours_at_frames = ingest_chainage, contours_at_frames
+        pass_.frame_candidates, pass_.contour_from_candidates = frame_candidates, contour_from_candidates
     decode = min((decode_only_cpu(package / "video.mp4") for _ in range(3)), key=lambda t: t[0])
     rest = (total[0] - spent["track"][0] - spent["contours"][0], total[1] - spent["track"][1] - spent["contours"][1])
     print(f"  stages in one process (wall / CPU, all threads): decode only {decode[0]:.1f} / {decode[1]:.1f} s; "
           f"measure_package {total[0]:.1f} / {total[1]:.1f} s: track {spent['track'][0]:.1f} / "
           f"{spent['track'][1]:.1f} s, contours {spent['contours'][0]:.1f} / {spent['contours'][1]:.1f} s "
-          f"({len(windows)} window frames, {1000 * spent['contours'][1] / max(len(windows), 1):.1f} ms of CPU each), "
+          f"({len(windows)} window frames, {1000 * spent['contours'][1] / max(len(windows), 1):.1f} ms of CPU each; "
+          f"their ridge points {thread_cpu['ridge points']:.1f} s of CPU, the pose fits {thread_cpu['pose fits']:.1f} s), "
           f"Monte Carlo and the rest {rest[0]:.1f} / {rest[1]:.1f} s")
 
 

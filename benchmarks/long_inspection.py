@@ -43,7 +43,9 @@ import tempfile
 import time
 from pathlib import Path
 
-# --stages runs the pipeline in this process: with the command line's one OpenBLAS thread (flows/cli.py)
+# the child `pipegauge measure` gets the environment as it was (a checkout's own command line decides its threads);
+# --stages runs the pipeline in this process, with the command line's one OpenBLAS thread (flows/cli.py)
+CHILD_ENVIRONMENT = dict(os.environ)
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 from pipeline.synth.delivery import CODECS, delivered  # noqa: E402
@@ -115,7 +117,7 @@ def as_delivered(package: Path, codec: str | None) -> Path:
 def measure(package: Path, code: Path | None = None) -> tuple[float, float, dict]:
     """(wall [s], CPU [s] of the child, its JSON records) of ``pipegauge measure`` on one package, with the
     pipeline of the checkout ``code`` (default: the installed one)."""
-    env = {**os.environ, "DO_NOT_TRACK": "1"}
+    env = {**CHILD_ENVIRONMENT, "DO_NOT_TRACK": "1"}
     # the checkout first on sys.path: before the current directory ('' for -c), which may hold another checkout
     first = f"sys.path.insert(0, {str(code.resolve())!r}); " if code else ""
     command = [sys.executable, "-c", f"import sys; {first}from flows.cli import main; sys.exit(main())"]
@@ -179,8 +181,10 @@ def stages(package: Path) -> None:
     pass_.contour_from_candidates = on_thread("pose fits", contour_from_candidates)
     try:
         w, c = time.perf_counter(), time.process_time()
-        conductor.measure_package(package)
+        result = conductor.measure_package(package)
         total = (time.perf_counter() - w, time.process_time() - c)
+        if "contours" not in spent:
+            raise SystemExit(f"measure_package stopped before the contours: {result.inspection.get('error')}")
     finally:
         conductor.ingest_chainage, conductor.contours_at_frames = ingest_chainage, contours_at_frames
         pass_.frame_candidates, pass_.contour_from_candidates = frame_candidates, contour_from_candidates
@@ -190,7 +194,8 @@ def stages(package: Path) -> None:
           f"measure_package {total[0]:.1f} / {total[1]:.1f} s: track {spent['track'][0]:.1f} / "
           f"{spent['track'][1]:.1f} s, contours {spent['contours'][0]:.1f} / {spent['contours'][1]:.1f} s "
           f"({len(windows)} window frames, {1000 * spent['contours'][1] / max(len(windows), 1):.1f} ms of CPU each; "
-          f"their ridge points {thread_cpu['ridge points']:.1f} s of CPU, the pose fits {thread_cpu['pose fits']:.1f} s), "
+          f"their ridge points {thread_cpu['ridge points']:.1f} s of CPU, the pose fits {thread_cpu['pose fits']:.1f} s, "
+          f"in their own threads, OpenCV's helpers aside), "
           f"Monte Carlo and the rest {rest[0]:.1f} / {rest[1]:.1f} s")
 
 

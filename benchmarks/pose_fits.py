@@ -2,8 +2,9 @@
 
 Measures the package once (``measure_package``) to collect the windows' candidates as the contour pass
 hands them to ``contour_from_candidates``, then fits them all again ``--repeat`` times in this process,
-nothing else running. For comparing fit code (``--code DIR`` puts another checkout first on
-``sys.path``) or thread settings of the linear algebra:
+nothing else running, each round with the frames' template fits (computed once per frame and kept on
+it) forgotten first, so a round does all the work the pass does in its fits. For comparing fit code
+(``--code DIR`` puts another checkout first on ``sys.path``) or thread settings of the linear algebra:
 
     python benchmarks/pose_fits.py /tmp/pipegauge-long/L01-long-section
     OPENBLAS_NUM_THREADS=2 python benchmarks/pose_fits.py /tmp/pipegauge-long/L01-long-section
@@ -41,11 +42,16 @@ def main() -> None:
         return fit(candidates, K, shape, **kwargs)
 
     pass_.contour_from_candidates = collect
-    measure_package(args.package)
-    pass_.contour_from_candidates = fit
+    try:
+        measure_package(args.package)
+    finally:
+        pass_.contour_from_candidates = fit
     print(f"{args.package.name}: {len(windows)} windows, OPENBLAS_NUM_THREADS={os.environ['OPENBLAS_NUM_THREADS']}"
           f"{', code of ' + str(args.code) if args.code else ''} ({pass_.__file__})")
     for r in range(args.repeat):
+        for candidates, _, _, _ in windows:      # each round does the template fits too, as the contour pass does
+            for frame in candidates:
+                frame.template_fits.clear()
         w, c = time.perf_counter(), time.process_time()
         for candidates, K, shape, kwargs in windows:
             fit(candidates, K, shape, **kwargs)

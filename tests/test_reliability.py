@@ -344,3 +344,33 @@ def test_a_second_holder_in_another_process_is_refused_and_one_process_may_reent
     holder = _holding_lock(tmp_path)                   # released when this process left it
     holder.kill()
     holder.wait()
+
+
+def test_the_quantities_run_side_by_side_keep_their_errors_to_their_rows_and_an_unexpected_one_stops_the_package(
+        monkeypatch, reader):
+    """Two Monte Carlo runs at a time: a domain error stays on its row, an unexpected error is raised, not
+    waited out behind the queued runs nor turned into a row's error."""
+    import pipeline.inspection.measure as conductor
+    from pipeline.errors import MeasurementError
+
+    real = conductor.measure_quantity
+    doomed = conductor._seed("S03-egg-concrete", 2, "Q1")      # row 2's Q1 (marks.csv), whichever thread runs it
+
+    def failing(kind):
+        def measure_quantity(*args, **kwargs):
+            if kwargs["seed"] == doomed:
+                raise kind("no such luck")
+            return real(*args, **kwargs)
+        return measure_quantity
+
+    monkeypatch.setattr(conductor, "measure_quantity", failing(MeasurementError))
+    result = conductor.measure_package(SAMPLES / "S03-egg-concrete", reader=reader)
+    marked = [m for m in result.measurements if m["source"] == "marks"]
+    assert len(marked) >= 3 and [m["status"] for m in marked].count("error") == 1
+    bad = next(m for m in marked if m["status"] == "error")
+    assert (bad["row"], bad["quantity"], bad["error"]) == (2, "Q1", "no such luck")
+    assert len(result.thumbnails) == len([m for m in result.measurements if m["status"] == "ok"])
+
+    monkeypatch.setattr(conductor, "measure_quantity", failing(RuntimeError))
+    with pytest.raises(RuntimeError, match="no such luck"):
+        conductor.measure_package(SAMPLES / "S03-egg-concrete", reader=reader)

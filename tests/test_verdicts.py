@@ -166,3 +166,5 @@ def test_the_reports_log_check_text_says_why_a_check_is_undecided():
     assert log_check_text({**row, "log_check": "undecided"}) == \
         "undecided (contour not trusted; logged 25 mm, +5 mm, E_n 1.65)"
     assert log_check_text({**row, "log_check": "disagrees"}) == "disagrees (logged 25 mm, +5 mm, E_n 1.65)"
+    assert log_check_text({**row, "log_check": "disagrees", "E_n": 2.5, "confident": False}) == \
+        "disagrees (contour not trusted; logged 25 mm, +5 mm, E_n 2.50)"

@@ -45,7 +45,8 @@ from .verdict_records import add_verdicts
 
 __all__ = ["InspectionResult", "measure_package", "file_sha256", "file_digests", "package_digest"]
 
-QUANTITY_THREADS = min(2, os.cpu_count() or 1)     # quantities whose Monte Carlo runs at once
+QUANTITY_THREADS = min(2, len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1)
+# (quantities whose Monte Carlo runs at once: two where this process may use two cores)
 
 
 @dataclass
@@ -191,7 +192,8 @@ def measure_package(folder: str | os.PathLike, *, certificates: str | os.PathLik
     # that release the GIL: two at once use both cores; results are assembled in the marks' order
     jobs: list[tuple[dict, Mark, MarkedQuantity | None, Future | None]] = []
     t0 = time.perf_counter()
-    with ThreadPoolExecutor(max_workers=QUANTITY_THREADS) as pool:
+    pool = ThreadPoolExecutor(max_workers=QUANTITY_THREADS)
+    try:
         for frame in sorted(by_frame):
             for m in by_frame[frame]:
                 obs = by_row[m.row]
@@ -213,8 +215,13 @@ def measure_package(folder: str | os.PathLike, *, certificates: str | os.PathLik
                     row.update(status="error", error=str(exc))
                 jobs.append((row, m, marked, future))
         for _, _, _, future in jobs:
-            if future is not None:
-                future.exception()           # wait; raised below, in order
+            error = future.exception() if future is not None else None       # waits for the run
+            if error is not None and not isinstance(error, (PipegaugeError, ValueError)):
+                raise error                   # unexpected: at once, in the marks' order, as the loop one by one did
+    except BaseException:                     # an interrupt or an unexpected error: the queued runs are not waited for
+        pool.shutdown(wait=False, cancel_futures=True)
+        raise
+    pool.shutdown()
     t_measure = time.perf_counter() - t0
     for row, m, marked, future in jobs:
         if future is not None:

@@ -52,7 +52,9 @@ def log_check_text(m: Mapping) -> str:
         return "not checked"
     unit = m.get("unit") or ""
     if verdict in ("disagrees", "agrees", "undecided") and not is_missing(m.get("E_n")):
-        why = "contour not trusted; " if verdict == "undecided" else ""
+        untrusted = verdict == "undecided" or (verdict == "disagrees" and not is_missing(m.get("confident"))
+                                                and not bool(m.get("confident")))
+        why = "contour not trusted; " if untrusted else ""
         return (f"{verdict} ({why}logged {float(m['logged_value']):g} {unit}, {float(m['log_difference']):+.3g} {unit}, "
                 f"E_n {float(m['E_n']):.2f})")
     return f"{verdict} ({m.get('log_check_reason') or ''})"

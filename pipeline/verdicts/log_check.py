@@ -15,7 +15,8 @@ A measurement that is not confident (the contour not trusted at its plane)
 can vouch for no log: its U95 may miss a pose error the fit could not see.
 It says ``disagrees`` only beyond a guard band, E_n > ``UNTRUSTED_GUARD``
 (2: the log lies outside the interval even if the stated U95 were half the
-true one; JCGM 106:2012 8.3, a guard band widening the rejection zone), and
+true one: a guard band narrowing the rejection zone, "guarded rejection" in
+JCGM 106:2012 clause 8), and
 ``undecided`` otherwise, with E_n beside it. The factor is pipegauge's
 choice, checked by ``benchmarks/verdicts.py`` (docs/verdicts.md: among the
 benchmark's measurements that were not confident, the largest

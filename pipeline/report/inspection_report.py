@@ -138,7 +138,9 @@ def _verdict_block(i: dict, measurements: list[dict]) -> list:
     t = key_value_table([(safe_text(k), v if k == "Log errors" else safe_text(v, 800)) for k, v in rows])
     return [Paragraph("Verdicts", styles()["h2"]), t,
             Paragraph("Log check: the contractor's value against the measurement, E_n = |logged − measured| / "
-                      "√(U95² + U_res²) with U_res from the logged value's step; E_n ≤ 1 agrees. Grades: "
+                      "√(U95² + U_res²) with U_res from the logged value's step; E_n ≤ 1 agrees. Where the "
+                      "pipe's outline is not trusted the check is undecided unless E_n > 2 (then it disagrees). "
+                      "Grades: "
                       "VSA 2023 single-defect classes EZ0 (worst) to EZ4 with the probability of each class from "
                       "the measurement's distribution.", styles()["small"])]
 

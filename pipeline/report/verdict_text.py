@@ -92,7 +92,8 @@ def verdict_lines(inspection: Mapping) -> list[tuple[str, str]]:
     if not is_missing(inspection.get("log_agrees")):
         lines.append(("Log check", f"{int(inspection['log_agrees'])} agree, {int(inspection['log_disagrees'])} disagree, "
                                    f"{int(inspection['log_undecided'])} undecided, "
-                                   f"{int(inspection['log_not_checked'])} not checked (E_n <= 1 agrees)"))
+                                   f"{int(inspection['log_not_checked'])} not checked (E_n <= 1 agrees; "
+                                   f"outline not trusted: undecided unless E_n > 2)"))
     grade = inspection.get("section_grade")
     scheme = inspection.get("grading_scheme")
     if not is_missing(grade):

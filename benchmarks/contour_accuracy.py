@@ -40,7 +40,7 @@ from pipeline.measurement.wall import contour_under
 from pipeline.synth.delivery import CODECS, delivered
 from pipeline.video.ingest import ingest_chainage
 from pipeline.video.overlay_ocr import OverlayReader
-from pipeline.video.pipe_contour import contours_at_frames, overlay_mask_of
+from pipeline.video.pipe_contour import STEP_M, contours_at_frames, overlay_mask_of
 from pipeline.camera.undistort import Undistorter
 
 from ingest import decode_only   # benchmarks/ingest.py, the same grab loop
@@ -67,6 +67,8 @@ def main() -> None:
     parser.add_argument("--every", type=int, default=4, help="overlay sampling interval [frames]")
     parser.add_argument("--only", nargs="+", default=[], help="sample folder names (default: all)")
     parser.add_argument("--codec", choices=sorted(CODECS), help="re-encode the videos first (default: as written)")
+    parser.add_argument("--window-step", type=float, default=STEP_M,
+                        help="chainage step between a window's frames [m] (default: the pipeline's, %(default)s)")
     args = parser.parse_args()
     with tempfile.TemporaryDirectory(prefix="pipegauge-codec-") as tmp:
         run(args, Path(tmp))
@@ -93,7 +95,7 @@ def run(args, tmp: Path) -> None:
         t1 = time.perf_counter()
         contours = contours_at_frames(video, {o["frame"] for o in truth["observations"] if o.get("quantities")}, track,
                                       und, header["shape"], height_mm=header["height_mm"],
-                                      tolerance_mm=header["height_tolerance_mm"], mask=mask)
+                                      tolerance_mm=header["height_tolerance_mm"], mask=mask, step_m=args.window_step)
         t_contours = time.perf_counter() - t1
         logged = {o.row: o for o in read_log(folder / "observations.csv", header["section_length_m"])}
         for obs in truth["observations"]:

@@ -141,7 +141,7 @@ def decode_only_cpu(path: Path) -> tuple[float, float]:
     return time.perf_counter() - w, time.process_time() - c
 
 
-def stages(package: Path) -> None:
+def stages(package: Path, step_m: float | None = None) -> None:
     """Wall and CPU [s] of each stage of ``measure_package`` run in this process: the stages run one after
     another, so the process's CPU over a stage (all its threads) is the stage's."""
     import pipeline.inspection.measure as conductor
@@ -170,8 +170,9 @@ def stages(package: Path) -> None:
         return run
 
     def contours(video, frames, track, *args, **kwargs):
-        windows.update(i for f in frames for i in window_frames(track, f))
-        return contours_at_frames(video, frames, track, *args, **kwargs)
+        step = {} if step_m is None else {"step_m": step_m}
+        windows.update(i for f in frames for i in window_frames(track, f, **step))
+        return contours_at_frames(video, frames, track, *args, **kwargs, **step)
 
     ingest_chainage, contours_at_frames = conductor.ingest_chainage, conductor.contours_at_frames
     frame_candidates, contour_from_candidates = pass_.frame_candidates, pass_.contour_from_candidates
@@ -209,6 +210,8 @@ def main() -> None:
     parser.add_argument("--stages", action="store_true",
                         help="also run this checkout's measure_package in this process and print each stage's "
                              "wall and CPU time")
+    parser.add_argument("--window-step", type=float,
+                        help="with --stages: another chainage step between a window's frames [m] (changes results)")
     args = parser.parse_args()
     args.dir.mkdir(parents=True, exist_ok=True)
     package = as_delivered(rendered(args.dir, args.workers), args.codec)
@@ -239,7 +242,7 @@ def main() -> None:
           f"the rest (start-up, hashing, thumbnails, verdicts, storing) "
           f"{wall - rec['time_track_s'] - rec['time_contour_s'] - rec['time_measure_s']:.1f} s")
     if args.stages:
-        stages(package)
+        stages(package, args.window_step)
 
 
 if __name__ == "__main__":

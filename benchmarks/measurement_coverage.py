@@ -48,8 +48,10 @@ from pipeline.synth.samples import sample_specs
 from pipeline.synth.scene import Deformation
 from pipeline.video.ingest import ingest_chainage
 from pipeline.video.overlay_ocr import OverlayReader
-from pipeline.video.pipe_contour import contours_at_frames, overlay_mask_of
+from pipeline.video.pipe_contour import STEP_M, contours_at_frames, overlay_mask_of
 from pipeline.camera.undistort import Undistorter
+
+WINDOW_STEP_M = STEP_M     # chainage step between a window's frames [m] (--window-step)
 
 SAMPLES = Path(__file__).resolve().parent.parent / "sample_videos"
 CLICK_SIGMA_PX = 0.7
@@ -148,7 +150,8 @@ def collect(per_frame: int = 17, seed: int = 7, codec: str | None = None, models
         by_row = {o.row: o for o in obs}
         true_of = {(o["row"], q["quantity"]): q["true_value"] for o in truth["observations"] for q in o["quantities"]}
         contours = contours_at_frames(video, {m.frame for m in marks}, track, und, header.shape,
-                                      height_mm=header.height_mm, tolerance_mm=header.height_tolerance_mm, mask=mask)
+                                      height_mm=header.height_mm, tolerance_mm=header.height_tolerance_mm, mask=mask,
+                                      step_m=WINDOW_STEP_M)
         for m in marks:
             o = by_row[m.row]
             q = marked_quantity(o, m, und, cert)
@@ -200,7 +203,11 @@ def main() -> None:
                         help="generated quantities per observation frame (17: 204 generated, 221 in all)")
     parser.add_argument("--seed", type=int, default=7)
     parser.add_argument("--codec", choices=sorted(CODECS), help="re-encode the videos first (default: as written)")
+    parser.add_argument("--window-step", type=float, default=STEP_M,
+                        help="chainage step between a window's frames [m] (default: the pipeline's, %(default)s)")
     args = parser.parse_args()
+    global WINDOW_STEP_M
+    WINDOW_STEP_M = args.window_step
     report(collect(args.per_frame, args.seed, args.codec))
 
 

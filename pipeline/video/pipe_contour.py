@@ -78,7 +78,7 @@ def _read_forward(path: str | os.PathLike, frames: Iterable[int], convert) -> It
 
 def contours_at_frames(path: str | os.PathLike, frames: Iterable[int], track: ChainageTrack, undistorter: Undistorter,
                        shape: str, *, height_mm: float, tolerance_mm: float, mask: np.ndarray | None = None,
-                       ideal_frames: dict[int, np.ndarray] | None = None) -> dict[int, PipeContour]:
+                       ideal_frames: dict[int, np.ndarray] | None = None, step_m: float = STEP_M) -> dict[int, PipeContour]:
     """The pipe contours of several frames of one video, checked against one another
     (``pipeline.contour.consensus.reconcile_windows``: the mount does not move, so the fits must agree).
 
@@ -93,8 +93,10 @@ def contours_at_frames(path: str | os.PathLike, frames: Iterable[int], track: Ch
     departure from the nominal profile enters u(p_H)).
     ideal_frames : when given, receives the ideal (undistorted) BGR image of
     each of ``frames`` (for thumbnails: no seeking back into the video).
+    step_m : chainage step between a window's frames [m]; the default is the
+    validated one (benchmarks try others: docs/speed.md).
     """
-    windows = {frame: window_frames(track, frame) for frame in sorted(set(frames))}
+    windows = {frame: window_frames(track, frame, step_m=step_m) for frame in sorted(set(frames))}
     wall_u = wall_u_from_tolerance(height_mm, tolerance_mm)
     users: dict[int, list[int]] = defaultdict(list)       # frame -> the windows it belongs to
     for frame, order in windows.items():

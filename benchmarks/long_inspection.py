@@ -146,10 +146,9 @@ def stages(package: Path, step_m: float | None = None) -> None:
     another, so the process's CPU over a stage (all its threads) is the stage's."""
     import pipeline.inspection.measure as conductor
     import pipeline.video.pipe_contour as pass_
-    from pipeline.video.pipe_contour import window_frames
     spent: dict[str, tuple[float, float]] = {}
-    windows: set[int] = set()
     thread_cpu = {"ridge points": 0.0, "pose fits": 0.0}      # summed over the threads that ran them
+    calls = dict.fromkeys(thread_cpu, 0)                      # ridge points: once per window frame
 
     def on_thread(name, fn):
         def run(*args, **kwargs):
@@ -158,6 +157,7 @@ def stages(package: Path, step_m: float | None = None) -> None:
                 return fn(*args, **kwargs)
             finally:
                 thread_cpu[name] += time.thread_time() - c
+                calls[name] += 1
         return run
 
     def timed(name, fn):
@@ -169,10 +169,8 @@ def stages(package: Path, step_m: float | None = None) -> None:
                 spent[name] = (time.perf_counter() - w, time.process_time() - c)
         return run
 
-    def contours(video, frames, track, *args, **kwargs):
-        step = {} if step_m is None else {"step_m": step_m}
-        windows.update(i for f in frames for i in window_frames(track, f, **step))
-        return contours_at_frames(video, frames, track, *args, **kwargs, **step)
+    def contours(*args, **kwargs):
+        return contours_at_frames(*args, **kwargs, **({} if step_m is None else {"step_m": step_m}))
 
     ingest_chainage, contours_at_frames = conductor.ingest_chainage, conductor.contours_at_frames
     frame_candidates, contour_from_candidates = pass_.frame_candidates, pass_.contour_from_candidates
@@ -194,7 +192,8 @@ def stages(package: Path, step_m: float | None = None) -> None:
     print(f"  stages in one process (wall / CPU, all threads): decode only {decode[0]:.1f} / {decode[1]:.1f} s; "
           f"measure_package {total[0]:.1f} / {total[1]:.1f} s: track {spent['track'][0]:.1f} / "
           f"{spent['track'][1]:.1f} s, contours {spent['contours'][0]:.1f} / {spent['contours'][1]:.1f} s "
-          f"({len(windows)} window frames, {1000 * spent['contours'][1] / max(len(windows), 1):.1f} ms of CPU each; "
+          f"({calls['ridge points']} window frames, {1000 * spent['contours'][1] / max(calls['ridge points'], 1):.1f} ms "
+          f"of CPU each; "
           f"their ridge points {thread_cpu['ridge points']:.1f} s of CPU, the pose fits {thread_cpu['pose fits']:.1f} s, "
           f"in their own threads, OpenCV's helpers aside), "
           f"Monte Carlo and the rest {rest[0]:.1f} / {rest[1]:.1f} s")

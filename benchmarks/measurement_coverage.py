@@ -51,8 +51,6 @@ from pipeline.video.overlay_ocr import OverlayReader
 from pipeline.video.pipe_contour import STEP_M, contours_at_frames, overlay_mask_of
 from pipeline.camera.undistort import Undistorter
 
-WINDOW_STEP_M = STEP_M     # chainage step between a window's frames [m] (--window-step)
-
 SAMPLES = Path(__file__).resolve().parent.parent / "sample_videos"
 CLICK_SIGMA_PX = 0.7
 OFF_PLANE = {"along", "axial"}      # generated kinds that do not lie in a cross-section plane
@@ -121,8 +119,10 @@ def measure_both(q, contour, cert, header, seed, models=MODELS):
     return out
 
 
-def collect(per_frame: int = 17, seed: int = 7, codec: str | None = None, models=MODELS) -> list[tuple]:
-    """Measure the samples' logged quantities and per_frame generated ones at each of their observation frames.
+def collect(per_frame: int = 17, seed: int = 7, codec: str | None = None, models=MODELS,
+            step_m: float = STEP_M) -> list[tuple]:
+    """Measure the samples' logged quantities and per_frame generated ones at each of their observation frames
+    (step_m: chainage step between a contour window's frames [m]).
 
     Returns (set, package, kind, method, truth, {model: QuantityResult} or None, code, char1, header) per quantity.
     """
@@ -151,7 +151,7 @@ def collect(per_frame: int = 17, seed: int = 7, codec: str | None = None, models
         true_of = {(o["row"], q["quantity"]): q["true_value"] for o in truth["observations"] for q in o["quantities"]}
         contours = contours_at_frames(video, {m.frame for m in marks}, track, und, header.shape,
                                       height_mm=header.height_mm, tolerance_mm=header.height_tolerance_mm, mask=mask,
-                                      step_m=WINDOW_STEP_M)
+                                      step_m=step_m)
         for m in marks:
             o = by_row[m.row]
             q = marked_quantity(o, m, und, cert)
@@ -206,9 +206,7 @@ def main() -> None:
     parser.add_argument("--window-step", type=float, default=STEP_M,
                         help="chainage step between a window's frames [m] (default: the pipeline's, %(default)s)")
     args = parser.parse_args()
-    global WINDOW_STEP_M
-    WINDOW_STEP_M = args.window_step
-    report(collect(args.per_frame, args.seed, args.codec))
+    report(collect(args.per_frame, args.seed, args.codec, step_m=args.window_step))
 
 
 def report(cases) -> None:

@@ -129,7 +129,7 @@ def grade_checks(cases) -> None:
     s = scheme()
     true_likely, most_true, log_true, n = [], [], [], 0
     stated, happened = [], []                 # every class's probability, and whether it was the true class
-    per_unit: dict[str, list[tuple[bool, bool]]] = {}
+    per_unit: dict[str, list[tuple[bool, bool, bool]]] = {}   # most probable, honest log's, measured value's class true
     for c in cases:
         bands, _ = applicable_bands(s, c["code"], c["char1"], c["unit"], c["height_mm"], c["material"])
         if not bands:
@@ -165,7 +165,7 @@ def reliability(p: np.ndarray, hit: np.ndarray) -> None:
         if m.any():
             print(f"    p in [{lo:.2f}, {min(hi, 1):.2f}{']' if hi > 1 else ')'}: {m.sum():4d} classes, mean stated "
                   f"{p[m].mean():.3f}, true {hit[m].mean():.3f}")
-    print(f"    Brier score {np.mean((p - hit) ** 2) * len(p) / hit.sum():.3f} per quantity (0 is perfect)")
+    print(f"    Brier score {np.sum((p - hit) ** 2) / hit.sum():.3f} per quantity (0 is perfect)")   # one true class each
 
 
 def report(cases, rng) -> None:

@@ -17,8 +17,8 @@ from pathlib import Path
 from typing import Callable, Sequence
 
 # One OpenBLAS thread unless the user says otherwise, set before NumPy loads it: the pose fits' small matrix
-# products gain nothing from more, and the idle threads' spinning took 2 s of CPU for 2.6 s of fits on the long
-# inspection, CPU the decoder needed (docs/speed.md). Results are the same either way.
+# products gain nothing from more, and with two the idle threads' spinning took 1.9 s more CPU for the same 2.7 s
+# of fits on the long inspection, CPU the decoder needed (docs/speed.md). Results are the same either way.
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 from flows.console import say as _say  # noqa: E402

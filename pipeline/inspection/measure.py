@@ -45,8 +45,8 @@ from .verdict_records import add_verdicts
 
 __all__ = ["InspectionResult", "measure_package", "file_sha256", "file_digests", "package_digest"]
 
+# quantities whose Monte Carlo runs at once: two where this process may use two cores
 QUANTITY_THREADS = min(2, len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1)
-# (quantities whose Monte Carlo runs at once: two where this process may use two cores)
 
 
 @dataclass

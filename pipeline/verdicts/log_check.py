@@ -16,11 +16,12 @@ can vouch for no log: its U95 may miss a pose error the fit could not see.
 It says ``disagrees`` only beyond a guard band, E_n > ``UNTRUSTED_GUARD``
 (2: the log lies outside the interval even if the stated U95 were half the
 true one: a guard band narrowing the rejection zone, "guarded rejection" in
-JCGM 106:2012 clause 8), and
-``undecided`` otherwise, with E_n beside it. The factor is pipegauge's
-choice, checked by ``benchmarks/verdicts.py`` (docs/verdicts.md: among the
-benchmark's measurements that were not confident, the largest
-|error| / U95 was 1.4). A logged value that is absent, not a number, or of another unit than the
+JCGM 106:2012 clause 8), and ``undecided`` otherwise, with E_n beside it.
+The factor is pipegauge's choice, checked by ``benchmarks/verdicts.py``
+(docs/verdicts.md: among the benchmark's measurements that were not
+confident, the largest |error| / U95 was 1.4).
+
+A logged value that is absent, not a number, or of another unit than the
 measurement gives ``not checked`` with the reason.
 
 The step r of a logged value: the default of its unit (``RESOLUTION``) when

@@ -53,15 +53,13 @@ def prefect_server(prefect_home, tmp_path_factory):
         stop(server)
 
 
-@pytest.fixture(scope="session")
-def sample_night(tmp_path_factory) -> Path:
-    """The three sample packages measured once for the session into one dataset, as a run would (``process_package``),
-    with their reports and a night's summary. Tests that only read these results share them."""
+def build_sample_night(root: Path) -> Path:
+    """The three sample packages measured into ``root`` as a run would (``process_package``), with their reports
+    and a night's summary: ``root/dataset`` and ``root/reports``. Also used by ``tests/golden_samples.py``."""
     from pipeline.inspection import process_package
     from pipeline.report import render_night_summary
 
     samples = Path(__file__).resolve().parent.parent / "sample_videos"
-    root = tmp_path_factory.mktemp("sample-night")
     shutil.copytree(samples / "certificates", root / "inbox" / "certificates")
     rows = []
     for name in ("S01-circular-clean", "S02-circular-water-offset", "S03-egg-concrete"):
@@ -71,3 +69,10 @@ def sample_night(tmp_path_factory) -> Path:
                      "error": "", "processed": True})
     render_night_summary(rows, root / "dataset", root / "reports" / "summary.pdf", night=dt.date(2026, 11, 30))
     return root
+
+
+@pytest.fixture(scope="session")
+def sample_night(tmp_path_factory) -> Path:
+    """The three sample packages measured once for the session into one dataset (``build_sample_night``).
+    Tests that only read these results share them."""
+    return build_sample_night(tmp_path_factory.mktemp("sample-night"))

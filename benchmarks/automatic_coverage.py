@@ -22,11 +22,11 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from pipeline.camera import load_certificate
-from pipeline.coding.log import Observation
-from pipeline.contour import detect_contour
-from pipeline.contour.detect import wall_u_from_tolerance
-from pipeline.errors import PipegaugeError
+from pipeline.formats.certificate import load_certificate
+from pipeline.domain.records import Observation
+from pipeline.vision.contour import detect_contour
+from pipeline.vision.contour.detect import wall_u_from_tolerance
+from pipeline.core.errors import PipegaugeError
 from pipeline.measurement.automatic import measure_automatic
 from pipeline.synth.scene import Deformation, Pipe, Scene
 from pipeline.synth.window import render_window

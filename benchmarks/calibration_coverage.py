@@ -17,10 +17,10 @@ import argparse
 import cv2
 import numpy as np
 
-from pipeline.calibration.pattern import parse_pattern
-from pipeline.calibration.solve import PARAMETERS, calibrate
+from pipeline.app.calibration.pattern import parse_pattern
+from pipeline.app.calibration.solve import PARAMETERS, calibrate
 from pipeline.synth.boards import random_board_poses, render_board, subpixel_rays
-from pipeline.calibration.views import View, find_corners
+from pipeline.app.calibration.views import View, find_corners
 from pipeline.synth.samples import sample_certificate
 
 

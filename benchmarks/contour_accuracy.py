@@ -33,14 +33,14 @@ from pathlib import Path
 
 import numpy as np
 
-from pipeline.camera import load_certificate
-from pipeline.coding import read_log
-from pipeline.contour import PipeView
+from pipeline.formats.certificate import load_certificate
+from pipeline.formats.observation_log import read_log
+from pipeline.vision.contour import PipeView
 from pipeline.measurement.wall import contour_under
 from pipeline.synth.delivery import CODECS, delivered
-from pipeline.video.ingest import ingest_chainage
-from pipeline.video.overlay_ocr import OverlayReader
-from pipeline.video.pipe_contour import STEP_M, contours_at_frames, overlay_mask_of
+from pipeline.vision.video.ingest import ingest_chainage
+from pipeline.vision.video.overlay_ocr import OverlayReader
+from pipeline.vision.video.pipe_contour import STEP_M, contours_at_frames, overlay_mask_of
 from pipeline.camera.undistort import Undistorter
 
 from ingest import decode_only   # benchmarks/ingest.py, the same grab loop

@@ -19,7 +19,7 @@ import math
 import cv2
 import numpy as np
 
-from pipeline.contour import PipeView
+from pipeline.vision.contour import PipeView
 
 
 def main() -> None:

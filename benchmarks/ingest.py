@@ -33,9 +33,9 @@ import cv2
 import numpy as np
 
 from pipeline.synth.delivery import CODECS, delivered
-from pipeline.video.glyphs import GlyphTemplates
-from pipeline.video.ingest import VERIFY_EVERY, ingest_chainage
-from pipeline.video.overlay_ocr import OverlayReader
+from pipeline.vision.video.glyphs import GlyphTemplates
+from pipeline.vision.video.ingest import VERIFY_EVERY, ingest_chainage
+from pipeline.vision.video.overlay_ocr import OverlayReader
 
 SAMPLES = Path(__file__).resolve().parent.parent / "sample_videos"
 

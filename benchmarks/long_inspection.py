@@ -53,6 +53,7 @@ from pipeline.synth.package import CameraMount, PackageSpec, build_package  # no
 from pipeline.synth.samples import sample_certificate  # noqa: E402
 from pipeline.synth.scene import Connection, Crack, Deformation, Deposit, DisplacedJoint, Pipe, Scene  # noqa: E402
 from pipeline.synth.trajectory import Stop  # noqa: E402
+from pipeline.formats.certificate import save_certificate  # noqa: E402
 
 from ingest import decode_only  # noqa: E402 (benchmarks/ingest.py, the same grab loop)
 
@@ -94,7 +95,7 @@ def rendered(folder: Path, workers: int) -> Path:
     package = folder / PACKAGE_ID
     if not (package / "truth" / "truth.json").exists():
         cert = sample_certificate(720, 576)
-        cert.save(folder / "certificates" / f"{cert.certificate_id}.json")
+        save_certificate(cert, folder / "certificates" / f"{cert.certificate_id}.json")
         t0 = time.perf_counter()
         build_package(long_spec(), cert, folder, workers=workers)
         print(f"rendered {package} in {time.perf_counter() - t0:.0f} s")
@@ -144,8 +145,8 @@ def decode_only_cpu(path: Path) -> tuple[float, float]:
 def stages(package: Path, step_m: float | None = None) -> None:
     """Wall and CPU [s] of each stage of ``measure_package`` run in this process: the stages run one after
     another, so the process's CPU over a stage (all its threads) is the stage's."""
-    import pipeline.inspection.measure as conductor
-    import pipeline.video.pipe_contour as pass_
+    import pipeline.app.measure as conductor
+    import pipeline.vision.video.pipe_contour as pass_
     spent: dict[str, tuple[float, float]] = {}
     thread_cpu = {"ridge points": 0.0, "pose fits": 0.0}      # summed over the threads that ran them
     calls = dict.fromkeys(thread_cpu, 0)                      # ridge points: once per window frame

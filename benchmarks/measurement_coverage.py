@@ -36,19 +36,22 @@ from pathlib import Path
 
 import numpy as np
 
-from pipeline.camera import load_certificate
-from pipeline.coding import load_header, load_manifest, read_log, read_marks
+from pipeline.formats.certificate import load_certificate
+from pipeline.formats.header import load_header
+from pipeline.formats.manifest import load_manifest
+from pipeline.formats.observation_log import read_log
+from pipeline.formats.marks import read_marks
 from pipeline.measurement import MarkedQuantity, marked_quantity, measure_quantity
 from pipeline.measurement import ideal_point_and_u
-from pipeline.profiles import level_tables
+from pipeline.maths.profiles import level_tables
 from pipeline.synth.delivery import CODECS, delivered
 from pipeline.synth.package import _wall
 from pipeline.camera.pose import CameraPose, project_points
 from pipeline.synth.samples import sample_specs
 from pipeline.synth.scene import Deformation
-from pipeline.video.ingest import ingest_chainage
-from pipeline.video.overlay_ocr import OverlayReader
-from pipeline.video.pipe_contour import STEP_M, contours_at_frames, overlay_mask_of
+from pipeline.vision.video.ingest import ingest_chainage
+from pipeline.vision.video.overlay_ocr import OverlayReader
+from pipeline.vision.video.pipe_contour import STEP_M, contours_at_frames, overlay_mask_of
 from pipeline.camera.undistort import Undistorter
 
 SAMPLES = Path(__file__).resolve().parent.parent / "sample_videos"

@@ -45,12 +45,12 @@ from pathlib import Path
 
 import numpy as np
 
-from pipeline.camera import load_certificate
-from pipeline.contour import PipeView
-from pipeline.contour.detect import PipeContour, Ring
+from pipeline.formats.certificate import load_certificate
+from pipeline.vision.contour import PipeView
+from pipeline.vision.contour.detect import PipeContour, Ring
 from pipeline.measurement import METHODS, MarkedQuantity, measure_quantity
 from pipeline.measurement.quantity import RESOLUTION_PX, _image_direction
-from pipeline.profiles import level_tables
+from pipeline.maths.profiles import level_tables
 
 SAMPLES = Path(__file__).resolve().parent.parent / "sample_videos"
 CLICK_SIGMA_PX = 0.7

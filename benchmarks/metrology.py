@@ -24,10 +24,11 @@ import time
 
 import numpy as np
 
-from pipeline.camera import load_certificate, sample_certificate_path
+from pipeline.formats.certificate import load_certificate
+from pipeline.camera import sample_certificate_path
 from pipeline.camera.perspective import collinearity
-from pipeline.metrology import InputSet, propagate_monte_carlo, shortest_interval, symmetric_interval
-from pipeline.paper.reproduction import perspective_inputs
+from pipeline.maths.metrology import InputSet, propagate_monte_carlo, shortest_interval, symmetric_interval
+from pipeline.app.paper.reproduction import perspective_inputs
 
 
 def bare_numpy(inputs: InputSet, trials: int, seed: int) -> dict[str, tuple[float, ...]]:

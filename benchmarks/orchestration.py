@@ -2,7 +2,7 @@
 
 On an inbox of the sample packages plus a renamed copy of S02 (four packages):
 
-1. direct: ``pipeline.inspection.process_package`` called on each package in turn;
+1. direct: ``pipeline.app.process_package`` called on each package in turn;
 2. flow, 1 worker: ``pipegauge run``'s flow (embedded Prefect, ephemeral server already started);
 3. flow, 2 workers: the same with two worker processes.
 
@@ -27,8 +27,8 @@ os.environ.setdefault("PREFECT_SERVER_ANALYTICS_ENABLED", "false")
 os.environ.setdefault("PREFECT_LOGGING_LEVEL", "WARNING")
 
 from flows.nightly import dataset_folder, nightly, task_runner_for  # noqa: E402
-from pipeline.inspection import discover_packages, process_package  # noqa: E402
-from pipeline.video.overlay_ocr import OverlayReader  # noqa: E402
+from pipeline.app import discover_packages, process_package  # noqa: E402
+from pipeline.vision.video.overlay_ocr import OverlayReader  # noqa: E402
 
 SAMPLES = Path(__file__).resolve().parent.parent / "sample_videos"
 

@@ -31,8 +31,8 @@ def main() -> None:
     args = parser.parse_args()
     if args.code:
         sys.path.insert(0, str(args.code.resolve()))
-    import pipeline.video.pipe_contour as pass_
-    from pipeline.inspection.measure import measure_package
+    import pipeline.vision.video.pipe_contour as pass_
+    from pipeline.app.measure import measure_package
 
     windows = []
     fit = pass_.contour_from_candidates

@@ -1,6 +1,6 @@
 """Seconds per PDF condition report for an inspection with 30 observations; example pages for the docs.
 
-Renders the report of an example inspection (pipeline.report.example: 30
+Renders the report of an example inspection (pipeline.reports.example: 30
 measured observations, each with a thumbnail and a budget) ``--repeat``
 times from a dataset and prints the time per report against the time to
 read the inspection's records back from the dataset, in the same run.
@@ -18,8 +18,8 @@ import tempfile
 import time
 from pathlib import Path
 
-from pipeline.report import render_inspection_report
-from pipeline.report.example import example_inspection
+from pipeline.reports import render_inspection_report
+from pipeline.reports.example import example_inspection
 from pipeline.store import read_table, write_inspection
 
 
@@ -57,7 +57,7 @@ def write_pages(data: Path, inspections: list[str], folder: Path, *, summary: bo
     summary of those inspections (summary-page-N.png), and the first report's page 1 as text in ``text``."""
     import datetime as dt
 
-    from pipeline.report import render_night_summary
+    from pipeline.reports import render_night_summary
 
     folder.mkdir(parents=True, exist_ok=True)
     out = []

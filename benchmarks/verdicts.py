@@ -5,7 +5,7 @@ logged ones and the generated ones, perspective model, measured through the
 whole chain) are given logs whose operator behaviour is known:
 
 * honest: the true value rounded to the logging resolution of its code
-  (``pipeline.verdicts.log_check.logging_resolution``);
+  (``pipeline.judgement.verdicts.log_check.logging_resolution``);
 * wrong: the true value plus an error of s x max(U95, resolution), s in
   ``ERROR_SIZES``, random sign, then rounded to the resolution.
 
@@ -33,9 +33,9 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from pipeline.grading import LIKELY, applicable_bands, class_index, grade, scheme  # noqa: E402
-from pipeline.grading.probability import result_cdf  # noqa: E402
-from pipeline.verdicts.log_check import RESOLUTION, UNTRUSTED_GUARD, check_logged  # noqa: E402
+from pipeline.judgement.grading import LIKELY, applicable_bands, class_index, grade, scheme  # noqa: E402
+from pipeline.judgement.grading.probability import result_cdf  # noqa: E402
+from pipeline.judgement.verdicts.log_check import RESOLUTION, UNTRUSTED_GUARD, check_logged  # noqa: E402
 
 ERROR_SIZES = (0.5, 1.0, 2.0, 3.0, 5.0)
 _FIELDS = ("unit", "value", "u", "U95", "low", "high", "k", "mc_trials", "confident")

@@ -23,7 +23,7 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 from flows.console import say as _say  # noqa: E402
 from pipeline import __version__  # noqa: E402
-from pipeline.errors import PipegaugeError  # noqa: E402
+from pipeline.core.errors import PipegaugeError  # noqa: E402
 
 EXIT_OK, EXIT_FAILED, EXIT_USAGE = 0, 1, 2
 
@@ -46,11 +46,12 @@ def _date(text: str) -> dt.date:
 # -- paper ---------------------------------------------------------------------
 
 def cmd_paper(args: argparse.Namespace) -> int:
-    from pipeline.camera import load_certificate, sample_certificate_path
-    from pipeline.paper.figures import write_figures_pdf
-    from pipeline.paper.reproduction import reproduce
-    from pipeline.paper.summary import summary_text
-    from pipeline.atomic import atomic_path
+    from pipeline.formats.certificate import load_certificate
+    from pipeline.camera import sample_certificate_path
+    from pipeline.app.paper.figures import write_figures_pdf
+    from pipeline.app.paper.reproduction import reproduce
+    from pipeline.app.paper.summary import summary_text
+    from pipeline.core.atomic import atomic_path
 
     cert = load_certificate(args.certificate or sample_certificate_path())
     _say(f"pipegauge paper: reproducing the source paper with certificate {cert.certificate_id} (seed {args.seed}) ...")
@@ -69,12 +70,14 @@ def cmd_paper(args: argparse.Namespace) -> int:
 # -- certificate ---------------------------------------------------------------
 
 def cmd_certificate_check(args: argparse.Namespace) -> int:
-    from pipeline.camera import load_certificate
-    from pipeline.text import format_table
+    from pipeline.formats.certificate import load_certificate
+    from pipeline.core.text import format_table
 
     cert = load_certificate(args.certificate, on_date=args.on, image_size=args.image_size)
     if args.json:
-        print(json.dumps(cert.to_dict(), indent=2))
+        from pipeline.formats.certificate import certificate_to_dict
+
+        print(json.dumps(certificate_to_dict(cert), indent=2))
         return EXIT_OK
     rows = [(name, f"{p.value:.6g}", f"{p.u:.3g}", p.unit) for name, p in cert.parameters.items()]
     print(format_table(("parameter", "value", "u", "unit"), rows,
@@ -87,10 +90,12 @@ def cmd_certificate_check(args: argparse.Namespace) -> int:
 
 
 def cmd_certificate_convert(args: argparse.Namespace) -> int:
-    from pipeline.camera import load_certificate
+    from pipeline.formats.certificate import load_certificate
 
     cert = load_certificate(args.certificate).in_convention(args.to)
-    path = cert.save(args.out)
+    from pipeline.formats.certificate import save_certificate
+
+    path = save_certificate(cert, args.out)
     _say(f"wrote {path} ({args.to} convention)")
     return EXIT_OK
 
@@ -122,12 +127,12 @@ def cmd_samples(args: argparse.Namespace) -> int:
 # -- calibrate -----------------------------------------------------------------
 
 def cmd_calibrate(args: argparse.Namespace) -> int:
-    from pipeline.calibration.certificate import certificate_from_calibration
-    from pipeline.calibration.pattern import parse_pattern
-    from pipeline.calibration.report import write_calibration_report
-    from pipeline.calibration.solve import PARAMETERS, calibrate
-    from pipeline.calibration.views import read_views
-    from pipeline.text import format_table
+    from pipeline.app.calibration.certificate import certificate_from_calibration
+    from pipeline.app.calibration.pattern import parse_pattern
+    from pipeline.app.calibration.report import write_calibration_report
+    from pipeline.app.calibration.solve import PARAMETERS, calibrate
+    from pipeline.app.calibration.views import read_views
+    from pipeline.core.text import format_table
 
     pattern = parse_pattern(args.pattern)
     _say(f"pipegauge calibrate: looking for the {pattern.describe()} in {len(args.inputs)} input(s) ...")
@@ -140,7 +145,9 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
                                         certificate_id=args.certificate_id or f"CAL-{args.camera_id}-{args.date}",
                                         issuer=args.issuer, issue_date=args.date, valid_days=args.valid_days,
                                         pixel_pitch_um=args.pixel_pitch_um)
-    path = cert.save(args.out)
+    from pipeline.formats.certificate import save_certificate
+
+    path = save_certificate(cert, args.out)
     report = write_calibration_report(cal, cert, args.report or path.with_suffix(".pdf"))
     rows = [(n, f"{cal.values[n]:.6g}", f"{cal.u[n]:.2g}", f"{1.96 * cal.u[n]:.2g}") for n in PARAMETERS]
     print(format_table(("parameter", "value", "u", "U95"), rows,
@@ -155,7 +162,7 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
 # -- probe ---------------------------------------------------------------------
 
 def cmd_probe(args: argparse.Namespace) -> int:
-    from pipeline.inspection.probe import ProbeRequestError, probe
+    from pipeline.app.probe import ProbeRequestError, probe
 
     try:
         result = probe(args.source, time_s=args.time, frame=args.frame, chainage_m=args.chainage,
@@ -178,9 +185,9 @@ def cmd_probe(args: argparse.Namespace) -> int:
 # -- measure / export -----------------------------------------------------------
 
 def cmd_measure(args: argparse.Namespace) -> int:
-    from pipeline.inspection import duplicate_claims, process_package
+    from pipeline.app import duplicate_claims, process_package
     from pipeline.store.lock import dataset_lock
-    from pipeline.video.overlay_ocr import OverlayReader
+    from pipeline.vision.video.overlay_ocr import OverlayReader
 
     failed = 0
     duplicates = duplicate_claims([Path(p) for p in args.packages])
@@ -204,8 +211,8 @@ def cmd_measure(args: argparse.Namespace) -> int:
 
 def _print_measured(result, args: argparse.Namespace) -> None:
     """What measure stored of one package: its status and problems (stderr), its quantities (stdout)."""
-    from pipeline.metrology.display import format_record
-    from pipeline.report.verdict_text import json_safe, log_check_text, verdict_lines
+    from pipeline.maths.metrology.display import format_record
+    from pipeline.reports.verdict_text import json_safe, log_check_text, verdict_lines
 
     rec = result.inspection
     _say(f"{rec['inspection_id']}: {rec['status']}" + (f" ({rec['error']})" if rec["error"] else "")
@@ -337,7 +344,7 @@ def _dataset_of(data: Path) -> Path:
 
 
 def cmd_report(args: argparse.Namespace) -> int:
-    from pipeline.report import render_inspection_report
+    from pipeline.reports import render_inspection_report
 
     path = render_inspection_report(_dataset_of(args.data), args.inspection_id, args.out)
     _say(f"pipegauge report: {path}")
@@ -345,7 +352,7 @@ def cmd_report(args: argparse.Namespace) -> int:
 
 
 def cmd_export(args: argparse.Namespace) -> int:
-    from pipeline.exchange import WRITERS, writer
+    from pipeline.formats import WRITERS, writer
 
     fmt = args.format or ("parquet" if args.out.suffix.lower() == ".parquet" else "csv")
     written = writer(fmt)(_dataset_of(args.data), args.out, args.start, args.end)
@@ -359,8 +366,8 @@ def cmd_export(args: argparse.Namespace) -> int:
 
 
 def cmd_log(args: argparse.Namespace) -> int:
-    from pipeline.exchange import read_log_file
-    from pipeline.text import format_table
+    from pipeline.formats import read_log_file
+    from pipeline.core.text import format_table
 
     reading = read_log_file(args.file)
     if args.json:
@@ -384,8 +391,8 @@ def cmd_log(args: argparse.Namespace) -> int:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    from pipeline.calibration.pattern import PATTERN_SYNTAX
-    from pipeline.exchange import WRITERS        # the registry only: each format's module loads when used
+    from pipeline.app.calibration.pattern import PATTERN_SYNTAX
+    from pipeline.formats import WRITERS        # the registry only: each format's module loads when used
 
     parser = argparse.ArgumentParser(
         prog="pipegauge",

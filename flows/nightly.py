@@ -32,9 +32,9 @@ from prefect.states import Failed
 from prefect.task_runners import ProcessPoolTaskRunner, TaskRunner, ThreadPoolTaskRunner
 
 from flows.console import say
-from pipeline.coding.package import CERTIFICATES_FOLDER
-from pipeline.inspection import PackageOutcome, discover_packages, duplicate_claims, process_package, refused_outcome
-from pipeline.report import render_night_summary
+from pipeline.formats.manifest import CERTIFICATES_FOLDER
+from pipeline.app import PackageOutcome, discover_packages, duplicate_claims, process_package, refused_outcome
+from pipeline.reports import render_night_summary
 from pipeline.store import remove_uncommitted
 from pipeline.store.lock import dataset_lock, remove_stale_temporaries
 
@@ -54,7 +54,7 @@ def reports_folder(out: str | os.PathLike) -> Path:
 
 def _reader():
     """One overlay reader per thread or process (building one loads the OCR models, about a second)."""
-    from pipeline.video.overlay_ocr import OverlayReader
+    from pipeline.vision.video.overlay_ocr import OverlayReader
 
     if getattr(_local, "reader", None) is None:
         _local.reader = OverlayReader()

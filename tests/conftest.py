@@ -16,7 +16,7 @@ from processes import base_env, free_port, stop, wait_for
 @pytest.fixture(scope="session")
 def reader():
     """One overlay reader for the session (building one loads the OCR models)."""
-    from pipeline.video.overlay_ocr import OverlayReader
+    from pipeline.vision.video.overlay_ocr import OverlayReader
 
     return OverlayReader()
 
@@ -56,8 +56,8 @@ def prefect_server(prefect_home, tmp_path_factory):
 def build_sample_night(root: Path) -> Path:
     """The three sample packages measured into ``root`` as a run would (``process_package``), with their reports
     and a night's summary: ``root/dataset`` and ``root/reports``. Also used by ``tests/golden_samples.py``."""
-    from pipeline.inspection import process_package
-    from pipeline.report import render_night_summary
+    from pipeline.app import process_package
+    from pipeline.reports import render_night_summary
 
     samples = Path(__file__).resolve().parent.parent / "sample_videos"
     shutil.copytree(samples / "certificates", root / "inbox" / "certificates")

@@ -24,7 +24,6 @@ import hashlib
 import json
 import math
 import re
-import shutil
 import sys
 import tempfile
 from pathlib import Path

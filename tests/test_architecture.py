@@ -1,8 +1,15 @@
-"""The house's floors (docs/architecture.md): every import in pipeline/ points down, never up or sideways."""
+"""The house (docs/architecture.md): the floors are the folders of pipeline/, every import points down, and each
+file format's name is written once.
+
+The checks are functions of a source tree, so that each is also shown to fail: on a copy of pipeline/ with a
+wrong-way import planted, and with a second definition of a format's name planted.
+"""
 
 from __future__ import annotations
 
 import ast
+import importlib
+import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -10,29 +17,39 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parent.parent
 PIPELINE = ROOT / "pipeline"
 
-# Floor of each room; a module may import its own room and the rooms of lower floors only.
+# The floors, bottom up: a module may import its own floor folder and the floors below, never a floor folder of
+# the same number (sideways) or above. pipeline/__init__.py (the version) is the ground under all of them.
 FLOORS = {
-    "errors": 0, "limits": 0, "atomic": 0, "text": 0, "pdf": 0, "__init__": 0,   # the ground: pipeline/*.py
-    "metrology": 1, "profiles": 1,                                        # maths
-    "camera": 2,                                                          # the camera and its models
-    "coding": 3, "store": 3, "grading": 3,                                # formats; grading schemes as data
-    "contour": 4, "verdicts": 4,                                          # the contour in images; log and survey rules
-    "video": 5,                                                           # video ingest
-    "measurement": 6, "exchange": 6, "report": 6, "calibration": 6, "paper": 6,
-    "inspection": 7,                                                      # the conductor of one package
-    "synth": 8,                                                           # the generator: a consumer, like a test
+    "core": 0,          # errors, limits, atomic writes, text and number helpers
+    "maths": 1,         # the GUM engine, cross-section profiles
+    "domain": 2,        # the EN 13508-2 code table, the typed records
+    "camera": 3,        # certificate object, distortion, pose, the measurement models
+    "vision": 4,        # the contour in images, the video, its overlay and track
+    "measurement": 5,   # quantities with U95 and their budgets
+    "judgement": 6,     # the log check, the surveyed length, condition grades
+    "formats": 7,       # every file format, read and written
+    "store": 7,         # the Parquet dataset: records to rows and back
+    "reports": 8,       # PDF reports
+    "app": 9,           # the conductor, the inbox, the verbs' procedures (calibration, the paper, exports)
+    "synth": 10,        # the synthetic generator: a consumer, like a test
 }
+NOT_CODE = {"data", "__pycache__"}
 
 
-def _room(module: str) -> str:
+def _module(path: Path, root: Path) -> str:
+    return ".".join(path.relative_to(root).with_suffix("").parts)
+
+
+def _floor(module: str) -> str | None:
     parts = module.split(".")
-    return parts[1] if len(parts) > 1 and parts[1] in FLOORS else "__init__"    # `from .. import __version__`
+    return parts[1] if len(parts) > 1 and parts[1] in FLOORS else None     # None: pipeline itself (`__version__`)
 
 
-def _imports(path: Path) -> list[tuple[str, int]]:
+def imports(path: Path, root: Path) -> list[tuple[str, int]]:
     """(imported pipeline module, line) of every import in a file, relative imports resolved."""
-    module = ".".join(path.relative_to(ROOT).with_suffix("").parts)
-    package = module.rsplit(".", 1)[0] if path.name != "__init__.py" else module.rsplit(".", 1)[0]
+    module = _module(path, root)
+    package = module if path.name == "__init__.py" else module.rsplit(".", 1)[0]
+    package = package.removesuffix(".__init__")
     out = []
     for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
         if isinstance(node, ast.ImportFrom):
@@ -41,37 +58,115 @@ def _imports(path: Path) -> list[tuple[str, int]]:
                 target = ".".join(base + ([node.module] if node.module else []))
             else:
                 target = node.module or ""
-            names = [target] if node.module else [f"{target}.{a.name}" for a in node.names]
-            out += [(t, node.lineno) for t in names if t.startswith("pipeline")]
+            out += [(target, node.lineno)] if target.startswith("pipeline") else []
         elif isinstance(node, ast.Import):
             out += [(a.name, node.lineno) for a in node.names if a.name.startswith("pipeline")]
     return out
 
 
-def test_every_room_has_a_floor():
-    rooms = {p.stem if p.is_file() else p.name for p in PIPELINE.iterdir()
-             if (p.is_file() and p.suffix == ".py") or (p.is_dir() and (p / "__init__.py").exists())}
-    assert rooms <= set(FLOORS), f"give these rooms a floor in tests/test_architecture.py: {sorted(rooms - set(FLOORS))}"
+def climbing_imports(root: Path) -> list[str]:
+    """Every import in ``root/pipeline`` that goes to a floor above its own, or sideways to another folder."""
+    found = []
+    for path in sorted((root / "pipeline").rglob("*.py")):
+        mine = _floor(_module(path, root))
+        for target, line in imports(path, root):
+            other = _floor(target)
+            if mine is None or other is None or other == mine:
+                continue
+            if FLOORS[other] >= FLOORS[mine]:
+                found.append(f"{path.relative_to(root)}:{line} ({mine}, floor {FLOORS[mine]}) imports {target} "
+                             f"({other}, floor {FLOORS[other]})")
+    return found
+
+
+def format_names() -> dict[str, str]:
+    """Each registered file format's name -> the module that defines it (``pipeline.formats.FILE_FORMATS``)."""
+    from pipeline.formats import FILE_FORMATS
+
+    names = {}
+    for module in FILE_FORMATS.values():
+        mod = importlib.import_module(module)
+        if isinstance(getattr(mod, "FORMAT_NAME", None), str):
+            names[mod.FORMAT_NAME] = module
+        for model, _date in getattr(mod, "MODELS", {}).values():     # an INTERLIS format: its models' names
+            names[model] = module
+    return names
+
+
+def format_name_definitions(root: Path, names: dict[str, str]) -> list[str]:
+    """Every string literal equal to a format's name outside the module that defines it, in pipeline/ and flows/."""
+    found = []
+    for folder in ("pipeline", "flows"):
+        for path in sorted((root / folder).rglob("*.py")):
+            module = _module(path, root).removesuffix(".__init__")
+            for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+                if isinstance(node, ast.Constant) and isinstance(node.value, str) and node.value in names \
+                        and names[node.value] != module:
+                    found.append(f"{path.relative_to(root)}:{node.lineno} writes {node.value!r}, "
+                                 f"defined in {names[node.value]}")
+    return found
+
+
+def _copy(tmp_path: Path) -> Path:
+    shutil.copytree(PIPELINE, tmp_path / "pipeline", ignore=shutil.ignore_patterns("__pycache__", "data"))
+    shutil.copytree(ROOT / "flows", tmp_path / "flows", ignore=shutil.ignore_patterns("__pycache__"))
+    return tmp_path
+
+
+def test_the_floors_are_the_folders_of_pipeline():
+    rooms = {p.name for p in PIPELINE.iterdir() if p.name not in NOT_CODE and p.name != "__init__.py"}
+    assert rooms == set(FLOORS), f"a floor for each folder, a folder for each floor: {sorted(rooms ^ set(FLOORS))}"
+    assert all((PIPELINE / r / "__init__.py").is_file() for r in FLOORS)
 
 
 def test_no_module_imports_upward_or_sideways():
-    violations = []
-    for path in sorted(PIPELINE.rglob("*.py")):
-        room = _room(".".join(path.relative_to(ROOT).with_suffix("").parts))
-        for target, line in _imports(path):
-            other = _room(target)
-            if other != room and FLOORS[other] >= FLOORS[room] and FLOORS[other] > 0:
-                violations.append(f"{path.relative_to(ROOT)}:{line} ({room}, floor {FLOORS[room]}) imports {target} "
-                                  f"({other}, floor {FLOORS[other]})")
-    assert not violations, "imports that climb:\n" + "\n".join(violations)
+    found = climbing_imports(ROOT)
+    assert not found, "imports that climb:\n" + "\n".join(found)
+
+
+def test_a_planted_wrong_way_import_is_caught(tmp_path):
+    root = _copy(tmp_path)
+    (root / "pipeline" / "maths" / "planted.py").write_text("from pipeline.app import measure_package\n")
+    (root / "pipeline" / "store" / "planted.py").write_text("from ..formats.header import load_header\n")
+    found = climbing_imports(root)
+    assert len(found) == 2
+    assert "pipeline/maths/planted.py:1 (maths, floor 1) imports pipeline.app" in found[0]
+    assert "pipeline/store/planted.py:1 (store, floor 7) imports pipeline.formats.header" in found[1]
+
+
+def test_every_format_name_is_written_once():
+    names = format_names()
+    assert {"pipegauge-inspection-package", "pipegauge-section-header", "pipegauge-calibration-certificate",
+            "VSA_KEK_2019_LV95"} <= set(names)
+    found = format_name_definitions(ROOT, names)
+    assert not found, "format names written outside their format's module:\n" + "\n".join(found)
+
+
+def test_a_planted_second_definition_of_a_format_name_is_caught(tmp_path):
+    root = _copy(tmp_path)
+    report = root / "pipeline" / "reports" / "planted.py"
+    report.write_text('HEADER = {"format": "pipegauge-section-header", "format_version": 1}\n')
+    (root / "flows" / "planted.py").write_text('MODEL = "VSA_KEK_2019_LV95"\n')
+    found = format_name_definitions(root, format_names())
+    assert found == ["pipeline/reports/planted.py:1 writes 'pipegauge-section-header', defined in pipeline.formats.header",
+                     "flows/planted.py:1 writes 'VSA_KEK_2019_LV95', defined in pipeline.formats.vsa_kek"]
 
 
 def test_no_production_module_imports_the_generator():
     users = [f"{p.relative_to(ROOT)}:{line}" for p in PIPELINE.rglob("*.py") if "synth" not in p.relative_to(PIPELINE).parts
-             for target, line in _imports(p) if target.startswith("pipeline.synth")]
-    flows = [f"{p.relative_to(ROOT)}:{line}" for p in (ROOT / "flows").glob("*.py") for target, line in _imports(p)
+             for target, line in imports(p, ROOT) if target.startswith("pipeline.synth")]
+    flows = [f"{p.relative_to(ROOT)}:{line}" for p in (ROOT / "flows").glob("*.py") for target, line in imports(p, ROOT)
              if target.startswith("pipeline.synth") and p.name != "cli.py"]
     assert not users and not flows, users + flows
+
+
+def test_the_coverage_factor_is_not_written_as_a_literal():
+    """k for 95 % comes from pipeline.maths.metrology (coverage_factor, K95), never a 1.96 typed again."""
+    found = [f"{p.relative_to(ROOT)}:{node.lineno}" for p in PIPELINE.rglob("*.py")
+             if p.relative_to(PIPELINE).parts[:2] != ("maths", "metrology")
+             for node in ast.walk(ast.parse(p.read_text(encoding="utf-8")))
+             if isinstance(node, ast.Constant) and node.value == 1.96]
+    assert not found, found
 
 
 def _loaded_after(statement: str) -> set[str]:
@@ -81,11 +176,11 @@ def _loaded_after(statement: str) -> set[str]:
 
 
 def test_the_library_never_loads_prefect_and_the_models_load_no_video_stack():
-    everything = _loaded_after("import pipeline, pipeline.inspection, pipeline.store, pipeline.report, "
-                               "pipeline.exchange, pipeline.measurement, pipeline.video, pipeline.contour")
+    everything = _loaded_after("import pipeline, pipeline.app, pipeline.store, pipeline.reports, "
+                               "pipeline.formats, pipeline.measurement, pipeline.vision.video, pipeline.vision.contour")
     assert "prefect" not in everything
-    models = _loaded_after("import pipeline.measurement, pipeline.camera, pipeline.metrology")
-    assert not {m for m in models if m.startswith(("pipeline.video", "pipeline.report", "pipeline.synth", "rapidocr",
-                                                   "reportlab", "onnxruntime"))}
+    models = _loaded_after("import pipeline.measurement, pipeline.camera, pipeline.maths.metrology")
+    assert not {m for m in models if m.startswith(("pipeline.vision.video", "pipeline.reports", "pipeline.synth",
+                                                   "rapidocr", "reportlab", "onnxruntime"))}
     # scipy.stats costs a second at every start-up for two quantiles that scipy.special gives
     assert not {m for m in everything | models if m.startswith("scipy.stats")}

@@ -8,12 +8,12 @@ import cv2
 import numpy as np
 import pytest
 
-from pipeline.camera import load_certificate
-from pipeline.coding.log import Observation
-from pipeline.contour import detect_contour
-from pipeline.contour.deformed_ring import find_deformed_ring
-from pipeline.contour.water_line import find_water_line
-from pipeline.errors import MeasurementError
+from pipeline.formats.certificate import load_certificate
+from pipeline.domain.records import Observation
+from pipeline.vision.contour import detect_contour
+from pipeline.vision.contour.deformed_ring import find_deformed_ring
+from pipeline.vision.contour.water_line import find_water_line
+from pipeline.core.errors import MeasurementError
 from pipeline.measurement.automatic import measure_automatic
 from pipeline.synth.scene import Deformation, Pipe, Scene
 from pipeline.synth.window import render_window

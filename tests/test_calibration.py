@@ -11,12 +11,12 @@ from pypdf import PdfReader
 
 from flows.cli import main
 from pipeline.synth.calibration_set import write_calibration_set
-from pipeline.calibration.pattern import parse_pattern
-from pipeline.calibration.solve import PARAMETERS, calibrate
-from pipeline.calibration.views import View, find_corners, read_views
-from pipeline.camera import load_certificate
+from pipeline.app.calibration.pattern import parse_pattern
+from pipeline.app.calibration.solve import PARAMETERS, calibrate
+from pipeline.app.calibration.views import View, find_corners, read_views
+from pipeline.formats.certificate import load_certificate
 from pipeline.camera.lens import distortion_uncertainty
-from pipeline.errors import CalibrationError
+from pipeline.core.errors import CalibrationError
 from pipeline.synth.samples import sample_certificate
 
 TRUE = sample_certificate(720, 576)

@@ -8,8 +8,12 @@ from pathlib import Path
 
 import pytest
 
-from pipeline.coding import CODES, load_header, load_manifest, read_log, read_marks
-from pipeline.errors import HeaderError, ObservationLogError, PackageError
+from pipeline.domain.codes import CODES
+from pipeline.formats.header import load_header
+from pipeline.formats.manifest import load_manifest
+from pipeline.formats.observation_log import read_log
+from pipeline.formats.marks import read_marks
+from pipeline.core.errors import HeaderError, ObservationLogError, PackageError
 
 SAMPLE = Path(__file__).resolve().parent.parent / "sample_videos" / "S01-circular-clean"
 LOG_HEAD = "row,distance_m,code,char1,char2,q1,q1_unit,q2,q2_unit,clock_from,clock_to,at_joint,continuous,video_time,photo,remark\n"
@@ -73,7 +77,7 @@ def test_bad_log_rows_each_name_file_row_field(tmp_path):
     problems = {o.row: [str(p) for p in o.problems] for o in obs}
     assert problems[1] == []
     assert problems[2] == ["observations.csv row 2, field 'code': 'BXX' is not an EN 13508-2 pipe observation code "
-                           "known to pipegauge (pipeline/coding/codes.py lists them)"]
+                           "known to pipegauge (pipeline/domain/codes.py lists them)"]
     assert problems[3] == ["observations.csv row 3, field 'q1_unit': 'cm' is not a unit; use one of mm, %, deg, count"]
     assert problems[4] == ["observations.csv row 4, field 'distance_m': 99.0 m lies beyond the section's length 42.0 m "
                            "(header); check the distance or the header's section_length_m"]
@@ -134,7 +138,7 @@ def test_a_profile_change_part_way_is_refused_at_the_start_accepted(tmp_path):
 
 
 def test_descriptions_read_as_en13508_text():
-    from pipeline.coding.codes import plain_description
+    from pipeline.domain.codes import plain_description
 
     assert plain_description("BAB", "B", "A") == "crack, longitudinal"            # the characterisation names the defect
     assert plain_description("BAB", "C", "B") == "open crack, circumferential"

@@ -8,12 +8,12 @@ import cv2
 import numpy as np
 import pytest
 
-from pipeline.camera import load_certificate
-from pipeline.contour import PipeView, detect_contour
-from pipeline.contour.ridges import static_overlay_mask
-from pipeline.profiles import exit_table, profile_polygon, ray_to_wall
-from pipeline.video.pipe_contour import read_ideal_grays
-from pipeline.video.reader import iter_frames
+from pipeline.formats.certificate import load_certificate
+from pipeline.vision.contour import PipeView, detect_contour
+from pipeline.vision.contour.ridges import static_overlay_mask
+from pipeline.maths.profiles import exit_table, profile_polygon, ray_to_wall
+from pipeline.vision.video.pipe_contour import read_ideal_grays
+from pipeline.vision.video.reader import iter_frames
 from pipeline.camera.undistort import Undistorter
 
 SAMPLES = Path(__file__).resolve().parent.parent / "sample_videos"
@@ -92,7 +92,7 @@ def test_a_frame_without_rings_is_not_a_contour():
 
 
 def _fit(pose, sd, rms, held_roll=True):
-    from pipeline.contour.result import PipeContour
+    from pipeline.vision.contour.result import PipeContour
 
     var = np.square(np.asarray(sd, float))
     if held_roll:
@@ -102,7 +102,7 @@ def _fit(pose, sd, rms, held_roll=True):
 
 
 def test_windows_of_one_video_are_checked_against_one_another():
-    from pipeline.contour.consensus import reconcile_windows
+    from pipeline.vision.contour.consensus import reconcile_windows
 
     sd = [0.002, 0.004, 0.001, 0.002, 0.0]
     good = [0.0, -0.17, 0.0, 0.017, 0.0]
@@ -130,7 +130,7 @@ def test_windows_of_one_video_are_checked_against_one_another():
 
 
 def test_an_untrusted_window_borrows_the_pose_of_a_trusted_overlapping_one():
-    from pipeline.contour.consensus import reconcile_windows
+    from pipeline.vision.contour.consensus import reconcile_windows
 
     sd = [0.002, 0.004, 0.001, 0.002, 0.0]
     good = [0.0, -0.034, 0.0, 0.0, 0.0]
@@ -151,7 +151,7 @@ def test_an_untrusted_window_borrows_the_pose_of_a_trusted_overlapping_one():
 def test_a_single_still_gives_the_ring_of_its_visible_joint_face():
     """One rendered still, camera on the axis: the ring found lies within the joint's band (from the socket
     face before the gap to the gap's far edge), and is seen all round."""
-    from pipeline.contour.still import ring_in_still
+    from pipeline.vision.contour.still import ring_in_still
     from pipeline.synth.render import LIP_MM
     from pipeline.synth.scene import Pipe, Scene
     from pipeline.synth.window import render_window
@@ -169,7 +169,7 @@ def test_a_single_still_gives_the_ring_of_its_visible_joint_face():
 
 def test_first_pose_profile_fit_recovers_an_egg_ring_among_outliers():
     """The hand-written robust fit behind the first pose: centre and scale of a noisy egg ring, 15 % clutter."""
-    from pipeline.contour.first_pose import template_fit
+    from pipeline.vision.contour.first_pose import template_fit
 
     rng = np.random.default_rng(3)
     centre, scale = np.array([612.3, 347.8]), 281.6
@@ -184,7 +184,7 @@ def test_first_pose_profile_fit_recovers_an_egg_ring_among_outliers():
 @pytest.mark.parametrize("n", [15, 16])
 def test_overlay_mask_median_on_8_bit_frames_equals_the_float_median(n):
     """The burned-in overlay's median frame, taken by a partition of the 8-bit values, is numpy's median."""
-    from pipeline.contour.ridges import _median_frame
+    from pipeline.vision.contour.ridges import _median_frame
 
     stack = np.random.default_rng(n).integers(0, 256, (n, 37, 53), dtype=np.uint8)
     assert np.array_equal(_median_frame(stack), np.median(stack.astype(np.float32), axis=0).astype(np.uint8))
@@ -214,7 +214,7 @@ def test_pose_and_depth_fit_reaches_scipy_least_squares_solution(loss):
     """The arrow-structured Levenberg-Marquardt fit against scipy's least_squares on one pose fit with outliers."""
     from scipy.optimize import least_squares
 
-    from pipeline.contour.pose_lsq import fit_pose_and_depths
+    from pipeline.vision.contour.pose_lsq import fit_pose_and_depths
 
     rng = np.random.default_rng(7)
     truth = PipeView("circular", 600.0, 600.0, 360.0, 288.0, 0.06, -0.08, 0.02, 0.03, 0.0)
@@ -247,11 +247,11 @@ def test_pose_and_depth_fit_reaches_scipy_least_squares_solution(loss):
 
 
 def test_windows_fitted_while_decoding_equal_the_fits_one_after_another_and_keep_the_ideal_frames():
-    from pipeline.contour.consensus import reconcile_windows
-    from pipeline.contour.detect import contour_from_candidates, frame_candidates, wall_u_from_tolerance
-    from pipeline.video.ingest import ingest_chainage
-    from pipeline.video.pipe_contour import contours_at_frames, overlay_mask_of, window_frames
-    from pipeline.video.reader import read_frame
+    from pipeline.vision.contour.consensus import reconcile_windows
+    from pipeline.vision.contour.detect import contour_from_candidates, frame_candidates, wall_u_from_tolerance
+    from pipeline.vision.video.ingest import ingest_chainage
+    from pipeline.vision.video.pipe_contour import contours_at_frames, overlay_mask_of, window_frames
+    from pipeline.vision.video.reader import read_frame
 
     folder = SAMPLES / "S03-egg-concrete"
     truth, _, cert = _truth(folder)

@@ -4,7 +4,8 @@ import cv2
 import numpy as np
 import pytest
 
-from pipeline.camera import load_certificate, sample_certificate_path
+from pipeline.formats.certificate import load_certificate
+from pipeline.camera import sample_certificate_path
 from pipeline.camera.distortion import (
     brown_distortion_px, distort_points_px, opencv_to_pixel_coefficients, pixel_to_opencv_coefficients,
     undistort_points_px,

@@ -23,10 +23,10 @@ import pytest
 
 from flows.cli import main
 from pipeline import __version__
-from pipeline.coding import load_manifest
-from pipeline.errors import PackageError, TransferError
-from pipeline.exchange import READERS, WRITERS, load_package_log, observation_record, read_log_file
-from pipeline.exchange.vsa_kek import (MAX_ELEMENTS, MAX_OBJECTS, MAX_TRANSFER_BYTES, SECTION_FIELDS, package_transfer, read_transfer,
+from pipeline.formats.manifest import load_manifest
+from pipeline.core.errors import PackageError, TransferError
+from pipeline.formats import READERS, WRITERS, load_package_log, observation_record, read_log_file
+from pipeline.formats.vsa_kek import (MAX_ELEMENTS, MAX_OBJECTS, MAX_TRANSFER_BYTES, SECTION_FIELDS, package_transfer, read_transfer,
                                        transfer_text, write_transfer)
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -397,7 +397,7 @@ def test_export_verb_writes_csv_through_the_registry_and_one_transfer_per_inspec
 
 
 def test_a_transfer_package_takes_the_rest_of_its_header_from_package_json(tmp_path):
-    from pipeline.errors import HeaderError
+    from pipeline.core.errors import HeaderError
 
     pkg = tmp_path / "real"
     pkg.mkdir()

@@ -4,7 +4,7 @@ import math
 
 import pytest
 
-from pipeline.metrology import Normal, Rectangular, propagate_linear, propagate_monte_carlo, validate_linear
+from pipeline.maths.metrology import Normal, Rectangular, propagate_linear, propagate_monte_carlo, validate_linear
 
 
 def additive(X1, X2, X3, X4):

@@ -8,15 +8,15 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from pipeline.camera import load_certificate
-from pipeline.coding import CODES
-from pipeline.contour import PipeView
-from pipeline.contour.result import PipeContour, Ring
+from pipeline.formats.certificate import load_certificate
+from pipeline.domain.codes import CODES
+from pipeline.vision.contour import PipeView
+from pipeline.vision.contour.result import PipeContour, Ring
 from pipeline.measurement import MarkedQuantity, measure_quantity, value_from_image_ratio, value_from_points
 from pipeline.measurement.methods import METHODS, reference_dimension
 from pipeline.camera.pose import camera_rotation, camera_rotations
 from pipeline.measurement.rays import marked_points, plane_point, ray_directions, wall_point
-from pipeline.profiles import level_tables
+from pipeline.maths.profiles import level_tables
 from pipeline.camera.undistort import Undistorter
 
 SAMPLES = Path(__file__).resolve().parent.parent / "sample_videos"
@@ -152,7 +152,7 @@ def test_orthographic_linear_result_is_checked_by_monte_carlo():
 
 
 def test_a_logged_displaced_joint_widens_the_wall_term_on_the_pipe_after_it():
-    from pipeline.coding.log import Observation
+    from pipeline.domain.records import Observation
     from pipeline.measurement.wall import displaced_wall_u
 
     def obs(row, distance, code, char1="", q1=None):

@@ -8,9 +8,9 @@ from dataclasses import asdict, replace
 import numpy as np
 import pytest
 
-from pipeline.coding import CODES
+from pipeline.domain.codes import CODES
 from pipeline.measurement import MarkedQuantity, measure_quantity
-from pipeline.metrology.display import format_record, format_result, is_lopsided
+from pipeline.maths.metrology.display import format_record, format_result, is_lopsided
 from test_measurement import _contour, _truth
 
 
@@ -130,8 +130,8 @@ def test_the_export_writes_each_value_as_the_report_does(tmp_path):
 def test_the_issues_dn400_crack_far_ahead_is_below_resolution_not_twenty_mm():
     # issue 20: a 1.5 mm longitudinal crack 2.8 m ahead in a DN400 (720x576, camera off the axis and tilted)
     # was measured 21.1 mm; 1 px toward the vanishing point is about 70 mm along the pipe there
-    from pipeline.camera import load_certificate
-    from pipeline.contour import PipeView
+    from pipeline.formats.certificate import load_certificate
+    from pipeline.vision.contour import PipeView
     from test_measurement import SAMPLES
 
     cert = load_certificate(SAMPLES / "certificates" / "SYN-720x576.json")

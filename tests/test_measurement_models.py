@@ -8,7 +8,7 @@ from pipeline.camera.orthographic import (
     u_scale_coefficient,
 )
 from pipeline.camera.perspective import collinearity, distance_from_ring, rotation_elements
-from pipeline.metrology import Normal, Rectangular, propagate_linear, propagate_monte_carlo, validate_linear
+from pipeline.maths.metrology import Normal, Rectangular, propagate_linear, propagate_monte_carlo, validate_linear
 
 
 def test_orthographic_scenario_of_the_paper():

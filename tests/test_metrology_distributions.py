@@ -5,7 +5,7 @@ import math
 import numpy as np
 import pytest
 
-from pipeline.metrology import Arcsine, InputSet, JointNormal, Normal, Rectangular, StudentT, Triangular
+from pipeline.maths.metrology import Arcsine, InputSet, JointNormal, Normal, Rectangular, StudentT, Triangular
 
 N = 400_000
 

@@ -5,8 +5,8 @@ import math
 import numpy as np
 import pytest
 
-from pipeline.errors import ModelError
-from pipeline.metrology import (
+from pipeline.core.errors import ModelError
+from pipeline.maths.metrology import (
     InputSet, JointNormal, Normal, Rectangular, StudentT, coverage_factor, propagate_linear,
     propagate_monte_carlo, welch_satterthwaite,
 )

@@ -3,11 +3,11 @@
 import numpy as np
 import pytest
 
-from pipeline.metrology import (
+from pipeline.maths.metrology import (
     Normal, Rectangular, block_size, numerical_tolerance, propagate_monte_carlo, shortest_interval,
     symmetric_interval,
 )
-from pipeline.metrology.intervals import interval_indices
+from pipeline.maths.metrology.intervals import interval_indices
 
 
 def ratio(a, b):

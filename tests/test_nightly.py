@@ -100,7 +100,7 @@ def _hostile_packages(inbox: Path, tmp_path: Path) -> None:
 
 def test_good_bad_and_hostile_packages_in_one_night_then_nothing_new(tmp_path, env, prefect_server):
     """One good night's run among broken and hostile deliveries; a rerun with nothing new rewrites nothing."""
-    from pipeline.report import report_file_name
+    from pipeline.reports import report_file_name
 
     inbox = _inbox(tmp_path)
     corrupt = _bad_copy(inbox, "corrupt-video", "BAD-VIDEO")
@@ -283,7 +283,7 @@ def test_only_transient_errors_are_retried():
     from prefect.states import Failed
 
     from flows.nightly import _transient
-    from pipeline.errors import CorruptVideoError
+    from pipeline.core.errors import CorruptVideoError
 
     assert _transient(None, None, Failed(data=OSError(28, "No space left on device")))
     assert not _transient(None, None, Failed(data=CorruptVideoError("video.mp4: truncated")))

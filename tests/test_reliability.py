@@ -16,9 +16,10 @@ from pathlib import Path
 import pyarrow.parquet as pq
 import pytest
 
-from pipeline.coding import read_log, read_marks
-from pipeline.coding.log import LOG_COLUMNS
-from pipeline.errors import ObservationLogError, StoreError
+from pipeline.formats.observation_log import read_log
+from pipeline.formats.marks import read_marks
+from pipeline.formats.observation_log import LOG_COLUMNS
+from pipeline.core.errors import ObservationLogError, StoreError
 from pipeline.store import (export_csv, export_frame, file_stem, inspection_files, read_table, remove_uncommitted,
                             stored_input_key, write_inspection)
 
@@ -65,12 +66,12 @@ def test_absurd_distance_and_row_number_are_problems_of_their_row_and_kept_out_o
 
 
 def test_a_log_over_the_row_limit_is_refused_whole_before_it_is_parsed(tmp_path, monkeypatch):
-    monkeypatch.setattr("pipeline.coding.log.MAX_LOG_ROWS", 50)
+    monkeypatch.setattr("pipeline.formats.observation_log.MAX_LOG_ROWS", 50)
     path = _log(tmp_path / "observations.csv",
                 [{"row": r, "distance_m": "1.0", "code": "BDB"} for r in range(51)])
     with pytest.raises(ObservationLogError, match=r"observations.csv: more than 50 rows; .* deliver one file per pipe"):
         read_log(path, 42.0)
-    monkeypatch.setattr("pipeline.coding.log.MAX_CSV_BYTES", 100)
+    monkeypatch.setattr("pipeline.formats.observation_log.MAX_CSV_BYTES", 100)
     with pytest.raises(ObservationLogError, match=r"observations.csv: [\d,]+ bytes; pipegauge reads an? observation log"):
         read_log(path, 42.0)
 
@@ -78,7 +79,7 @@ def test_a_log_over_the_row_limit_is_refused_whole_before_it_is_parsed(tmp_path,
 def test_the_pipe_strip_spans_the_section_whatever_distance_is_logged():
     from reportlab.graphics.shapes import String
 
-    from pipeline.report.graphics import pipe_strip, strip_span
+    from pipeline.reports.graphics import pipe_strip, strip_span
 
     start = time.perf_counter()
     observations = [{"row": 1, "distance_m": 1e308, "code": "BAB"}, {"row": 2, "distance_m": float("nan"),
@@ -95,11 +96,11 @@ def test_the_pipe_strip_spans_the_section_whatever_distance_is_logged():
 def test_the_report_lists_a_bounded_number_of_observations_and_says_how_many_it_left_out(tmp_path, monkeypatch):
     from pypdf import PdfReader
 
-    from pipeline.report import render_inspection_report
+    from pipeline.reports import render_inspection_report
 
-    monkeypatch.setattr("pipeline.report.inspection_report.MAX_REPORT_OBSERVATIONS", 30)
-    monkeypatch.setattr("pipeline.report.inspection_report.MAX_REPORT_QUANTITIES", 10)
-    monkeypatch.setattr("pipeline.report.inspection_report.MAX_REPORT_WARNINGS", 20)
+    monkeypatch.setattr("pipeline.reports.inspection_report.MAX_REPORT_OBSERVATIONS", 30)
+    monkeypatch.setattr("pipeline.reports.inspection_report.MAX_REPORT_QUANTITIES", 10)
+    monkeypatch.setattr("pipeline.reports.inspection_report.MAX_REPORT_WARNINGS", 20)
     inspection, observations, measurements = _records("BIG", n=300)
     for m in measurements:
         m.update(status="error", error="no frame")
@@ -112,8 +113,8 @@ def test_the_report_lists_a_bounded_number_of_observations_and_says_how_many_it_
 
 
 def test_video_and_image_limits_are_checked_from_the_header(tmp_path):
-    from pipeline.errors import CorruptVideoError
-    from pipeline.video.reader import check_image_size, read_image
+    from pipeline.core.errors import CorruptVideoError
+    from pipeline.vision.video.reader import check_image_size, read_image
 
     with pytest.raises(CorruptVideoError, match=r"20000x20000 px; pipegauge reads images of at most 8192 px a side"):
         check_image_size(20000, 20000, "big.png")
@@ -205,7 +206,7 @@ def test_export_refuses_a_missing_dataset_and_exports_each_measurement_once(tmp_
 
 
 def test_atomic_write_errors_name_the_users_path(tmp_path):
-    from pipeline.atomic import atomic_path
+    from pipeline.core.atomic import atomic_path
 
     target = tmp_path / "report.pdf"
     with pytest.raises(OSError) as err:
@@ -237,7 +238,7 @@ def _package(folder: Path, package_id: str) -> Path:
 
 
 def test_duplicate_claims_and_a_trailing_newline_id(tmp_path):
-    from pipeline.inspection import duplicate_claims, package_id_of
+    from pipeline.app import duplicate_claims, package_id_of
 
     a, b, c = _package(tmp_path / "a", "TWIN"), _package(tmp_path / "b", "TWIN"), _package(tmp_path / "c", "ONE")
     claims = duplicate_claims([a, b, c])
@@ -247,7 +248,7 @@ def test_duplicate_claims_and_a_trailing_newline_id(tmp_path):
 
 
 def test_a_stored_result_of_another_folder_is_never_replaced(tmp_path):
-    from pipeline.inspection import process_package
+    from pipeline.app import process_package
 
     inbox, out = tmp_path / "inbox", tmp_path / "out"
     first = _package(inbox / "first", "TWIN")
@@ -262,7 +263,7 @@ def test_a_stored_result_of_another_folder_is_never_replaced(tmp_path):
 
 
 def test_a_package_linked_from_outside_the_inbox_is_not_read(tmp_path):
-    from pipeline.inspection import process_package
+    from pipeline.app import process_package
 
     outside = _package(tmp_path / "elsewhere" / "pkg", "P")
     (tmp_path / "inbox").mkdir()
@@ -278,8 +279,8 @@ def test_a_package_linked_from_outside_the_inbox_is_not_read(tmp_path):
 
 
 def test_a_record_the_store_refuses_is_stored_as_a_failure(tmp_path, monkeypatch):
-    from pipeline.inspection import inbox
-    from pipeline.inspection import InspectionResult
+    from pipeline.app import inbox
+    from pipeline.app import InspectionResult
 
     folder = _package(tmp_path / "inbox" / "P", "P")
     inspection, observations, measurements = _records("P")
@@ -350,8 +351,8 @@ def test_the_quantities_run_side_by_side_keep_their_errors_to_their_rows_and_an_
         monkeypatch, reader):
     """Two Monte Carlo runs at a time: a domain error stays on its row, an unexpected error is raised, not
     waited out behind the queued runs nor turned into a row's error."""
-    import pipeline.inspection.measure as conductor
-    from pipeline.errors import MeasurementError
+    import pipeline.app.measure as conductor
+    from pipeline.core.errors import MeasurementError
 
     real = conductor.measure_quantity
     doomed = conductor._seed("S03-egg-concrete", 2, "Q1")      # row 2's Q1 (marks.csv), whichever thread runs it

@@ -16,10 +16,10 @@ import pypdfium2 as pdfium
 import pypdfium2.raw as pdfium_c
 import pytest
 
-from pipeline.metrology.display import format_record
-from pipeline.report import render_inspection_report
-from pipeline.report.example import example_inspection
-from pipeline.report.style import number
+from pipeline.maths.metrology.display import format_record
+from pipeline.reports import render_inspection_report
+from pipeline.reports.example import example_inspection
+from pipeline.reports.style import number
 from pipeline.store import read_table, write_inspection
 
 SAMPLES = Path(__file__).resolve().parent.parent / "sample_videos"

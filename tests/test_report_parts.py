@@ -8,11 +8,11 @@ import numpy as np
 import pytest
 from pypdf import PdfReader
 
-from pipeline.report import render_night_summary
-from pipeline.report.example import example_inspection
-from pipeline.report.graphics import spread_labels, strip_span
-from pipeline.report.style import number
-from pipeline.report.warning_text import measurement_warnings, plain_warnings
+from pipeline.reports import render_night_summary
+from pipeline.reports.example import example_inspection
+from pipeline.reports.graphics import spread_labels, strip_span
+from pipeline.reports.style import number
+from pipeline.reports.warning_text import measurement_warnings, plain_warnings
 from pipeline.store import write_inspection
 
 

@@ -14,12 +14,12 @@ import pytest
 from pypdf import PdfReader
 
 from flows.cli import main
-from pipeline.errors import StoreError
-from pipeline.inspection import process_package
-from pipeline.metrology.display import format_record, is_lopsided
-from pipeline.report import render_inspection_report, render_night_summary
-from pipeline.report.example import example_inspection
-from pipeline.report.inspection_report import inspection_warnings
+from pipeline.core.errors import StoreError
+from pipeline.app import process_package
+from pipeline.maths.metrology.display import format_record, is_lopsided
+from pipeline.reports import render_inspection_report, render_night_summary
+from pipeline.reports.example import example_inspection
+from pipeline.reports.inspection_report import inspection_warnings
 from pipeline.store import read_table, write_inspection
 
 SAMPLES = Path(__file__).resolve().parent.parent / "sample_videos"

@@ -110,7 +110,7 @@ def test_measure_a_sample_and_a_broken_package_in_one_run(tmp_path):
     assert len(lines) == len(m)       # each as value +- U95, value [low, high], or < high (below resolution)
     assert all("+-" in line or "] (" in line or "(below resolution)" in line for line in lines), lines
     # measure stores the input key a run checks: the run that follows skips the package as unchanged
-    from pipeline.inspection import process_package
+    from pipeline.app import process_package
 
     later = process_package(inbox / "S02", data, certificates=inbox / "certificates")
     assert later.status == "ok" and not later.processed

@@ -6,7 +6,7 @@ import cv2
 import numpy as np
 import pytest
 
-from pipeline.profiles import clock_to_theta, wall_point
+from pipeline.maths.profiles import clock_to_theta, wall_point
 from pipeline.synth.render import LIP_MM, Renderer
 from pipeline.camera.pose import CameraPose, project_points
 from pipeline.synth.samples import sample_certificate
@@ -92,7 +92,7 @@ def test_joint_ring_radius_is_f_R_over_d(tmp_path):
 
 def test_a_joint_inside_a_deformed_stretch_is_drawn_deformed_also_when_it_is_displaced():
     """The wall positions follow the deformation whatever else changes the rays (here a displaced joint's segments)."""
-    from pipeline.contour.ridges import dark_centre, ridge_points
+    from pipeline.vision.contour.ridges import dark_centre, ridge_points
     from pipeline.synth.scene import Deformation, DisplacedJoint
     from pipeline.camera.undistort import Undistorter
 

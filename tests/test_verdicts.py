@@ -7,11 +7,11 @@ import math
 import numpy as np
 import pytest
 
-from pipeline.grading import SCHEMES, applicable_bands, class_probabilities, grade, scheme
-from pipeline.grading.probability import Z95, result_cdf
-from pipeline.report.verdict_text import json_safe
-from pipeline.verdicts.log_check import U_RES_FACTOR, check_logged, logging_resolution
-from pipeline.verdicts.survey import survey_verdict
+from pipeline.judgement.grading import SCHEMES, applicable_bands, class_probabilities, grade, scheme
+from pipeline.judgement.grading.probability import Z95, result_cdf
+from pipeline.reports.verdict_text import json_safe
+from pipeline.judgement.verdicts.log_check import U_RES_FACTOR, check_logged, logging_resolution
+from pipeline.judgement.verdicts.survey import survey_verdict
 
 
 def test_a_log_wrong_on_purpose_is_flagged_with_its_E_n_and_an_honest_rounded_log_is_not():
@@ -143,7 +143,7 @@ def test_the_split_normal_holds_95_percent_on_the_stored_interval():
 def test_the_nightly_summary_ranks_defects_by_grade_not_by_size_and_lists_contradicted_logs_first():
     import pandas as pd
 
-    from pipeline.report.summary_report import log_disagreements, worst_observations
+    from pipeline.reports.summary_report import log_disagreements, worst_observations
 
     rows = [  # a large connection (ungraded), a small EZ1 crack, an EZ3 water level, a deformation EZ0 at 60 %
         dict(row=1, code="BCA", unit="mm", high=200.0, grade=None, grade_worst_likely=None, grade_probability=None,
@@ -161,7 +161,7 @@ def test_the_nightly_summary_ranks_defects_by_grade_not_by_size_and_lists_contra
 
 
 def test_the_reports_log_check_text_says_why_a_check_is_undecided():
-    from pipeline.report.verdict_text import log_check_text
+    from pipeline.reports.verdict_text import log_check_text
     row = {"unit": "mm", "logged_value": 25.0, "log_difference": 5.0, "E_n": 1.65}
     assert log_check_text({**row, "log_check": "undecided"}) == \
         "undecided (contour not trusted; logged 25 mm, +5 mm, E_n 1.65)"

@@ -14,9 +14,9 @@ import pytest
 from pypdf import PdfReader
 
 from flows.cli import main
-from pipeline.report import render_inspection_report
+from pipeline.reports import render_inspection_report
 from pipeline.store import read_table
-from pipeline.verdicts.log_check import U_RES_FACTOR
+from pipeline.judgement.verdicts.log_check import U_RES_FACTOR
 
 SAMPLES = Path(__file__).resolve().parent.parent / "sample_videos"
 PACKAGE = "S02-circular-water-offset"

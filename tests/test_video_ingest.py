@@ -9,15 +9,15 @@ import numpy as np
 import pytest
 
 from flows.cli import main
-from pipeline.camera import load_certificate
-from pipeline.errors import CertificateError, CorruptVideoError, OverlayError
+from pipeline.formats.certificate import load_certificate
+from pipeline.core.errors import CertificateError, CorruptVideoError, OverlayError
 from pipeline.synth.delivery import delivered
 from pipeline.synth.overlay import Overlay, chainage_text
-from pipeline.video.chainage_track import fit_track
-from pipeline.video.glyphs import GlyphTemplates, segment_glyphs
-from pipeline.video.ingest import MASK_FRAMES, ingest_chainage
-from pipeline.video.overlay_ocr import OverlayRead, parse_chainage
-from pipeline.video.reader import check_integrity, iter_frames, probe_video
+from pipeline.vision.video.chainage_track import fit_track
+from pipeline.vision.video.glyphs import GlyphTemplates, segment_glyphs
+from pipeline.vision.video.ingest import MASK_FRAMES, ingest_chainage
+from pipeline.vision.video.overlay_ocr import OverlayRead, parse_chainage
+from pipeline.vision.video.reader import check_integrity, iter_frames, probe_video
 from pipeline.camera.undistort import Undistorter
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -171,7 +171,7 @@ def test_probe_finds_the_joint_ring_on_real_frames(capsys, tmp_path, name):
 
 
 def test_overlay_lines_against_the_header(reader):
-    from pipeline.video.overlay_check import overlay_header_mismatches
+    from pipeline.vision.video.overlay_check import overlay_header_mismatches
 
     real = cv2.imread(str(REAL / "1.045-1.040_0001.jpg"))
     lines = [t for t, _, _ in reader.lines(real) if parse_chainage(t) is None]
@@ -244,7 +244,7 @@ def test_glyph_templates_refuse_a_speck_of_compression_noise():
 def test_a_template_read_that_is_no_chainage_goes_to_the_ocr_and_keeps_the_templates():
     """A 1 px speck right of the "m" is taken for a "." by the templates ("3.21m."): the OCR reads that crop, and
     this is no contradiction of the templates (they are kept)."""
-    from pipeline.video.ingest import _OverlayPass
+    from pipeline.vision.video.ingest import _OverlayPass
 
     class StubOCR:
         def read(self, frame, box, index=0):
@@ -291,7 +291,7 @@ def test_work_beside_decoding_keeps_order_bounds_the_queue_and_raises_errors():
     """``ordered_map``: results in the items' order, at most ``waiting`` items ahead of the results, errors raised."""
     import time
 
-    from pipeline.video.beside_decoding import ordered_map
+    from pipeline.vision.video.beside_decoding import ordered_map
 
     produced, consumed = [], []
 

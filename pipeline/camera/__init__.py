@@ -13,10 +13,9 @@
 
 from pathlib import Path
 
-from .certificate import Certificate, Parameter
-from .certificate_format import certificate_from_dict, load_certificate
+from pipeline.camera.certificate import Certificate, Parameter
 
-__all__ = ["Certificate", "Parameter", "certificate_from_dict", "load_certificate", "sample_certificate_path"]
+__all__ = ["Certificate", "Parameter", "sample_certificate_path"]
 
 
 def sample_certificate_path() -> Path:

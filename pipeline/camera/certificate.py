@@ -1,7 +1,7 @@
 """Camera calibration certificates: the calibration as an object, its conventions and its uncertainty.
 
 The JSON format (reading, validating, writing) is in
-``pipeline.camera.certificate_format`` (docs/certificate-format.md); the
+``pipeline.formats.certificate`` (docs/certificate-format.md); the
 conversions between the two conventions in ``pipeline.camera.conventions``. A certificate holds the
 camera's intrinsic parameters, each with its standard uncertainty (and
 optionally their covariance), in one of two distortion conventions:
@@ -18,38 +18,17 @@ from __future__ import annotations
 
 import datetime as dt
 import math
-import os
 from dataclasses import dataclass, field, replace
-from pathlib import Path
 from typing import Any, Mapping
 
 import numpy as np
 
-from ..errors import CertificateError, CertificateExpiredError
-from ..metrology import InputSet, JointNormal, Normal
-from .conventions import opencv_to_pixel, pixel_to_opencv
+from pipeline.core.errors import CertificateError, CertificateExpiredError
+from pipeline.maths.metrology import InputSet, JointNormal, Normal
+from pipeline.camera.conventions import CONVENTIONS, PARAMETERS, opencv_to_pixel, pixel_to_opencv
 
 __all__ = ["Parameter", "Certificate", "CONVENTIONS"]
 
-# Parameter name -> allowed units, per convention. Order = canonical order.
-_PARAMETERS: dict[str, dict[str, tuple[str, ...]]] = {
-    "pixel": {
-        "f": ("px", "mm"),
-        "cx": ("px",), "cy": ("px",),
-        "k1": ("px^-2",), "k2": ("px^-4",), "k3": ("px^-6",),
-        "p1": ("px^-1",), "p2": ("px^-1",),
-    },
-    "opencv": {
-        "fx": ("px", "mm"), "fy": ("px", "mm"),
-        "cx": ("px",), "cy": ("px",),
-        "k1": ("1",), "k2": ("1",), "k3": ("1",),
-        "p1": ("1",), "p2": ("1",),
-    },
-}
-_REQUIRED = {"pixel": ("f", "cx", "cy", "k1", "k2", "p1", "p2"),
-             "opencv": ("fx", "fy", "cx", "cy", "k1", "k2", "p1", "p2")}
-_OPTIONAL_ZERO = ("k3",)
-CONVENTIONS = tuple(_PARAMETERS)
 
 
 @dataclass(frozen=True)
@@ -137,7 +116,7 @@ class Certificate:
         conversion, V' = J V J^T, so correlations the conversion creates (for
         example between f and k1_cv) are kept.
         """
-        if convention not in _PARAMETERS:
+        if convention not in PARAMETERS:
             raise CertificateError(f"{self.source}: unknown convention {convention!r}; use one of {CONVENTIONS}")
         if convention == self.convention:
             return self
@@ -157,7 +136,7 @@ class Certificate:
             names_out, values, jac = opencv_to_pixel(x, idx)
         cov_out = jac @ self.covariance_matrix(names_in) @ jac.T
         u_out = np.sqrt(np.clip(np.diag(cov_out), 0.0, None))
-        units = {n: _PARAMETERS[convention][n][0] for n in names_out}
+        units = {n: PARAMETERS[convention][n][0] for n in names_out}
         params = {n: Parameter(float(values[i]), float(u_out[i]), units[n]) for i, n in enumerate(names_out)}
         return replace(self, convention=convention, parameters=params, covariance=(names_out, cov_out))
 
@@ -205,16 +184,3 @@ class Certificate:
                 f"{self.image_width_px}x{self.image_height_px} px but {what} is {width_px}x{height_px} px; "
                 "supply the certificate of this camera at this resolution"
             )
-
-    # -- writing (pipeline.camera.certificate_format) ------------------------
-    def to_dict(self) -> dict[str, Any]:
-        """The certificate as the JSON document of docs/certificate-format.md."""
-        from .certificate_format import certificate_to_dict
-
-        return certificate_to_dict(self)
-
-    def save(self, path: str | os.PathLike) -> Path:
-        """Write the certificate as JSON, atomically (temporary file, then rename)."""
-        from .certificate_format import save_certificate
-
-        return save_certificate(self, path)

@@ -12,6 +12,26 @@ from __future__ import annotations
 
 import numpy as np
 
+# Parameter name -> allowed units, per convention. Order = canonical order.
+PARAMETERS: dict[str, dict[str, tuple[str, ...]]] = {
+    "pixel": {
+        "f": ("px", "mm"),
+        "cx": ("px",), "cy": ("px",),
+        "k1": ("px^-2",), "k2": ("px^-4",), "k3": ("px^-6",),
+        "p1": ("px^-1",), "p2": ("px^-1",),
+    },
+    "opencv": {
+        "fx": ("px", "mm"), "fy": ("px", "mm"),
+        "cx": ("px",), "cy": ("px",),
+        "k1": ("1",), "k2": ("1",), "k3": ("1",),
+        "p1": ("1",), "p2": ("1",),
+    },
+}
+REQUIRED = {"pixel": ("f", "cx", "cy", "k1", "k2", "p1", "p2"),
+             "opencv": ("fx", "fy", "cx", "cy", "k1", "k2", "p1", "p2")}
+OPTIONAL_ZERO = ("k3",)
+CONVENTIONS = tuple(PARAMETERS)
+
 __all__ = ["pixel_to_opencv", "opencv_to_pixel"]
 
 

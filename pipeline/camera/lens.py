@@ -10,9 +10,9 @@ import math
 
 import numpy as np
 
-from ..metrology import LinearResult, MonteCarloResult, coverage_factor, propagate_linear, propagate_monte_carlo
-from .certificate import Certificate
-from .distortion import brown_distortion_px
+from pipeline.maths.metrology import LinearResult, MonteCarloResult, coverage_factor, propagate_linear, propagate_monte_carlo
+from pipeline.camera.certificate import Certificate
+from pipeline.camera.distortion import brown_distortion_px
 
 __all__ = ["DISTORTION_PARAMETERS", "distortion_components", "opencv_distortion_components", "distortion_uncertainty"]
 

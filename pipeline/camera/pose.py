@@ -27,7 +27,7 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from .certificate import Certificate
+from pipeline.camera.certificate import Certificate
 
 __all__ = ["CameraPose", "camera_rotation", "camera_rotations", "pixel_rays", "project_points", "ideal_project_points"]
 

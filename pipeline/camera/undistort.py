@@ -11,7 +11,7 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
-from .certificate import Certificate
+from pipeline.camera.certificate import Certificate
 
 __all__ = ["Undistorter"]
 

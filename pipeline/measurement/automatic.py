@@ -16,13 +16,13 @@ import math
 
 import numpy as np
 
-from ..camera.certificate import Certificate
-from ..coding import Observation
-from ..contour import PipeContour
-from ..contour.deformed_ring import find_deformed_ring
-from ..contour.water_line import find_water_line
-from ..errors import MeasurementError
-from .quantity import MarkedQuantity, QuantityResult, measure_quantity
+from pipeline.camera.certificate import Certificate
+from pipeline.domain.records import Observation
+from pipeline.vision.contour import PipeContour
+from pipeline.vision.contour.deformed_ring import find_deformed_ring
+from pipeline.vision.contour.water_line import find_water_line
+from pipeline.core.errors import MeasurementError
+from pipeline.measurement.quantity import MarkedQuantity, QuantityResult, measure_quantity
 
 __all__ = ["AUTOMATIC_CODES", "automatic_points", "measure_automatic", "measurable_automatically"]
 

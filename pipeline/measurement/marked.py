@@ -4,9 +4,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..camera.undistort import Undistorter
-from ..coding import Mark, Observation
-from .quantity import MarkedQuantity
+from pipeline.camera.undistort import Undistorter
+from pipeline.domain.records import Mark, Observation
+from pipeline.measurement.quantity import MarkedQuantity
 
 __all__ = ["ideal_point_and_u", "marked_quantity"]
 

@@ -1,6 +1,6 @@
 """What each measured quantification is, as a function of the two marked points.
 
-A method (``pipeline.coding.codes``) says where the two marked points lie
+A method (``pipeline.domain.codes``) says where the two marked points lie
 and how the quantity follows from them, in both measurement models:
 
 * perspective: from the points in pipe coordinates [H] (X right, Y up, Z
@@ -40,7 +40,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..profiles import level_tables
+from pipeline.maths.profiles import level_tables
 
 __all__ = ["Method", "METHODS", "IN_SECTION", "value_from_points", "across_from_points", "value_from_image_ratio",
            "reference_dimension", "within_domain"]

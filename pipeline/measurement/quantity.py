@@ -44,14 +44,14 @@ from dataclasses import dataclass, field
 import cv2
 import numpy as np
 
-from ..camera.certificate import Certificate
-from ..contour import PipeContour
-from ..errors import MeasurementError
-from ..metrology import InputSet, JointNormal, Normal, Rectangular, propagate_linear, propagate_monte_carlo, validate_linear
-from ..profiles import level_tables, wall_point
-from .methods import (IN_SECTION, METHODS, across_from_points, reference_dimension, value_from_image_ratio,
+from pipeline.camera.certificate import Certificate
+from pipeline.vision.contour import PipeContour
+from pipeline.core.errors import MeasurementError
+from pipeline.maths.metrology import InputSet, JointNormal, Normal, Rectangular, propagate_linear, propagate_monte_carlo, validate_linear
+from pipeline.maths.profiles import level_tables, wall_point
+from pipeline.measurement.methods import (IN_SECTION, METHODS, across_from_points, reference_dimension, value_from_image_ratio,
                       value_from_points, within_domain)
-from .rays import marked_points
+from pipeline.measurement.rays import marked_points
 
 __all__ = ["MarkedQuantity", "QuantityResult", "BudgetEntry", "measure_quantity", "certificate_scale_u", "MODELS",
            "INPUT_DESCRIPTIONS", "RESOLUTION_PX"]
@@ -228,7 +228,7 @@ def measure_quantity(q: MarkedQuantity, contour: PipeContour, cert: Certificate,
                      model: str = "perspective", seed: int = 1) -> QuantityResult:
     """Measure one marked quantity with ``model`` ("orthographic" or "perspective").
 
-    contour : the pipe contour of the marks' frame (``pipeline.video.pipe_contour``)
+    contour : the pipe contour of the marks' frame (``pipeline.vision.video.pipe_contour``)
     H, tolerance : the header's nominal height and the half-width of its tolerance [mm]
     seed : seed of the Monte Carlo runs (recorded in the result)
     Raises MeasurementError when the marks cannot be placed on the pipe.

@@ -13,8 +13,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..profiles import ray_to_wall
-from ..camera.pose import camera_rotations
+from pipeline.maths.profiles import ray_to_wall
+from pipeline.camera.pose import camera_rotations
 
 __all__ = ["ray_directions", "wall_point", "plane_point", "marked_points"]
 

@@ -18,8 +18,8 @@ from __future__ import annotations
 import math
 from dataclasses import replace
 
-from ..coding import Observation
-from ..contour import PipeContour
+from pipeline.domain.records import Observation
+from pipeline.vision.contour import PipeContour
 
 __all__ = ["displaced_wall_u", "contour_under"]
 

@@ -35,9 +35,9 @@ import pyarrow as pa
 import pyarrow.dataset as ds
 import pyarrow.parquet as pq
 
-from ..atomic import atomic_path
-from ..errors import StoreError
-from .schema import SCHEMA_VERSION, SCHEMAS, TABLES
+from pipeline.core.atomic import atomic_path
+from pipeline.core.errors import StoreError
+from pipeline.store.schema import SCHEMA_VERSION, SCHEMAS, TABLES
 
 __all__ = ["write_inspection", "read_table", "inspection_files", "stored_input_key", "file_stem",
            "remove_uncommitted", "require_dataset"]

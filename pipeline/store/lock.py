@@ -9,7 +9,7 @@ import threading
 from pathlib import Path
 from typing import Iterator
 
-from ..errors import StoreError
+from pipeline.core.errors import StoreError
 
 __all__ = ["dataset_lock", "remove_stale_temporaries"]
 
@@ -69,7 +69,7 @@ def _locked(root: Path) -> Iterator[None]:
 
 
 def remove_stale_temporaries(root: str | os.PathLike) -> list[Path]:
-    """Delete the temporary files (``.NAME.tmp-*``, see ``pipeline.atomic``) a killed writer left under ``root``.
+    """Delete the temporary files (``.NAME.tmp-*``, see ``pipeline.core.atomic``) a killed writer left under ``root``.
 
     Call it only while holding :func:`dataset_lock`, when no write can be in progress.
     """

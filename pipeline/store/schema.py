@@ -38,7 +38,7 @@ BUDGET_TYPE = pa.list_(pa.struct([
 
 # Issue 21, appended nullable (still schema 3: older files read them as null): verdicts (docs/dataset.md).
 _GRADE = [
-    _f("grading_scheme", pa.string(), doc="key of the grading scheme (pipeline.grading), e.g. vsa-2023"),
+    _f("grading_scheme", pa.string(), doc="key of the grading scheme (pipeline.judgement.grading), e.g. vsa-2023"),
     _f("grade_status", pa.string(), doc="graded | logged only | ungraded | unmeasured"),
     _f("grade_reason", pa.string(), doc="why not graded from a measurement"),
     _f("grade", pa.string(), doc="the most probable class (graded), else the logged value's class"),

@@ -8,9 +8,9 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from ..camera.certificate import Certificate
-from ..calibration.pattern import Pattern
-from .boards import random_board_poses, render_board, subpixel_rays
+from pipeline.camera.certificate import Certificate
+from pipeline.app.calibration.pattern import Pattern
+from pipeline.synth.boards import random_board_poses, render_board, subpixel_rays
 
 __all__ = ["write_calibration_set"]
 

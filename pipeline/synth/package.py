@@ -29,25 +29,26 @@ from typing import Callable, Iterator
 import cv2
 import numpy as np
 
-from .. import __version__
-from ..camera.certificate import Certificate
-from .overlay import Overlay, chainage_text
-from ..profiles import (
+from pipeline import __version__
+from pipeline.camera.certificate import Certificate
+from pipeline.synth.overlay import Overlay, chainage_text
+from pipeline.maths.profiles import (
     chord_at_height, clock_to_theta, perimeter, segment_height_for_area_fraction, theta_to_clock, wall_point,
 )
-from .render import Renderer
-from ..camera.pose import CameraPose, ideal_project_points, project_points
-from .scene import Connection, Crack, Deformation, Deposit, DisplacedJoint, Scene
-from ..coding.header import HEADER_FORMAT
-from ..coding.log import LOG_COLUMNS, MARK_COLUMNS as MARKS_REQUIRED, MARK_OPTIONAL_COLUMNS
-from ..coding.package import PACKAGE_FORMAT
-from .texture import MATERIALS
-from .trajectory import Stop, counter_reading, travel
+from pipeline.synth.render import Renderer
+from pipeline.camera.pose import CameraPose, ideal_project_points, project_points
+from pipeline.synth.scene import Connection, Crack, Deformation, Deposit, DisplacedJoint, Scene
+from pipeline.formats.header import header_document
+from pipeline.formats.observation_log import LOG_COLUMNS
+from pipeline.formats.marks import MARK_COLUMNS as MARKS_REQUIRED, MARK_OPTIONAL_COLUMNS
+from pipeline.formats.manifest import write_manifest
+from pipeline.synth.texture import MATERIALS
+from pipeline.synth.trajectory import Stop, counter_reading, travel
 
 __all__ = ["CameraMount", "PackageSpec", "build_package", "plan_travel", "header_lines", "renderer_for",
-           "render_frames", "PACKAGE_FORMAT"]
+           "render_frames"]
 
-# The package's formats are defined once, in pipeline.coding; the generator writes what it reads.
+# The package's formats are defined once, in pipeline.formats; the generator writes what it reads.
 OBSERVATION_COLUMNS = list(LOG_COLUMNS)
 MARK_COLUMNS = [*MARKS_REQUIRED, *MARK_OPTIONAL_COLUMNS]
 
@@ -342,11 +343,7 @@ def build_package(spec: PackageSpec, cert: Certificate, out_dir: str | os.PathLi
         (work / "truth").mkdir()
         for name, text in package_texts(spec, cert, plan).items():
             (work / name).write_text(text, encoding="utf-8")
-        (work / "package.json").write_text(json.dumps({
-            "format": PACKAGE_FORMAT, "format_version": 1, "package_id": spec.package_id,
-            "certificate_id": cert.certificate_id, "video": "video.mp4", "header": "header.json",
-            "observations": "observations.csv", "marks": "marks.csv",
-        }, indent=2) + "\n")
+        write_manifest(work, spec.package_id, cert.certificate_id)
 
         video = work / "video.mp4"
         writer = cv2.VideoWriter(str(video), cv2.VideoWriter_fourcc(*"mp4v"), spec.fps,
@@ -448,8 +445,7 @@ def _plane_truth(spec, cert, pose: CameraPose, z_plane: float) -> dict:
 
 def _header(spec: PackageSpec, length_m: float) -> dict:
     pipe = spec.scene.pipe
-    return {
-        "format": HEADER_FORMAT, "format_version": 1,
+    return header_document({
         "section_id": spec.section_id, "site": spec.site,
         "start_node": spec.start_node, "finish_node": spec.finish_node, "direction": "downstream",
         "shape": pipe.shape, "height_mm": spec.nominal_height_mm,
@@ -458,7 +454,7 @@ def _header(spec: PackageSpec, length_m: float) -> dict:
         "pipe_unit_length_m": pipe.unit_length_mm / 1000, "section_length_m": length_m,
         "inspection_date": spec.inspection_date, "contractor": spec.contractor,
         "longitudinal_reference": "start node wall",
-    }
+    })
 
 
 def _write_csv(path: Path, columns: list[str], rows: list[list]) -> None:

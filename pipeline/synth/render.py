@@ -22,11 +22,11 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from ..camera.certificate import Certificate
-from ..profiles import clock_to_theta, exit_table, perimeter, profile_polygon, segment_height_for_area_fraction, wall_point
-from ..camera.pose import camera_rotation, pixel_rays
-from .scene import Connection, Crack, Deformation, Deposit, DisplacedJoint, Marker, Scene
-from .texture import MATERIALS, TEXEL_MM, wall_texture
+from pipeline.camera.certificate import Certificate
+from pipeline.maths.profiles import clock_to_theta, exit_table, perimeter, profile_polygon, segment_height_for_area_fraction, wall_point
+from pipeline.camera.pose import camera_rotation, pixel_rays
+from pipeline.synth.scene import Connection, Crack, Deformation, Deposit, DisplacedJoint, Marker, Scene
+from pipeline.synth.texture import MATERIALS, TEXEL_MM, wall_texture
 
 __all__ = ["Renderer"]
 

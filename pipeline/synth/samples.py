@@ -13,11 +13,12 @@ from typing import Callable
 
 import numpy as np
 
-from ..camera.certificate import Certificate
-from ..camera.certificate_format import certificate_from_dict
-from .package import CameraMount, PackageSpec, build_package
-from .scene import Connection, Crack, Deformation, Deposit, DisplacedJoint, Pipe, Scene
-from .trajectory import Stop
+from pipeline.camera.certificate import Certificate
+from pipeline.formats.certificate import FORMAT_NAME, FORMAT_VERSION, certificate_from_dict
+from pipeline.synth.package import CameraMount, PackageSpec, build_package
+from pipeline.synth.scene import Connection, Crack, Deformation, Deposit, DisplacedJoint, Pipe, Scene
+from pipeline.synth.trajectory import Stop
+from pipeline.formats.certificate import save_certificate
 
 __all__ = ["sample_certificate", "sample_specs", "generate_samples"]
 
@@ -26,7 +27,7 @@ def sample_certificate(width: int, height: int) -> Certificate:
     """The synthetic crawler camera at one resolution: a wide-angle lens with strong barrel distortion."""
     f = 0.53 * width
     return certificate_from_dict({
-        "format": "pipegauge-calibration-certificate", "format_version": 1,
+        "format": FORMAT_NAME, "format_version": FORMAT_VERSION,
         "certificate_id": f"SYN-{width}x{height}",
         "camera": {"make": "pipegauge", "model": f"synthetic crawler camera {width}x{height}", "serial": "SYN-0001"},
         "lens": {"model": "synthetic wide-angle", "nominal_focal_length_mm": round(f * 0.005, 3)},
@@ -107,6 +108,6 @@ def generate_samples(out_dir: str | os.PathLike, only: list[str] | None = None,
         if only and spec.package_id not in only:
             continue
         cert = sample_certificate(w, h)
-        cert.save(certs / f"{cert.certificate_id}.json")
+        save_certificate(cert, certs / f"{cert.certificate_id}.json")
         written.append(build_package(spec, cert, out_dir, progress, workers))
     return written

@@ -12,8 +12,8 @@ from typing import Union
 
 import numpy as np
 
-from ..profiles import SHAPES, clock_to_theta, profile_width
-from .texture import MATERIALS
+from pipeline.maths.profiles import SHAPES, clock_to_theta, profile_width
+from pipeline.synth.texture import MATERIALS
 
 __all__ = [
     "Pipe", "Crack", "Deformation", "DisplacedJoint", "Deposit", "Connection", "Marker", "Scene", "Feature",

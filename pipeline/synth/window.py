@@ -9,10 +9,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..camera.certificate import Certificate
-from ..camera.undistort import Undistorter
-from .render import Renderer
-from .scene import Scene
+from pipeline.camera.certificate import Certificate
+from pipeline.camera.undistort import Undistorter
+from pipeline.synth.render import Renderer
+from pipeline.synth.scene import Scene
 
 __all__ = ["render_window"]
 

@@ -1,0 +1,318 @@
+"""One inspection package measured end to end: validated inputs, chainage, contours, quantities.
+
+The result holds plain records, one per inspection, per logged observation
+and per measured quantity (with a thumbnail of its frame), with the column names of the Parquet dataset
+(``pipeline.store``, docs/dataset.md). A bad row of the log, a bad mark or a
+quantity that cannot be measured is recorded with its error and the rest
+are still measured; a package that cannot be read at all (manifest,
+header, certificate, video) gives one inspection record with status
+``failed`` and the error.
+"""
+
+from __future__ import annotations
+
+import datetime as dt
+import hashlib
+import os
+import time
+import zlib
+from collections import defaultdict
+from concurrent.futures import Future, ThreadPoolExecutor
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+from typing import Callable
+
+import numpy as np
+
+from pipeline import __version__
+from pipeline.formats.certificate import load_certificate
+from pipeline.domain.codes import CODES
+from pipeline.domain.records import Mark, Observation, SectionHeader
+from pipeline.formats.manifest import certificate_path, load_manifest
+from pipeline.formats.marks import check_marks_in_frame, read_marks
+from pipeline.core.errors import MeasurementError, PackageError, PipegaugeError
+from pipeline.formats import load_package_log
+from pipeline.vision.video.ingest import ingest_chainage
+from pipeline.vision.video.overlay_check import overlay_header_mismatches
+from pipeline.vision.video.overlay_ocr import OverlayReader
+from pipeline.reports.thumbnail import THUMBNAIL_WIDTH_PX, measurement_thumbnail
+from pipeline.vision.video.pipe_contour import contours_at_frames, overlay_mask_of
+from pipeline.vision.video.reader import read_frame
+from pipeline.camera.undistort import Undistorter
+from pipeline.measurement.automatic import measurable_automatically, measure_automatic
+from pipeline.measurement.marked import marked_quantity
+from pipeline.measurement.quantity import MODELS, MarkedQuantity, QuantityResult, measure_quantity
+from pipeline.measurement.wall import contour_under
+from pipeline.app.verdict_records import add_verdicts
+
+__all__ = ["InspectionResult", "measure_package", "file_sha256", "file_digests", "package_digest"]
+
+# quantities whose Monte Carlo runs at once: two where this process may use two cores
+QUANTITY_THREADS = min(2, len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1)
+
+
+@dataclass
+class InspectionResult:
+    """Records of one package for the dataset's three tables."""
+
+    inspection: dict
+    observations: list[dict] = field(default_factory=list)
+    measurements: list[dict] = field(default_factory=list)
+    thumbnails: list[dict] = field(default_factory=list)
+
+    @property
+    def inspection_id(self) -> str:
+        return self.inspection["inspection_id"]
+
+    @property
+    def ok(self) -> bool:
+        return self.inspection["status"] == "ok"
+
+
+def file_sha256(path: str | os.PathLike) -> str:
+    """SHA-256 of a file's contents, read in 1 MiB chunks."""
+    h = hashlib.sha256()
+    with Path(path).open("rb") as fh:
+        for chunk in iter(lambda: fh.read(1 << 20), b""):
+            h.update(chunk)
+    return h.hexdigest()
+
+
+def file_digests(folder: str | os.PathLike) -> dict[str, str]:
+    """SHA-256 of each file of a package (truth/ excluded), by path relative to the folder.
+
+    A link that leads outside the package raises PackageError before anything is read.
+    """
+    folder = Path(folder)
+    inside = folder.resolve()
+    paths = sorted(p for p in folder.rglob("*") if "truth" not in p.relative_to(folder).parts)
+    for p in paths:
+        if p.is_symlink() and inside not in p.resolve().parents:
+            raise PackageError(f"{p}: a link to {p.resolve()}, outside the package; nothing of the package was read: "
+                               "deliver the file itself")
+    return {p.relative_to(folder).as_posix(): file_sha256(p) for p in paths if p.is_file()}
+
+
+def package_digest(digests: dict[str, str]) -> str:
+    """SHA-256 over a package's file names and their digests (``file_digests``): its identity for re-processing."""
+    return hashlib.sha256("".join(f"{name}\0{d}\n" for name, d in sorted(digests.items())).encode()).hexdigest()
+
+
+def _seed(inspection_id: str, row: int, quantity: str) -> int:
+    """A Monte Carlo seed fixed by what is measured, so a re-run repeats every trial."""
+    return zlib.crc32(f"{inspection_id}/{row}/{quantity}".encode())
+
+
+def _observation_record(o: Observation) -> dict:
+    spec = CODES.get(o.code)
+    return {
+        "row": o.row, "distance_m": o.distance_m, "code": o.code, "code_meaning": spec.name if spec else None,
+        "char1": o.char1, "char2": o.char2, "q1": o.q1, "q1_unit": o.q1_unit or None, "q2": o.q2,
+        "q2_unit": o.q2_unit or None, "clock_from": o.clock_from, "clock_to": o.clock_to, "at_joint": o.at_joint,
+        "continuous": o.continuous or None, "video_time_s": o.video_time_s, "photo": o.photo, "remark": o.remark,
+        "valid": not o.problems, "problems": "; ".join(str(p) for p in o.problems) or None,
+    }
+
+
+def _failed(record: dict, error: str) -> InspectionResult:
+    record.update(status="failed", error=error)
+    return InspectionResult(record)
+
+
+def measure_package(folder: str | os.PathLike, *, certificates: str | os.PathLike | None = None,
+                    model: str = "perspective", reader: OverlayReader | None = None, every: int = 4,
+                    progress: Callable[[str], None] | None = None, today: dt.date | None = None,
+                    digests: dict[str, str] | None = None) -> InspectionResult:
+    """Measure every marked quantity of a package; never raises for a bad package (the record says why).
+
+    certificates : folder of certificate files (default: ``certificates/`` beside the package)
+    model : "perspective" (default) or "orthographic"; every : overlay sampling interval [frames]
+    digests : the package's ``file_digests`` when the caller has them already
+    """
+    say = progress or (lambda message: None)
+    if model not in MODELS:
+        raise ValueError(f"unknown model {model!r}; use one of {', '.join(MODELS)}")
+    folder = Path(folder)
+    t_start = time.perf_counter()
+    record: dict = {"inspection_id": folder.name, "package_folder": str(folder), "pipeline_version": __version__,
+                    "model": model, "processed_at": dt.datetime.now(dt.timezone.utc), "status": "failed",
+                    "error": None, "n_observations": 0, "n_measurements": 0, "n_problems": 0}
+    try:
+        manifest = load_manifest(folder)
+        record["inspection_id"] = manifest.package_id
+        digests = digests or file_digests(folder)          # the video is read once for both hashes
+        record["package_sha256"] = package_digest(digests)
+        header, observations = load_package_log(manifest)      # header.json + observations.csv, or a transfer
+        record.update(_header_fields(header))
+        marks, mark_problems = read_marks(manifest.marks, observations)
+        cert = load_certificate(certificate_path(manifest, certificates))
+        record.update(certificate_id=cert.certificate_id, certificate_valid_until=cert.valid_until,
+                      camera=" ".join(str(cert.camera.get(k, "")) for k in ("make", "model", "serial")).strip() or None)
+        cert.check_valid_on(header.inspection_date)
+        say(f"{manifest.package_id}: reading the chainage overlay")
+        t0 = time.perf_counter()
+        ingest = ingest_chainage(manifest.video, reader, every=every)
+        info = ingest.info
+        video_key = manifest.video.resolve().relative_to(folder.resolve()).as_posix()
+        record.update(video_file=manifest.video.name, video_sha256=digests.get(video_key), video_frames=info.frame_count,
+                      video_fps=info.fps, video_width_px=info.width, video_height_px=info.height,
+                      chainage_read_rate=ingest.read_rate)
+        record["warnings"] = overlay_header_mismatches(ingest.overlay_text, asdict(header))
+        und = Undistorter(cert, info.width, info.height, what=str(manifest.video))
+        mask = overlay_mask_of(ingest.spread_frames.values(), und)
+        record["time_track_s"] = time.perf_counter() - t0
+    except PipegaugeError as exc:
+        record["time_total_s"] = time.perf_counter() - t_start
+        return _failed(record, str(exc))
+
+    result = InspectionResult(record, [_observation_record(o) for o in observations])
+    problems: list[str] = [str(p) for o in observations for p in o.problems] + [str(p) for p in mark_problems]
+    by_row = {o.row: o for o in observations}
+    contours, ideal_frames, t_contour, t_measure = {}, {}, 0.0, 0.0
+    by_frame: dict[int, list[Mark]] = defaultdict(list)
+    for m in marks:
+        by_frame[m.frame].append(m)
+    automatic = {o.row: _automatic_frame(o, [m for m in marks if m.row == o.row], ingest.track, info)
+                 for o in observations if measurable_automatically(o)}
+    frames = sorted({f for f in [*by_frame, *(f for f in automatic.values() if f is not None)] if 0 <= f < info.frame_count})
+    t0 = time.perf_counter()
+    say(f"{manifest.package_id}: pipe contours at {len(frames)} frame(s)")
+    contours = contours_at_frames(manifest.video, frames, ingest.track, und, header.shape, height_mm=header.height_mm,
+                                  tolerance_mm=header.height_tolerance_mm, mask=mask, ideal_frames=ideal_frames)
+    t_contour = time.perf_counter() - t0
+
+    def under(obs: Observation, contour):
+        return contour_under(obs, observations, contour, unit_length_m=header.pipe_unit_length_m,
+                             height_mm=header.height_mm)
+
+    def ideal(frame: int) -> np.ndarray:
+        if frame not in ideal_frames:        # kept by the contours' pass; a seek only for a frame it did not reach
+            ideal_frames[frame] = und.frame(read_frame(manifest.video, frame))
+        return ideal_frames[frame]
+
+    # the Monte Carlo runs of the quantities are independent (each its own seed) and mostly large NumPy operations
+    # that release the GIL: two at once use both cores; results are assembled in the marks' order
+    jobs: list[tuple[dict, Mark, MarkedQuantity | None, Future | None]] = []
+    t0 = time.perf_counter()
+    pool = ThreadPoolExecutor(max_workers=QUANTITY_THREADS)
+    try:
+        for frame in sorted(by_frame):
+            for m in by_frame[frame]:
+                obs = by_row[m.row]
+                row = _measurement_base(obs, m, ingest.track, model)
+                marked = future = None
+                try:
+                    if obs.problems:
+                        raise MeasurementError(f"row {obs.row} of the log is invalid: "
+                                               + "; ".join(p.message for p in obs.problems))
+                    bad = check_marks_in_frame(m, info.width, info.height, info.frame_count, manifest.marks.name)
+                    if bad:
+                        problems += [str(p) for p in bad]
+                        raise MeasurementError("; ".join(str(p) for p in bad))
+                    marked = marked_quantity(obs, m, und, cert)
+                    future = pool.submit(measure_quantity, marked, under(obs, contours[frame]), cert,
+                                         H=header.height_mm, tolerance=header.height_tolerance_mm, model=model,
+                                         seed=_seed(manifest.package_id, obs.row, m.quantity))
+                except (PipegaugeError, ValueError) as exc:
+                    row.update(status="error", error=str(exc))
+                jobs.append((row, m, marked, future))
+        for _, _, _, future in jobs:
+            error = future.exception() if future is not None else None       # waits for the run
+            if error is not None and not isinstance(error, (PipegaugeError, ValueError)):
+                raise error                   # unexpected: at once, in the marks' order, as the loop one by one did
+    except BaseException:                     # an interrupt or an unexpected error: the queued runs are not waited for
+        pool.shutdown(wait=False, cancel_futures=True)
+        raise
+    pool.shutdown()
+    t_measure = time.perf_counter() - t0
+    for row, m, marked, future in jobs:
+        if future is not None:
+            try:
+                row.update(_quantity_fields(future.result()))
+                result.thumbnails.append(_thumbnail(ideal(m.frame), contours[m.frame], marked, m.row, m.frame, "marks"))
+            except (PipegaugeError, ValueError) as exc:
+                row.update(status="error", error=str(exc))
+        result.measurements.append(row)
+    for r, frame in sorted(automatic.items()):
+        obs = by_row[r]
+        row = _automatic_base(obs, frame, ingest.track, model)
+        try:
+            if frame is None or not 0 <= frame < info.frame_count:
+                raise MeasurementError(f"row {r}: no frame for its video time or chainage")
+            t0 = time.perf_counter()
+            q, res = measure_automatic(obs, under(obs, contours[frame]), ideal(frame), cert, H=header.height_mm,
+                                       tolerance=header.height_tolerance_mm, model=model, mask=mask,
+                                       seed=_seed(manifest.package_id, r, "Q1 contour"))
+            t_measure += time.perf_counter() - t0
+            row.update(_quantity_fields(res), u_mark_px=q.u_a)
+            result.thumbnails.append(_thumbnail(ideal(frame), contours[frame], q, r, frame, "contour"))
+        except (PipegaugeError, ValueError) as exc:
+            row.update(status="error", error=str(exc))
+        result.measurements.append(row)
+    add_verdicts(result, header, observations, ingest.track)
+    # what the image alone could not give is reported on its row, but the logged quantities decide the status
+    n_bad = sum(r["status"] != "ok" for r in result.measurements if r["source"] == "marks")
+    record.update(status="ok" if not problems and not n_bad else "partial",
+                  error=None if not problems and not n_bad else f"{len(problems)} input problem(s), {n_bad} quantity(ies) not measured",
+                  n_observations=len(observations), n_measurements=sum(r["status"] == "ok" for r in result.measurements),
+                  n_problems=len(problems), problems=problems, time_contour_s=t_contour, time_measure_s=t_measure,
+                  time_total_s=time.perf_counter() - t_start)
+    return result
+
+
+def _thumbnail(ideal_bgr: np.ndarray, contour, marked: MarkedQuantity, row: int, frame: int, source: str) -> dict:
+    plane = contour.at_points([marked.a, marked.b])
+    jpeg = measurement_thumbnail(ideal_bgr, plane.polygon, marked.a, marked.b, confident=plane.confident)
+    h, w = ideal_bgr.shape[:2]
+    return {"row": row, "quantity": marked.quantity, "source": source, "frame": frame, "width_px": THUMBNAIL_WIDTH_PX,
+            "height_px": round(h * THUMBNAIL_WIDTH_PX / w), "image_jpeg": jpeg}
+
+
+def _automatic_frame(obs: Observation, marks: list[Mark], track, info) -> int | None:
+    """The frame an automatic quantity is measured on: its marks' frame, else its video time, else its chainage."""
+    if marks:
+        return marks[0].frame
+    if obs.video_time_s is not None:
+        return int(round(obs.video_time_s * info.fps))
+    try:
+        return track.frame_at(obs.distance_m)[0]
+    except ValueError:
+        return None
+
+
+def _chainage_at(track, frame: int | None) -> tuple[float, float]:
+    """(chainage [m], its u [m]) at a frame; nan for a frame outside the video or none."""
+    if frame is None:
+        return float("nan"), float("nan")
+    try:
+        return track.at_frame(frame)
+    except IndexError:
+        return float("nan"), float("nan")
+
+
+def _automatic_base(obs: Observation, frame: int | None, track, model: str) -> dict:
+    chainage, u_chainage = _chainage_at(track, frame)
+    return {"row": obs.row, "quantity": "Q1", "source": "contour", "code": obs.code, "char1": obs.char1,
+            "char2": obs.char2, "model": model, "frame": frame, "chainage_m": chainage, "u_chainage_m": u_chainage,
+            "distance_m": obs.distance_m, "operator_value": obs.q1, "status": "ok", "error": None}
+
+
+def _header_fields(h: SectionHeader) -> dict:
+    return asdict(h)
+
+
+def _measurement_base(obs: Observation, m: Mark, track, model: str) -> dict:
+    chainage, u_chainage = _chainage_at(track, m.frame)
+    q = obs.q1 if m.quantity == "Q1" else obs.q2
+    return {"row": obs.row, "quantity": m.quantity, "source": "marks", "code": obs.code, "char1": obs.char1, "char2": obs.char2,
+            "model": model, "frame": m.frame, "chainage_m": chainage, "u_chainage_m": u_chainage,
+            "distance_m": obs.distance_m, "operator_value": q,
+            "a_x_px": m.a[0], "a_y_px": m.a[1], "b_x_px": m.b[0], "b_y_px": m.b[1], "u_mark_px": m.u_px,
+            "status": "ok", "error": None}
+
+
+def _quantity_fields(res: QuantityResult) -> dict:
+    fields = {k: v for k, v in asdict(res).items() if k not in ("budget", "reasons", "model")}
+    fields["warnings"] = "; ".join(res.reasons) or None
+    fields["budget"] = [asdict(b) for b in res.budget]
+    return fields

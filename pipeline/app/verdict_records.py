@@ -1,0 +1,113 @@
+"""The verdicts of one measured package as dataset fields: log check, grades, surveyed length.
+
+Called by ``measure_package`` once every quantity is measured; it only adds
+fields (docs/dataset.md) to the records. The rules are in
+``pipeline.judgement.verdicts`` (log check, survey) and ``pipeline.judgement.grading``.
+
+Section grade: the worst of the observations' classes (most probable class
+when measured, the logged value's class otherwise), with the probability
+that at least one observation is in that class or worse, the observations
+taken as independent; an observation graded from its log only counts as
+certain.
+"""
+
+from __future__ import annotations
+
+import math
+
+from pipeline.judgement.grading import Grade, grade, scheme
+from pipeline.judgement.grading.probability import result_cdf
+from pipeline.judgement.verdicts.log_check import check_logged
+from pipeline.judgement.verdicts.log_check import finite_number as _f
+from pipeline.judgement.verdicts.survey import survey_verdict
+
+__all__ = ["add_verdicts", "LOG_VERDICTS"]
+
+LOG_VERDICTS = ("agrees", "disagrees", "undecided", "not checked")
+
+
+def _grade_fields(g: Grade) -> dict:
+    probs = g.probabilities
+    return {"grading_scheme": g.scheme, "grade_status": g.status, "grade_reason": g.reason, "grade": g.cls,
+            "grade_probability": probs[g.most_probable] if probs else None, "grade_worst_likely": g.worst_likely,
+            "logged_grade": g.logged_class, "grade_disagrees": g.disagrees,
+            "grade_probabilities": [{"grade": c, "probability": p} for c, p in probs.items()] if probs else None}
+
+
+def _measurement_grade(s, m: dict, header, logged, logged_unit) -> Grade:
+    cdf = None
+    if m.get("status") == "ok":
+        cdf = result_cdf(_f(m.get("value")), _f(m.get("u")), _f(m.get("low")), _f(m.get("high")), _f(m.get("k")))
+    return grade(s, m["code"], m.get("char1"), unit=m.get("unit") or logged_unit, dn_mm=header.height_mm,
+                 material=header.material, logged=logged, cdf=cdf,
+                 unmeasured_reason=m.get("error") or "no distribution for this result")
+
+
+def add_verdicts(result, header, observations, track, scheme_key: str | None = None) -> None:
+    """Add the log check and grade fields to the measurements and observations, the survey and section grade
+    to the inspection (``InspectionResult``, in place)."""
+    s = scheme(scheme_key) if scheme_key else scheme()
+    by_row = {o.row: o for o in observations}
+    for m in result.measurements:
+        o = by_row[m["row"]]
+        logged = o.q1 if m["quantity"] == "Q1" else o.q2
+        logged_unit = (o.q1_unit if m["quantity"] == "Q1" else o.q2_unit) or None
+        c = check_logged(logged, logged_unit, value=m.get("value"), U95=m.get("U95"), unit=m.get("unit"),
+                         confident=m.get("confident"), status=m.get("status", "error"))
+        m.update(logged_value=c.logged, logged_resolution=c.resolution, log_check=c.verdict,
+                 log_check_reason=c.reason, log_difference=c.difference, E_n=c.E_n)
+        if m["quantity"] == "Q1":
+            m.update(_grade_fields(_measurement_grade(s, m, header, _f(logged), logged_unit)))
+        else:
+            m.update(grading_scheme=s.key, grade_status="ungraded", grade_reason=f"{s.name} grades Q1 only")
+
+    grades: list[tuple[Grade, dict]] = []
+    for rec, o in zip(result.observations, observations):
+        if not rec["valid"]:
+            rec.update(grading_scheme=s.key, grade_status="ungraded", grade_reason="the row is invalid")
+            continue
+        ms = [m for m in result.measurements if m["row"] == o.row and m["quantity"] == "Q1" and m.get("status") == "ok"]
+        best = sorted(ms, key=lambda m: (m["source"] != "marks", not m.get("confident")))[:1]
+        g = (_measurement_grade(s, best[0], header, _f(o.q1), o.q1_unit or None) if best else
+             grade(s, o.code, o.char1, unit=o.q1_unit or None, dn_mm=header.height_mm, material=header.material,
+                   logged=_f(o.q1), cdf=None, unmeasured_reason="not measured by pipegauge"))
+        rec.update(_grade_fields(g), grade_source=f"{best[0]['quantity']} {best[0]['source']}" if best else None)
+        grades.append((g, rec))
+
+    rec = result.inspection
+    counts = {v: sum(m.get("log_check") == v for m in result.measurements) for v in LOG_VERDICTS}
+    rec.update(grading_scheme=s.key, log_agrees=counts["agrees"], log_disagrees=counts["disagrees"],
+               log_undecided=counts["undecided"], log_not_checked=counts["not checked"])
+    rec.update(_section_grade(s, grades))
+    v = _survey(track, header, observations)
+    if v is not None:
+        outside = set(v.rows_outside)
+        for r in result.observations:
+            r["outside_survey"] = r["row"] in outside
+        rec.update(survey_start_m=v.start_m, survey_end_m=v.end_m, survey_complete=v.complete,
+                   finish_node_logged_m=v.finish_node_m, abandoned_at_m=v.abandoned_m,
+                   survey_rows_outside=v.rows_outside, survey_statement=v.statement)
+
+
+def _survey(track, header, observations):
+    if track is None or len(track.values) == 0:
+        return None
+    start, end = float(track.values[0]), float(max(track.values))
+    return survey_verdict(start, float(track.counter.u(start)), end, float(track.counter.u(end)),
+                          header.section_length_m, [(o.row, o.code, o.distance_m) for o in observations])
+
+
+def _cum_worse(g: Grade, classes: tuple[str, ...], c: int) -> float:
+    """P(class index <= c) for one observation's grade."""
+    if g.probabilities:
+        return sum(g.probabilities[k] for k in classes[:c + 1])
+    return 1.0 if g.cls is not None and classes.index(g.cls) <= c else 0.0
+
+
+def _section_grade(s, grades: list[tuple[Grade, dict]]) -> dict:
+    graded = [g for g, _ in grades if g.cls is not None]
+    if not graded:
+        return {"section_grade": None, "section_grade_probability": None}
+    c = min(s.classes.index(g.cls) for g in graded)
+    p_none = math.prod(1.0 - _cum_worse(g, s.classes, c) for g in graded)
+    return {"section_grade": s.classes[c], "section_grade_probability": 1.0 - p_none}

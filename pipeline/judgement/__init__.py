@@ -1,0 +1,1 @@
+"""Judging measurements: the contractor's log checked (``verdicts``) and condition grades (``grading``)."""

@@ -1,0 +1,50 @@
+"""The distribution of a stored measurement result, for class probabilities [unit of the quantity].
+
+The dataset keeps value, u, the 95 % interval [low, high] and k (NaN for a
+Monte Carlo interval), not the draws. The distribution used:
+
+* linear result (k finite): Normal(value, u) (JCGM 100 G.6.6; the effective
+  degrees of freedom are not stored, so no t);
+* Monte Carlo result (k NaN): a two-piece (split) normal with its mode at
+  value and its two halves scaled so that value - 1.96 s_low = low and
+  value + 1.96 s_high = high; it holds exactly 95 % on [low, high], matching
+  the stored shortest interval and its asymmetry. Its limit: the tails
+  beyond the interval are normal whatever the draws' tails were, so a class
+  far outside the interval gets an approximate (small) probability.
+
+A value outside its own interval (possible for a very skewed Monte Carlo
+result) takes the interval's centre as the mode.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Callable
+from pipeline.maths.metrology import K95 as Z95
+
+__all__ = ["result_cdf", "Z95"]
+
+
+
+def _phi(z: float) -> float:
+    return 0.5 * math.erfc(-z / math.sqrt(2.0))
+
+
+def result_cdf(value: float, u: float, low: float, high: float, k: float | None) -> Callable[[float], float] | None:
+    """CDF of a stored result (module docstring), or None when the numbers do not define one."""
+    nums = (value, u, low, high)
+    if any(x is None or not math.isfinite(x) for x in nums) or u <= 0:
+        return None
+    if k is not None and math.isfinite(k):
+        return lambda x: _phi((x - value) / u)
+    mode = value if low < value < high else 0.5 * (low + high)
+    s_lo, s_hi = (mode - low) / Z95, (high - mode) / Z95
+    if s_lo <= 0 or s_hi <= 0:
+        return None
+    w_lo, w_hi = 2 * s_lo / (s_lo + s_hi), 2 * s_hi / (s_lo + s_hi)
+
+    def cdf(x: float) -> float:
+        if x < mode:
+            return w_lo * _phi((x - mode) / s_lo)
+        return w_lo / 2 + w_hi * (_phi((x - mode) / s_hi) - 0.5)
+    return cdf

@@ -1,0 +1,1 @@
+"""The maths: the GUM engine (``metrology``) and the cross-section profiles (``profiles``)."""

@@ -1,0 +1,237 @@
+"""Propagation of distributions by the Monte Carlo method (JCGM 101:2008).
+
+Two modes:
+
+* fixed number of trials M (JCGM 101 7.2 to 7.7);
+* adaptive (JCGM 101 7.9): blocks of M = max(10^4, ceil(100 / (1 - p)))
+  trials; after each block h >= ``min_blocks`` (>= 2) the standard deviations
+  of the block estimates of y, u(y), y_low and y_high are computed
+  (7.9.4 e) and the run stops when twice each of them is at most the
+  numerical tolerance delta of u(y) (7.9.2, 7.9.4 g). The results are then
+  computed from all h M trials (7.9.4 h).
+
+Draws come from ``numpy.random.Generator(PCG64(seed))``; the seed and the
+number of trials are part of every result, so any run can be repeated.
+"""
+
+from __future__ import annotations
+
+import math
+import secrets
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from pipeline.maths.metrology.inputs import InputLike, InputSet
+from pipeline.maths.metrology.intervals import CoverageInterval, interval_indices, numerical_tolerance, shortest_interval, symmetric_interval
+from pipeline.maths.metrology.model import Model, evaluate_outputs
+
+__all__ = ["Stability", "MonteCarloResult", "propagate_monte_carlo", "block_size"]
+
+
+def block_size(p: float) -> int:
+    """Trials per block, M = max(10^4, ceil(100 / (1 - p))) (JCGM 101 7.9.4 a)."""
+    return max(10_000, math.ceil(100.0 / (1.0 - p)))
+
+
+@dataclass(frozen=True)
+class Stability:
+    """Standard deviations of the block estimates (JCGM 101 7.9.4 e) against delta.
+
+    s_y, s_u, s_low, s_high : standard deviation associated with the average
+        of the h block values of y, u(y), y_low and y_high [output unit]
+    delta : numerical tolerance of u(y) [output unit]
+    """
+
+    s_y: float
+    s_u: float
+    s_low: float
+    s_high: float
+    delta: float
+
+    @property
+    def stable(self) -> bool:
+        """True when 2 s <= delta for all four (JCGM 101 7.9.4 g)."""
+        return 2.0 * max(self.s_y, self.s_u, self.s_low, self.s_high) <= self.delta
+
+
+@dataclass(frozen=True)
+class MonteCarloResult:
+    """Monte Carlo result for one output quantity.
+
+    estimate : mean of the trials, y~ [output unit]
+    u : standard deviation of the trials, u(y~) [output unit]
+    interval : probabilistically symmetric coverage interval
+    shortest : shortest coverage interval
+    trials : number of trials used; blocks : number of blocks (1 if fixed M)
+    seed : seed of the PCG64 generator
+    adaptive : whether the adaptive procedure chose the number of trials
+    converged : for an adaptive run, whether the tolerance was met before
+        ``max_trials``; always True for a fixed-M run
+    stability : block statistics at the stop (adaptive runs only)
+    """
+
+    name: str
+    estimate: float
+    u: float
+    interval: CoverageInterval
+    shortest: CoverageInterval
+    p: float
+    trials: int
+    blocks: int
+    seed: int
+    adaptive: bool
+    converged: bool
+    ndig: int
+    stability: Stability | None
+    samples: np.ndarray | None = field(default=None, repr=False, compare=False)
+
+    @property
+    def U(self) -> float:
+        """Half-width of the probabilistically symmetric interval [output unit]."""
+        return self.interval.half_width
+
+    @property
+    def tolerance(self) -> float:
+        """Numerical tolerance delta of u(y) with ``ndig`` significant digits."""
+        return numerical_tolerance(self.u, self.ndig)
+
+
+@dataclass
+class _BlockStats:
+    """Per-block statistics of one output, accumulated over blocks."""
+
+    means: list[float] = field(default_factory=list)
+    variances: list[float] = field(default_factory=list)
+    lows: list[float] = field(default_factory=list)
+    highs: list[float] = field(default_factory=list)
+    chunks: list[np.ndarray] = field(default_factory=list)
+
+    def add(self, y: np.ndarray, lo_i: int, hi_i: int) -> None:
+        part = np.partition(y, (lo_i, hi_i))
+        self.means.append(float(np.mean(y)))
+        self.variances.append(float(np.var(y, ddof=1)))
+        self.lows.append(float(part[lo_i]))
+        self.highs.append(float(part[hi_i]))
+        self.chunks.append(y)
+
+    def stability(self, M: int, ndig: int) -> Stability:
+        h = len(self.means)
+        means = np.asarray(self.means)
+        # Pooled variance of all h*M trials from block means and variances.
+        grand = float(means.mean())
+        ss = (M - 1) * float(np.sum(self.variances)) + M * float(np.sum((means - grand) ** 2))
+        u_all = math.sqrt(ss / (h * M - 1))
+        block_u = np.sqrt(self.variances)
+
+        def s_of_mean(values: np.ndarray) -> float:  # JCGM 101 eq. (15)
+            return float(np.std(values, ddof=1) / math.sqrt(h))
+
+        return Stability(
+            s_of_mean(means),
+            s_of_mean(block_u),
+            s_of_mean(np.asarray(self.lows)),
+            s_of_mean(np.asarray(self.highs)),
+            numerical_tolerance(u_all, ndig),
+        )
+
+
+def _summarise(
+    name: str, y: np.ndarray, p: float, *, seed: int, blocks: int, adaptive: bool,
+    converged: bool, ndig: int, stability: Stability | None, keep_samples: bool,
+) -> MonteCarloResult:
+    y_sorted = np.sort(y)
+    return MonteCarloResult(
+        name=name,
+        estimate=float(np.mean(y)),
+        u=float(np.std(y, ddof=1)),
+        interval=symmetric_interval(y_sorted, p, is_sorted=True),
+        shortest=shortest_interval(y_sorted, p),
+        p=p,
+        trials=int(y.size),
+        blocks=blocks,
+        seed=seed,
+        adaptive=adaptive,
+        converged=converged,
+        ndig=ndig,
+        stability=stability,
+        samples=y if keep_samples else None,
+    )
+
+
+def propagate_monte_carlo(
+    model: Model,
+    inputs: InputLike,
+    *,
+    p: float = 0.95,
+    trials: int | None = None,
+    seed: int | None = None,
+    ndig: int = 2,
+    min_blocks: int = 10,
+    max_trials: int = 10_000_000,
+    name: str = "y",
+    keep_samples: bool = False,
+) -> MonteCarloResult | dict[str, MonteCarloResult]:
+    """Propagate the input distributions through ``model`` by Monte Carlo.
+
+    model : vectorised function of the input labels (see ``pipeline.maths.metrology.model``)
+    inputs : the input quantities (InputSet or label -> Distribution / number)
+    p : coverage probability
+    trials : fixed number of trials M; None runs the adaptive procedure
+    seed : seed of the PCG64 generator; None draws one (recorded in the result)
+    ndig : significant digits of u(y) the adaptive run must stabilise
+    min_blocks : fewest blocks before the adaptive stopping rule is applied
+        (at h = 2 the rule can hold by chance)
+    max_trials : cap on the adaptive run; reaching it sets ``converged=False``
+    name : name of the output when ``model`` returns a single array
+    keep_samples : keep the output trials in the result (memory: 8 bytes each)
+
+    Returns a MonteCarloResult, or a dict of them when the model returns a mapping.
+    """
+    inputs = InputSet.of(inputs)
+    if seed is None:
+        seed = secrets.randbits(63)
+    rng = np.random.Generator(np.random.PCG64(seed))
+
+    if trials is not None:
+        if trials < 2:
+            raise ValueError(f"trials must be >= 2, got {trials}")
+        outputs, single = evaluate_outputs(model, inputs.sample(rng, trials), trials, name)
+        results = {
+            key: _summarise(key, y, p, seed=seed, blocks=1, adaptive=False, converged=True,
+                            ndig=ndig, stability=None, keep_samples=keep_samples)
+            for key, y in outputs.items()
+        }
+        return results[name] if single else results
+
+    if min_blocks < 2:
+        raise ValueError(f"min_blocks must be >= 2, got {min_blocks}")
+    M = block_size(p)
+    r, q = interval_indices(M, p)
+    lo_i, hi_i = r - 1, r + q - 1
+    stats: dict[str, _BlockStats] = {}
+    single = True
+    h = 0
+    converged = False
+    stability: dict[str, Stability] = {}
+    while True:
+        outputs, single = evaluate_outputs(model, inputs.sample(rng, M), M, name)
+        h += 1
+        for key, y in outputs.items():
+            stats.setdefault(key, _BlockStats()).add(y, lo_i, hi_i)
+        if h >= min_blocks:
+            stability = {key: s.stability(M, ndig) for key, s in stats.items()}
+            if all(s.stable for s in stability.values()):
+                converged = True
+                break
+        if (h + 1) * M > max_trials:
+            stability = {key: s.stability(M, ndig) for key, s in stats.items()} if h >= 2 else {}
+            break
+
+    results = {
+        key: _summarise(key, np.concatenate(s.chunks), p, seed=seed, blocks=h, adaptive=True,
+                        converged=converged, ndig=ndig, stability=stability.get(key),
+                        keep_samples=keep_samples)
+        for key, s in stats.items()
+    }
+    return results[name] if single else results

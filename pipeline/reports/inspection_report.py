@@ -1,0 +1,376 @@
+"""The condition report of one inspection, rendered from the stored dataset alone (reportlab).
+
+Sections: verdicts (what is wrong, how sure, did the contractor code it
+right), header block, warnings (plain sentences with the action, each
+once), pipe strip over the surveyed range, observation table (EN 13508-2
+text, every quantity as value ± U95 with unit or its interval), detail pages
+with two or three measured quantities each (thumbnail with contour and
+marks, key numbers, budget table with units), and the method
+statement. Layout: docs/reports.md.
+"""
+
+from __future__ import annotations
+
+import datetime as dt
+import io
+import math
+import os
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+from reportlab.lib import colors
+from reportlab.lib.units import mm
+from reportlab.platypus import Image, KeepTogether, Paragraph, Spacer, Table, TableStyle
+
+from pipeline import __version__
+from pipeline.domain.codes import plain_description
+from pipeline.core.errors import StoreError
+from pipeline.core.limits import MAX_REPORT_OBSERVATIONS, MAX_REPORT_QUANTITIES, MAX_REPORT_WARNINGS
+from pipeline.store import file_stem, read_table
+from pipeline.maths.metrology.display import format_record     # the one place a value and its interval are written
+from pipeline.reports.pdf import FRAME_WIDTH, build_pdf, cell, grid_table, key_value_table, safe_text, styles
+from pipeline.reports.graphics import pipe_strip, strip_span
+from pipeline.reports.method import method_statement
+from pipeline.reports.style import number
+from pipeline.reports.verdict_text import grade_text, log_check_text, verdict_lines
+from pipeline.reports.warning_text import measurement_warnings
+from pipeline.maths.metrology import K95
+
+__all__ = ["render_inspection_report", "inspection_warnings", "report_file_name", "NEAR_EXPIRY_DAYS"]
+
+NEAR_EXPIRY_DAYS = 30
+
+
+def report_file_name(inspection_id: str) -> str:
+    """The report's file name for an inspection id (the dataset's file stem, ``.pdf``)."""
+    return file_stem(inspection_id) + ".pdf"
+
+
+def _missing(v) -> bool:
+    return v is None or (isinstance(v, float) and math.isnan(v)) or v is pd.NaT or v is pd.NA
+
+
+def _txt(v, limit: int = 400) -> str:
+    return "" if _missing(v) else safe_text(v, limit)
+
+
+_p = cell
+
+
+def _coverage(m: dict) -> str:
+    if _missing(m.get("k")):
+        return f"Monte Carlo, {int(m['mc_trials']):,} trials, shortest 95 % interval [{m['low']:.4g}, {m['high']:.4g}]"
+    return f"k = {m['k']:.2f} (linear; Monte Carlo check {'passed' if m.get('linear_validated') else 'failed'})"
+
+
+def inspection_warnings(inspection: dict, measurements: list[dict], today: dt.date) -> list[str]:
+    """Plain sentences, each once and with the action to take: status, input problems, low-confidence or
+    unmeasured quantities (one per observation and problem; the technical reasons stay in the dataset),
+    certificate validity."""
+    out = []
+    if inspection.get("status") != "ok":
+        out.append(f"Status {inspection.get('status')}: {inspection.get('error') or 'see below'}. Action: correct "
+                   "the delivery as the problems below say and deliver it again; the next night measures it anew.")
+    for problem in inspection.get("problems") if inspection.get("problems") is not None else []:
+        out.append(f"Input problem: {problem}. Action: ask the contractor to correct this row or field.")
+    for warning in inspection.get("warnings") if inspection.get("warnings") is not None else []:
+        out.append(f"The video's overlay and the section header disagree: {warning}. Action: check which one is "
+                   "right; a wrong header (height, shape, material) changes every measured value.")
+    out += measurement_warnings(measurements, _name)
+    valid = inspection.get("certificate_valid_until")
+    when = inspection.get("inspection_date")
+    if not _missing(valid):
+        if not _missing(when) and valid < when:
+            out.append(f"Certificate {inspection.get('certificate_id')} had expired on {valid} before the inspection "
+                       f"({when}).")
+        elif not _missing(when) and (valid - when).days <= NEAR_EXPIRY_DAYS:
+            out.append(f"Certificate {inspection.get('certificate_id')} expires on {valid}, within {NEAR_EXPIRY_DAYS} "
+                       f"days of the inspection ({when}); recalibrate the camera soon.")
+        elif valid < today:
+            out.append(f"Certificate {inspection.get('certificate_id')} has expired since ({valid}); it was valid for "
+                       "this inspection, but the camera needs recalibration before further use.")
+    return list(dict.fromkeys(out))         # each once
+
+
+def _name(m: dict) -> str:
+    """An observation named for a reader: 'BAA A, deformation, vertical'."""
+    codes = " ".join(str(v) for v in (m.get("code"), m.get("char1"), m.get("char2")) if not _missing(v) and v)
+    return f"{codes}, {plain_description(m.get('code') or '', m.get('char1'), m.get('char2'))}"
+
+
+def _header_block(i: dict) -> Table:
+    size = f"{i.get('height_mm'):g} mm high" if not _missing(i.get("height_mm")) else "size not given"
+    if not _missing(i.get("width_mm")):
+        size += f", {i['width_mm']:g} mm wide"
+    if not _missing(i.get("height_tolerance_mm")):
+        size += f", tolerance ± {i['height_tolerance_mm']:g} mm"
+    rows = [
+        ("Section", f"{_txt(i.get('section_id'))}: {_txt(i.get('start_node'))} → {_txt(i.get('finish_node'))}, "
+                    f"{_txt(i.get('direction'))}"),
+        ("Inspection", f"{_txt(i.get('inspection_date'))}, {_txt(i.get('contractor'))}; site {_txt(i.get('site'))}"),
+        ("Pipe", f"{_txt(i.get('shape'))}, {size}, {_txt(i.get('material'))}; section length "
+                 f"{_txt(i.get('section_length_m'))} m"),
+        ("Camera", f"{_txt(i.get('camera')) or 'camera not named'}; calibration certificate {_txt(i.get('certificate_id'))}, "
+                   f"valid until {_txt(i.get('certificate_valid_until'))}"),
+        ("Video", f"{_txt(i.get('video_file'))}, {_txt(i.get('video_width_px'))}×{_txt(i.get('video_height_px'))} px, "
+                  f"{_txt(i.get('video_frames'))} frames; chainage read on "
+                  + (f"{100 * i['chainage_read_rate']:.0f} %" if not _missing(i.get("chainage_read_rate")) else "-")
+                  + " of sampled frames"),
+        ("Measurement", f"{_txt(i.get('model'))} model; pipegauge {_txt(i.get('pipeline_version'))}, processed "
+                        f"{_txt(str(i.get('processed_at'))[:19])} UTC; status {_txt(i.get('status'))}"),
+        ("Package", f"{_txt(i.get('inspection_id'))}, SHA-256 "
+                    + (f"{_txt(i['package_sha256'][:16])}…" if isinstance(i.get("package_sha256"), str) else "not computed")),
+    ]
+    return key_value_table(rows)
+
+
+def _verdict_block(i: dict, measurements: list[dict]) -> list:
+    """Page 1's verdicts: surveyed length, log check counts and disagreements, section grade with probability."""
+    lines = verdict_lines(i)
+    if not lines:
+        return []
+    rows = list(lines)
+    wrong = [m for m in measurements if m.get("log_check") == "disagrees"]
+    if wrong:
+        rows.append(("Log errors", "<br/>".join(
+            f"row {m['row']} {_label(m)} {safe_text(m['code'])}: logged {m['logged_value']:g} {m['unit']}, measured "
+            f"{safe_text(format_record(m))}, E_n {m['E_n']:.1f}" for m in wrong)))
+    t = key_value_table([(safe_text(k), v if k == "Log errors" else safe_text(v, 800)) for k, v in rows])
+    return [Paragraph("Verdicts", styles()["h2"]), t,
+            Paragraph("Log check: the contractor's value against the measurement, E_n = |logged − measured| / "
+                      "√(U95² + U_res²) with U_res from the logged value's step; E_n ≤ 1 agrees. Where the "
+                      "pipe's outline is not trusted the check is undecided unless E_n > 2 (then it disagrees). "
+                      "Grades: "
+                      "VSA 2023 single-defect classes EZ0 (worst) to EZ4 with the probability of each class from "
+                      "the measurement's distribution.", styles()["small"])]
+
+
+def _delivered(o: dict) -> str:
+    parts = []
+    for q, unit in (("q1", "q1_unit"), ("q2", "q2_unit")):
+        if not _missing(o.get(q)):
+            parts.append(f"{o[q]:g} {_txt(o.get(unit))}")
+    return ", ".join(parts)
+
+
+def _observation_table(observations: list[dict], by_row: dict[int, list[dict]]) -> Table:
+    """Every logged row in EN 13508-2 text with its measured values; a remark takes a row of its own under it."""
+    head = ["Row", "m", "Code", "Description", "Clock", "Logged", "Measured (value ± U95 or [95 % interval])",
+            "Log check", "Grade"]
+    rows, spans = [[_p(h) for h in head]], []
+    for o in observations:
+        measured, checks = [], []
+        for m in by_row.get(o["row"], []):
+            checks.append(f"{_label(m)}: {safe_text(log_check_text(m), 200)}")
+            if m["status"] == "ok":
+                flag = "" if m.get("confident") else " ⚠"
+                measured.append(f"{_label(m)}: {safe_text(format_record(m))}{flag}")
+            else:
+                measured.append(f"{_label(m)}: not measured")
+        clock = "" if _missing(o.get("clock_from")) else f"{int(o['clock_from'])}" + (
+            "" if _missing(o.get("clock_to")) else f"–{int(o['clock_to'])}")
+        codes = " ".join(_txt(v) for v in (o.get("code"), o.get("char1"), o.get("char2")) if not _missing(v) and v)
+        cont = "" if _missing(o.get("continuous")) or not o.get("continuous") else f" ({_txt(o['continuous'])})"
+        rows.append([_p(str(o["row"]), "number"),
+                     _p(f"{o['distance_m']:.2f}" if not _missing(o.get("distance_m")) else "", "number"),
+                     _p(codes + cont), _p(safe_text(plain_description(o.get("code") or "", o.get("char1"), o.get("char2")))),
+                     _p(clock), _p(_delivered(o)), _p("<br/>".join(measured)), _p("<br/>".join(checks)),
+                     _p(safe_text(grade_text(o), 300) + (" · logged outside the surveyed range"
+                                                           if o.get("outside_survey") is True else ""))])
+        remark = _txt(o.get("remark"), 400)
+        if remark:
+            rows.append(["", _p(f"<i>Remark:</i> {remark}")] + [""] * (len(head) - 2))
+            spans.append(len(rows) - 1)
+    extra = [("TOPPADDING", (0, 0), (-1, -1), 1.2), ("BOTTOMPADDING", (0, 0), (-1, -1), 1.8)]
+    for r in spans:
+        extra += [("SPAN", (1, r), (-1, r)), ("LINEABOVE", (1, r), (-1, r), 0.25, colors.white)]
+    return grid_table(rows, [8 * mm, 10 * mm, 15 * mm, 28 * mm, 9 * mm, 15 * mm, 36 * mm, 31 * mm, 28 * mm], extra,
+                      split_rows=True)
+
+
+# Units of the budget's inputs (pipeline/measurement/quantity.py: its docstring names them); an input not listed
+# here is shown without a unit.
+_INPUT_UNITS = {"H": "mm", "p_H": "px", "p_X": "px", "xa": "px", "ya": "px", "xb": "px", "yb": "px", "xo": "px",
+                "yo": "px", "ox": "H", "oy": "H", "yaw": "rad", "pitch": "rad", "roll": "rad", "wall": "1",
+                "certificate": "1", "across": "mm"}
+_SCALES = ("wall", "certificate")   # relative factors, 1 at the nominal wall and at the certificate's own parameters
+
+
+def _budget_table(m: dict, budget: list[dict]) -> Table:
+    """The budget with units and fixed-width numbers (the inputs' descriptions: :func:`_input_legend`)."""
+    head = ["Input", "Estimate", "u", "Unit", "Dist.", "c_i", f"|c_i| u [{safe_text(m['unit'])}]"]
+    rows = [[_p(h, "tiny") for h in head]]
+    for b in budget:
+        label = str(b["label"])
+        rows.append([_p(_txt(label), "tiny"), _p(number(b["estimate"], 4), "tiny number"),
+                     _p(number(b["u"]), "tiny number"), _p(safe_text(_input_unit(label, m["unit"])), "tiny"),
+                     _p(_txt(_distribution(b["distribution"]), 40), "tiny"),
+                     _p(number(b["sensitivity"]), "tiny number"), _p(number(abs(b["contribution"])), "tiny number")])
+    return grid_table(rows, _BUDGET_WIDTHS, [("TOPPADDING", (0, 0), (-1, -1), 0.3),
+                                             ("BOTTOMPADDING", (0, 0), (-1, -1), 0.8),
+                                             ("LEFTPADDING", (0, 0), (-1, -1), 1.5),
+                                             ("RIGHTPADDING", (0, 0), (-1, -1), 1.5)])
+
+
+_BUDGET_WIDTHS = [13 * mm, 14 * mm, 11.5 * mm, 6 * mm, 13.5 * mm, 11 * mm, 12 * mm]
+
+
+def _input_unit(label: str, unit: str) -> str:
+    return unit if label == "approximation" else _INPUT_UNITS.get(label, "")
+
+
+def _joint_note(m: dict, budget: list[dict]) -> list[Paragraph]:
+    """A line when correlated (joint) inputs' contributions add up to more than u_c, which then needs saying."""
+    joint = [b for b in budget if "joint" in str(b["distribution"])]
+    squares = sum(float(b["contribution"]) ** 2 for b in budget if _finite(b.get("contribution")))
+    if not (joint and _finite(m.get("u")) and squares > float(m["u"]) ** 2):
+        return []
+    return [_p(f"{', '.join(safe_text(b['label']) for b in joint)} (the camera pose) are correlated and partly "
+               f"cancel: the contributions' squares add up to more than u_c² (√Σ = {number(squares ** 0.5)}, "
+               f"u_c = {number(m['u'])} {safe_text(m['unit'])}, which includes the correlation).", "tiny")]
+
+
+def _input_legend(measurements: list[dict]) -> str:
+    """The budgets' inputs named once for the report, from the dataset's own descriptions: 'xa [px] mark a, x ...'."""
+    seen: dict[str, dict[str, None]] = {}
+    for m in measurements:
+        for b in (m.get("budget") if m.get("budget") is not None else []):
+            seen.setdefault(str(b["label"]), {})[str(b["description"]).replace(" [mm]", "")] = None
+    out = []
+    for label, descriptions in seen.items():
+        unit = _input_unit(label, "the quantity's unit")
+        out.append(f"<b>{safe_text(label)}</b>{f' [{safe_text(unit)}]' if unit else ''} "
+                   + " or ".join(safe_text(d) for d in descriptions))
+    return "; ".join(out)
+
+
+def _distribution(text: str) -> str:
+    """A budget line's distribution in one short word: normal, rectangular, joint (jointly normal), nuisance."""
+    name = str(text).split("(x=")[0].strip()
+    return "joint" if "joint" in name else name
+
+
+def _finite(v) -> bool:
+    return isinstance(v, (int, float)) and math.isfinite(v)
+
+
+_THUMB = 50 * mm        # thumbnail width: the marks (3 px circles at 360 px) stay visible
+
+
+def _quantity_block(m: dict, thumbnail: bytes | None) -> KeepTogether:
+    """One measured quantity in about a quarter of a page: thumbnail, budget table and key numbers side by side."""
+    source = " (from the image alone, no marks)" if _source(m) == "contour" else ""
+    title = Paragraph(f"Row {m['row']} {m['quantity']}{source}: {safe_text(_name(m))}", styles()["h3"])
+    if m["status"] != "ok":
+        return KeepTogether([title, _p(f"Not measured: {_txt(m.get('error'))}", "warning"), Spacer(1, 3 * mm)])
+    facts = [
+        ("Result", safe_text(format_record(m)) + " (95 %)"),
+        ("u", f"{m['u']:.3g} {m['unit']} (standard)"),
+        ("Logged", "-" if _missing(m.get("operator_value")) else f"{m['operator_value']:g} {m['unit']} (contractor)"),
+        ("Coverage", _coverage(m)),
+        ("Method", f"{_txt(m['method'])}, {_txt(m['model'])} model; seed {m['mc_seed']}"),
+        ("Frame", f"{m['frame']} at chainage {m['chainage_m']:.2f} ± {K95 * m['u_chainage_m']:.2f} m (U95)"),
+        ("p_H, SC", f"{m['p_H_px']:.1f} ± {m['u_p_H_px']:.1f} px (u); SC {m['SC_mm_per_px']:.3f} mm/px"),
+        ("Models", f"perspective {m['perspective_value']:.4g}, orthographic {m['orthographic_value']:.4g} {m['unit']}"),
+    ]
+    side = FRAME_WIDTH - _THUMB - sum(_BUDGET_WIDTHS) - 3 * mm
+    fact_table = Table([[_p(f"<b>{k}</b>", "tiny"), _p(v, "tiny")] for k, v in facts], colWidths=[13 * mm, side - 13 * mm])
+    fact_table.setStyle(TableStyle([("VALIGN", (0, 0), (-1, -1), "TOP"), ("LEFTPADDING", (0, 0), (-1, -1), 0),
+                                    ("RIGHTPADDING", (0, 0), (-1, -1), 1), ("TOPPADDING", (0, 0), (-1, -1), 0.3),
+                                    ("BOTTOMPADDING", (0, 0), (-1, -1), 0.3)]))
+    image = (Image(io.BytesIO(thumbnail), width=_THUMB, height=_THUMB * 0.8, kind="proportional") if thumbnail
+             else _p("(no thumbnail)"))
+    budget = list(m["budget"]) if m.get("budget") is not None else []
+    top = Table([[image, _budget_table(m, budget), fact_table]],
+                colWidths=[_THUMB + 1.5 * mm, sum(_BUDGET_WIDTHS) + 1.5 * mm, side])
+    top.setStyle(TableStyle([("VALIGN", (0, 0), (-1, -1), "TOP"), ("LEFTPADDING", (0, 0), (-1, -1), 0),
+                             ("RIGHTPADDING", (0, 0), (-1, -1), 0)]))
+    return KeepTogether([title, top, *_joint_note(m, budget), Spacer(1, 3 * mm)])
+
+
+def _label(m: dict) -> str:
+    return f"{m['quantity']} (image)" if _source(m) == "contour" else m["quantity"]
+
+
+def _source(record: dict) -> str:
+    """marks or contour (datasets written before the column existed hold marked quantities only)."""
+    return record.get("source") or "marks"
+
+
+def _records(frame: pd.DataFrame) -> list[dict]:
+    """Rows as dicts, with pandas' missing markers (NaN, NaT) as None."""
+    return [{k: (None if not isinstance(v, (list, np.ndarray)) and _missing(v) else v) for k, v in r.items()}
+            for r in frame.to_dict("records")]
+
+
+def _more(n: int, what: str, where: str) -> list[Paragraph]:
+    """A line saying how many items a bounded report leaves out (pipeline.core.limits), and where they are."""
+    if n <= 0:
+        return []
+    return [Paragraph(f"… and {n:,} more {what}, left out of this report to keep it readable; all of them are in "
+                      f"{where} (pipegauge export).", styles()["small"])]
+
+
+def render_inspection_report(data: str | os.PathLike, inspection_id: str, path: str | os.PathLike, *,
+                             today: dt.date | None = None) -> Path:
+    """Render the condition report of ``inspection_id`` from the dataset at ``data`` into the PDF ``path`` (atomic)."""
+    today = today or dt.date.today()
+    tables = {t: read_table(data, t, inspection_ids=[inspection_id])
+              for t in ("inspections", "observations", "measurements", "thumbnails")}
+    if tables["inspections"].empty:
+        raise StoreError(f"{data}: no inspection {inspection_id!r} in the dataset; list them with "
+                         "pipegauge export or check the id")
+    inspection = _records(tables["inspections"])[0]
+    observations = sorted(_records(tables["observations"]), key=lambda o: (o["row"]))
+    measurements = sorted(_records(tables["measurements"]), key=lambda m: (m["row"], m["quantity"], _source(m) != "marks"))
+    thumbs = {(t["row"], t["quantity"], _source(t)): t["image_jpeg"] for t in _records(tables["thumbnails"])}
+    by_row: dict[int, list[dict]] = {}
+    for m in measurements:
+        by_row.setdefault(m["row"], []).append(m)
+
+    st = styles()
+    story = [Paragraph(f"Condition report: section {_txt(inspection.get('section_id'))} "
+                       f"({_txt(inspection.get('start_node'))} → {_txt(inspection.get('finish_node'))})", st["title"]),
+             *_verdict_block(inspection, measurements), Paragraph("Inspection", st["h2"]), _header_block(inspection)]
+    warnings = inspection_warnings(inspection, measurements, today)
+    story += [Paragraph("Warnings", st["h2"])]
+    story += [Paragraph("• " + safe_text(w, 600), st["warning"]) for w in warnings[:MAX_REPORT_WARNINGS]] or [
+        Paragraph("None.", st["body"])]
+    story += _more(len(warnings) - MAX_REPORT_WARNINGS, "warnings", "the inspection's problems in the dataset")
+    span = strip_span(observations, inspection.get("survey_start_m"), inspection.get("survey_end_m"),
+                      inspection.get("section_length_m"))
+    beyond = [o["row"] for o in observations if _finite(o.get("distance_m"))
+              and not span[0] - 1e-9 <= o["distance_m"] <= span[1] + 1e-9]
+    story += [Paragraph("Observations along the section", st["h2"]),
+              pipe_strip(observations, span, set(by_row)),
+              Paragraph(f"Unrolled wall over the surveyed range {span[0]:g}-{span[1]:g} m: clock position 12 (crown) "
+                        "at the top, 6 (invert) in the middle; measured observations in red"
+                        + (f"; {'rows' if len(beyond) > 1 else 'row'} {', '.join(map(str, beyond))} "
+                           f"{'lie' if len(beyond) > 1 else 'lies'} outside this range and stand at its edge"
+                           if beyond else "") + ".", st["small"]),
+              Spacer(1, 2 * mm),
+              _observation_table(observations[:MAX_REPORT_OBSERVATIONS], by_row),
+              *_more(len(observations) - MAX_REPORT_OBSERVATIONS, "observations", "the export"),
+              Paragraph("Every measured value is given as value ± U95 (expanded uncertainty, 95 % coverage) with its "
+                        "unit, or as value [low, high] when its 95 % interval lies unevenly about it, or as "
+                        "&lt; high when the feature spans under 2 px in the image (below resolution: only its upper "
+                        "bound is measured); ⚠ marks a low-confidence measurement (see Warnings); \"(image)\": "
+                        "measured from the image alone, without the contractor's marks.", st["small"])]
+    if measurements:
+        story += [Paragraph("Measured quantities and their uncertainty budgets", st["h2"]),
+                  Paragraph("Each budget lists its inputs with estimate and standard uncertainty u in the unit "
+                            "column, the distribution (joint: jointly normal), the sensitivity c_i in the quantity's "
+                            "unit per input unit, and the contribution |c_i| u in the quantity's unit. Inputs: "
+                            + _input_legend(measurements[:MAX_REPORT_QUANTITIES]) + ". <i>wall</i> and "
+                            "<i>certificate</i> are scale factors, 1 at the nominal wall and at the certificate's own "
+                            "parameters, their u relative (0.01 = 1 %); <i>across</i> is listed but no part of the "
+                            "value (c_i = 0).", st["small"])]
+        story += [_quantity_block(m, thumbs.get((m["row"], m["quantity"], _source(m))))
+                  for m in measurements[:MAX_REPORT_QUANTITIES]]
+        story += _more(len(measurements) - MAX_REPORT_QUANTITIES, "measured quantities", "the export")
+    story += [Paragraph("Method", st["h2"])] + [Paragraph(p, st["tiny"]) for p in method_statement(inspection.get("model"))]
+
+    return build_pdf(story, path, title=f"Condition report {inspection_id}",
+                     footer=f"pipegauge {__version__} · inspection {inspection_id[:60]} · "
+                            f"rendered {today.isoformat()} from the dataset")

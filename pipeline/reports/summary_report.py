@@ -1,0 +1,143 @@
+"""The nightly summary: packages processed and failed with their reasons, totals, worst observations."""
+
+from __future__ import annotations
+
+import datetime as dt
+import math
+import os
+from pathlib import Path
+from typing import Sequence
+
+import pandas as pd
+from reportlab.lib.units import mm
+from reportlab.platypus import Paragraph, Spacer, Table, TableStyle
+
+from pipeline import __version__
+from pipeline.domain.codes import plain_description
+from pipeline.store import read_table
+from pipeline.judgement.grading import SCHEMES, scheme
+from pipeline.maths.metrology.display import format_record     # the one place a value and its interval are written
+from pipeline.reports.pdf import TABLE_STYLE, build_pdf, safe_text, styles
+from pipeline.reports.verdict_text import grade_text, is_missing
+
+__all__ = ["render_night_summary", "worst_observations", "log_disagreements"]
+
+
+def _class_rank(scheme_key, cls) -> float:
+    """A class's place in its scheme, 0 the worst; inf when ungraded (ranked after every graded one)."""
+    if is_missing(cls) or is_missing(scheme_key) or scheme_key not in SCHEMES:
+        return math.inf
+    classes = scheme(scheme_key).classes
+    return classes.index(cls) if cls in classes else math.inf
+
+
+def worst_observations(measurements: pd.DataFrame, heights_mm: dict[str, float], n: int = 15) -> pd.DataFrame:
+    """The ``n`` measured quantities to look at first: by condition grade (the most probable class, then the worst
+    class with probability >= 5 %, then the probability of the most probable class), then, for equal or no grades, by
+    the upper bound relative to the pipe (high / H for mm, high / 100 for %).
+    """
+    ok = measurements[measurements.status == "ok"].copy()
+    if ok.empty:
+        return ok
+
+    def severity(r) -> float:
+        if r.unit == "%":
+            return r.high / 100.0
+        H = heights_mm.get(r.inspection_id)
+        return r.high / H if H and r.unit == "mm" else float("nan")
+
+    col = lambda name: ok[name] if name in ok else pd.Series([None] * len(ok), index=ok.index)  # noqa: E731
+    ok["severity"] = [severity(r) for r in ok.itertuples()]
+    ok["rank_grade"] = [_class_rank(k, c) for k, c in zip(col("grading_scheme"), col("grade"))]
+    ok["rank_likely"] = [_class_rank(k, c) for k, c in zip(col("grading_scheme"), col("grade_worst_likely"))]
+    ok["rank_p"] = -pd.to_numeric(col("grade_probability"), errors="coerce").fillna(0.0)
+    ok = ok[ok.severity.notna() | (ok.rank_grade < math.inf)]
+    return ok.sort_values(["rank_grade", "rank_likely", "rank_p", "severity"],
+                          ascending=[True, True, True, False], na_position="last").head(n)
+
+
+def _quantity(r) -> str:
+    """Code, characterisation and quantity of a measurement row, tagged "(image)" when measured from the image alone
+    (its marked twin of the same row may hold a different value)."""
+    tag = " (image)" if getattr(r, "source", None) == "contour" else ""
+    return f"{r.code} {r.char1 or ''} {r.quantity}{tag}"
+
+
+def log_disagreements(measurements: pd.DataFrame, n: int = 30) -> pd.DataFrame:
+    """The logged quantities the measurement contradicts (log check ``disagrees``), the largest E_n first."""
+    if "log_check" not in measurements or measurements.empty:
+        return measurements.iloc[0:0]
+    return measurements[measurements.log_check == "disagrees"].sort_values("E_n", ascending=False).head(n)
+
+
+def render_night_summary(rows: Sequence[dict], data: str | os.PathLike, path: str | os.PathLike, *,
+                         night: dt.date | None = None) -> Path:
+    """The summary of one run: ``rows`` are the run's package rows (package, inspection_id, status, error, ...)."""
+    night = night or dt.date.today()
+    st = styles()
+    ids = [r["inspection_id"] for r in rows]
+    inspections = read_table(data, "inspections", inspection_ids=ids) if ids else pd.DataFrame()
+    measurements = read_table(data, "measurements", inspection_ids=ids) if ids else pd.DataFrame()
+    counts = {s: sum(r["status"] == s for r in rows) for s in ("ok", "partial", "failed")}
+    processed = sum(bool(r.get("processed", True)) for r in rows)
+    refused = sum(bool(r.get("refused")) for r in rows)
+    n_quantities = int((measurements.status == "ok").sum()) if len(measurements) else 0
+    story = [Paragraph(f"Nightly summary {night.isoformat()}", st["title"]),
+             Paragraph(f"{len(rows)} package(s): {counts['ok']} ok, {counts['partial']} partial, {counts['failed']} "
+                       f"failed; {processed} processed in this run, {len(rows) - processed - refused} unchanged since an "
+                       f"earlier run" + (f", {refused} refused unread" if refused else "")
+                       + f". {n_quantities} quantities measured, each with its U95.", st["body"]),
+             Paragraph("Packages", st["h2"])]
+    table = [[Paragraph(h, st["cell"]) for h in ("Package", "Inspection", "Status", "Quantities", "Processed", "Reason")]]
+    for r in sorted(rows, key=lambda r: (r["status"] != "failed", r["package"])):
+        table.append([Paragraph(safe_text(r["package"], 80), st["cell"]), Paragraph(safe_text(r["inspection_id"], 80), st["cell"]),
+                      Paragraph(r["status"], st["cell"]), Paragraph(str(r.get("quantities", "")), st["cell"]),
+                      Paragraph("refused" if r.get("refused") else "now" if r.get("processed", True) else "earlier",
+                                st["cell"]),
+                      Paragraph(safe_text(r.get("error") or "", 500), st["cell"])])
+    t = Table(table, colWidths=[32 * mm, 32 * mm, 14 * mm, 16 * mm, 14 * mm, 72 * mm], repeatRows=1)
+    t.setStyle(TableStyle(TABLE_STYLE))
+    story.append(t)
+    wrong = log_disagreements(measurements) if len(measurements) else pd.DataFrame()
+    story += [Paragraph("Contractor's log contradicted by the measurement", st["h2"]),
+              Paragraph("Logged values outside what the measurement allows: E_n = |logged − measured| / "
+                        "√(U95² + U_res²) > 1, the largest first.", st["small"]), Spacer(1, 1.5 * mm)]
+    if len(wrong):
+        table = [[Paragraph(h, st["cell"]) for h in ("Inspection", "Row", "Code", "Logged", "Measured (95 %)", "E_n")]]
+        for r in wrong.itertuples():
+            table.append([Paragraph(safe_text(r.inspection_id, 80), st["cell"]), Paragraph(str(r.row), st["cell"]),
+                          Paragraph(safe_text(_quantity(r)), st["cell"]),
+                          Paragraph(f"{r.logged_value:g} {r.unit}", st["cell"]),
+                          Paragraph(safe_text(format_record(r._asdict())), st["cell"]),
+                          Paragraph(f"{r.E_n:.1f}", st["cell"])])
+        t = Table(table, colWidths=[40 * mm, 10 * mm, 25 * mm, 25 * mm, 50 * mm, 20 * mm], repeatRows=1)
+        t.setStyle(TableStyle(TABLE_STYLE))
+        story.append(t)
+    else:
+        story.append(Paragraph("None.", st["body"]))
+    heights = ({r.inspection_id: r.height_mm for r in inspections.itertuples() if not math.isnan(r.height_mm or math.nan)}
+               if len(inspections) else {})
+    worst = worst_observations(measurements, heights) if len(measurements) else pd.DataFrame()
+    story += [Paragraph("Worst observations", st["h2"]),
+              Paragraph("Measured quantities ranked by condition grade (most probable class, then the worst class "
+                        "with probability >= 5 %), then by their upper 95 % bound relative to the pipe (mm against the "
+                        "height H, % as such).", st["small"]),
+              Spacer(1, 1.5 * mm)]
+    if len(worst):
+        table = [[Paragraph(h, st["cell"]) for h in ("Inspection", "Row", "Code", "Description", "Value (95 %)",
+                                                     "Upper bound", "Grade")]]
+        for r in worst.itertuples():
+            table.append([Paragraph(safe_text(r.inspection_id, 80), st["cell"]), Paragraph(str(r.row), st["cell"]),
+                          Paragraph(safe_text(_quantity(r)), st["cell"]),
+                          Paragraph(safe_text(plain_description(r.code, r.char1, r.char2)), st["cell"]),
+                          Paragraph(safe_text(format_record(r._asdict())), st["cell"]),
+                          Paragraph(f"{r.high:.3g} {r.unit}", st["cell"]),
+                          Paragraph(safe_text(grade_text(r._asdict()), 200), st["cell"])])
+        t = Table(table, colWidths=[37 * mm, 8 * mm, 19 * mm, 30 * mm, 27 * mm, 15 * mm, 44 * mm], repeatRows=1)
+        t.setStyle(TableStyle(TABLE_STYLE))
+        story.append(t)
+    else:
+        story.append(Paragraph("No quantity was measured.", st["body"]))
+
+    return build_pdf(story, path, title=f"Nightly summary {night.isoformat()}",
+                     footer=f"pipegauge {__version__} · nightly summary {night.isoformat()}")

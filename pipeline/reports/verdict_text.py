@@ -1,0 +1,105 @@
+"""The verdicts in words, shared by the PDF report, the nightly summary and the command line.
+
+Each function takes a record (a dict, or a row of the dataset as a pandas
+Series) with the dataset's column names (docs/dataset.md) and returns text;
+nothing here decides a verdict (``pipeline.judgement.verdicts``, ``pipeline.judgement.grading``).
+"""
+
+from __future__ import annotations
+
+import datetime as dt
+import math
+from typing import Any, Mapping
+
+__all__ = ["json_safe", "log_check_text", "grade_text", "probabilities_text", "verdict_lines", "is_missing"]
+
+
+def is_missing(x: Any) -> bool:
+    """None, NaN or pandas' NA/NaT."""
+    if x is None:
+        return True
+    try:
+        return bool(x != x)         # NaN, NaT and pd.NA compare unequal to themselves
+    except (TypeError, ValueError):
+        return False
+
+
+def json_safe(x: Any) -> Any:
+    """A structure JSON can hold: NaN and infinities -> None, NumPy scalars and arrays -> Python, dates -> ISO text."""
+    if isinstance(x, Mapping):
+        return {str(k): json_safe(v) for k, v in x.items()}
+    if isinstance(x, (list, tuple)):
+        return [json_safe(v) for v in x]
+    if hasattr(x, "tolist") and not isinstance(x, (str, bytes)):      # NumPy scalar or array
+        return json_safe(x.tolist())
+    if isinstance(x, float):
+        return x if math.isfinite(x) else None
+    if isinstance(x, (dt.date, dt.datetime)):
+        return x.isoformat()
+    if isinstance(x, bytes):
+        return None
+    return x
+
+
+def _num(x: Any, fmt: str) -> str:
+    return "-" if is_missing(x) else format(float(x), fmt)
+
+
+def log_check_text(m: Mapping) -> str:
+    """One measurement's log check, short: 'disagrees (logged 20 %, -10.1 %, E_n 4.1)'."""
+    verdict = m.get("log_check")
+    if is_missing(verdict):
+        return "not checked"
+    unit = m.get("unit") or ""
+    if verdict in ("disagrees", "agrees", "undecided") and not is_missing(m.get("E_n")):
+        untrusted = verdict == "undecided" or (verdict == "disagrees" and not is_missing(m.get("confident"))
+                                                and not bool(m.get("confident")))
+        why = "contour not trusted; " if untrusted else ""
+        return (f"{verdict} ({why}logged {float(m['logged_value']):g} {unit}, {float(m['log_difference']):+.3g} {unit}, "
+                f"E_n {float(m['E_n']):.2f})")
+    return f"{verdict} ({m.get('log_check_reason') or ''})"
+
+
+def probabilities_text(rows: Any) -> str:
+    """Class probabilities as 'EZ1 55 %, EZ2 45 %' (classes with at least 0.5 %)."""
+    if rows is None or (not isinstance(rows, (list, tuple)) and is_missing(rows)) or len(rows) == 0:
+        return ""
+    return ", ".join(f"{r['grade']} {100 * r['probability']:.0f} %" for r in rows if r["probability"] >= 0.005)
+
+
+def grade_text(r: Mapping) -> str:
+    """One observation's (or measurement's) grade in words."""
+    status = r.get("grade_status")
+    if is_missing(status):
+        return "not graded"
+    if status == "graded":
+        text = f"{r['grade']} ({probabilities_text(r.get('grade_probabilities'))})"
+        if r.get("grade_worst_likely") and r.get("grade_worst_likely") != r.get("grade"):
+            text += f"; worst likely {r['grade_worst_likely']}"
+        if not is_missing(r.get("logged_grade")):
+            text += f"; log: {r['logged_grade']}" + (" (class disagrees)" if r.get("grade_disagrees") is True else "")
+        return text
+    if status == "logged only":
+        return f"{r['grade']} from the log only ({r.get('grade_reason')})"
+    return f"{status}: {r.get('grade_reason')}"
+
+
+def verdict_lines(inspection: Mapping) -> list[tuple[str, str]]:
+    """The verdict block as (label, text): surveyed length, log check counts, section grade with its probability."""
+    lines = []
+    if not is_missing(inspection.get("survey_statement")):
+        lines.append(("Survey", inspection["survey_statement"]))
+    if not is_missing(inspection.get("log_agrees")):
+        lines.append(("Log check", f"{int(inspection['log_agrees'])} agree, {int(inspection['log_disagrees'])} disagree, "
+                                   f"{int(inspection['log_undecided'])} undecided, "
+                                   f"{int(inspection['log_not_checked'])} not checked (E_n <= 1 agrees; "
+                                   f"outline not trusted: undecided unless E_n > 2)"))
+    grade = inspection.get("section_grade")
+    scheme = inspection.get("grading_scheme")
+    if not is_missing(grade):
+        lines.append(("Section grade", f"{grade} ({scheme}, the worst single grade); probability "
+                                       f"{100 * float(inspection['section_grade_probability']):.0f} % that at least one "
+                                       f"observation is {grade} or worse"))
+    elif not is_missing(scheme):
+        lines.append(("Section grade", f"none ({scheme}): no graded observation"))
+    return lines

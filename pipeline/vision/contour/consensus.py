@@ -1,0 +1,104 @@
+"""One video's pose fits checked against one another.
+
+The camera's mount does not move within a few metres, so the poses fitted
+from overlapping frame sets (the windows around two observation frames) must
+agree. Two checks follow from that:
+
+* **Gross disagreement.** A window whose pose lies far outside the pose of an
+  overlapping window that fits its rings better (smaller RMS residual) is a
+  wrong fit (a local minimum of the pose search: offset traded for pitch).
+  Its pose is replaced by the better one and flagged, so the result is
+  never a confident wrong answer.
+* **Reproducibility.** The fit's own covariance ignores model error (a wall
+  off the nominal profile, roll held at zero). The scatter of the agreeing
+  windows' poses is a Type A evaluation of what that misses (JCGM 100 4.2);
+  with three or more windows it is added to each window's covariance.
+
+Distances are Mahalanobis distances over the fitted pose parameters.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+from pipeline.vision.contour.result import PipeContour
+
+__all__ = ["reconcile_windows", "GROSS_M2", "MIN_OVERLAP"]
+
+# Squared Mahalanobis distance beyond which two fits of overlapping frames cannot both be right
+# (a 10-sigma departure); moderate scatter below it goes into the reproducibility term instead.
+GROSS_M2 = 100.0
+MIN_OVERLAP = 0.5       # share of the smaller window's frames the two windows must have in common
+
+
+def _fitted(c: PipeContour) -> np.ndarray:
+    """Indices of the pose parameters the fit estimated (a parameter held fixed has zero variance)."""
+    return np.flatnonzero(np.diag(c.covariance) > 0)
+
+
+def _m2(a: PipeContour, b: PipeContour) -> float:
+    idx = np.intersect1d(_fitted(a), _fitted(b))
+    d = (a.view.pose - b.view.pose)[idx]
+    C = (a.covariance + b.covariance)[np.ix_(idx, idx)]
+    return float(d @ np.linalg.solve(C, d))
+
+
+def _usable(c: PipeContour) -> bool:
+    return c.confident and np.all(np.isfinite(c.covariance)) and len(_fitted(c)) > 0
+
+
+def reconcile_windows(contours: dict[int, PipeContour], windows: dict[int, list[int]]) -> dict[int, PipeContour]:
+    """The contours of one video's observation frames after the two checks of this module.
+
+    contours : frame -> contour fitted from the frames ``windows[frame]`` (frame indices)
+    Returns a new mapping; contours without a usable covariance are returned unchanged.
+    """
+    frames = [f for f in contours if _usable(contours[f])]
+    sets = {f: set(windows.get(f, [f])) for f in frames}
+
+    def overlapping(f: int) -> list[int]:
+        return [g for g in frames if g != f and len(sets[f] & sets[g]) >= MIN_OVERLAP * min(len(sets[f]), len(sets[g]))]
+
+    out = dict(contours)
+    replaced = set()
+    for f in frames:
+        better = [g for g in overlapping(f) if contours[g].rms_px < contours[f].rms_px and _m2(contours[f], contours[g]) > GROSS_M2]
+        if better:
+            best = min(better, key=lambda g: contours[g].rms_px)
+            reason = (f"the pose fitted around frame {f} (RMS {contours[f].rms_px:.2f} px) disagrees grossly with the "
+                      f"better fit around frame {best} (RMS {contours[best].rms_px:.2f} px) from overlapping frames; "
+                      "that pose is used")
+            out[f] = _borrow(contours[f], contours[best], reason)
+            replaced.add(f)
+    # A window whose own fit is not trusted takes the pose of a trusted overlapping window it disagrees with.
+    for f in contours:
+        if f in frames or not np.all(np.isfinite(contours[f].covariance)) or not len(_fitted(contours[f])):
+            continue
+        own = set(windows.get(f, [f]))
+        trusted = [g for g in frames if g not in replaced and _m2(contours[f], contours[g]) > GROSS_M2
+                   and len(own & sets[g]) >= MIN_OVERLAP * min(len(own), len(sets[g]))]
+        if trusted:
+            best = min(trusted, key=lambda g: contours[g].rms_px)
+            reason = (f"the pose fitted around frame {f} is not trusted ({'; '.join(contours[f].problems)}) and "
+                      f"disagrees with the fit around frame {best} from overlapping frames; that pose is used")
+            out[f] = _borrow(contours[f], contours[best], reason)
+    agreeing = [f for f in frames if f not in replaced]
+    for f in agreeing:
+        group = [f] + [g for g in overlapping(f) if g not in replaced]
+        if len(group) < 3:
+            continue
+        poses = np.array([contours[g].view.pose for g in group])
+        scatter = np.cov(poses.T, ddof=1)
+        held = np.diag(contours[f].covariance) == 0
+        scatter[held, :] = 0.0
+        scatter[:, held] = 0.0
+        out[f] = dataclasses.replace(contours[f], covariance=contours[f].covariance + scatter)
+    return out
+
+
+def _borrow(own: PipeContour, other: PipeContour, reason: str) -> PipeContour:
+    """``other``'s pose and rings for ``own``'s frame, flagged with ``reason``; ``own``'s deformed rings stay
+    (they were seen from this frame)."""
+    return dataclasses.replace(other, problems=list(other.problems) + [reason], deformed=list(own.deformed))

@@ -1,0 +1,134 @@
+"""The pipe contour at a frame of a video: frames chosen along the chainage, the overlay masked, the pose fitted.
+
+The camera's mount does not move within a few metres of travel, so the
+rings seen from frames spread along the chainage around the frame of
+interest (one joint sweeps through many depths as the camera approaches
+it) are fitted with one pose (``pipeline.vision.contour.detect_contour``).
+"""
+
+from __future__ import annotations
+
+import os
+from collections import defaultdict
+from collections.abc import Iterable, Iterator
+from concurrent.futures import Future, ThreadPoolExecutor
+
+import cv2
+import numpy as np
+
+from pipeline.vision.contour import PipeContour
+from pipeline.vision.contour.consensus import reconcile_windows
+from pipeline.vision.contour.detect import contour_from_candidates, frame_candidates, wall_u_from_tolerance
+from pipeline.vision.contour.ridges import static_overlay_mask
+from pipeline.vision.video.beside_decoding import ordered_map
+from pipeline.vision.video.chainage_track import ChainageTrack
+from pipeline.vision.video.reader import FrameScan, iter_frames, probe_video
+from pipeline.camera.undistort import Undistorter
+
+__all__ = ["overlay_mask", "overlay_mask_of", "window_frames", "read_ideal_grays", "contours_at_frames"]
+
+SPAN_M = 2.0       # travel either side of the frame whose rings are used [m]
+STEP_M = 0.1       # chainage step between those frames [m]
+THREADS = min(4, os.cpu_count() or 1)   # frames whose ridge points are found at once (OpenCV and NumPy release the GIL)
+
+
+def _gray(frame: np.ndarray) -> np.ndarray:
+    return cv2.cvtColor(frame, cv2.COLOR_BGR2GRAY) if frame.ndim == 3 else frame
+
+
+def overlay_mask(path: str | os.PathLike, undistorter: Undistorter, n_frames: int = 16) -> np.ndarray:
+    """Mask (rows, cols) of the ideal image, 0 on the burned-in overlay, from frames spread over the video."""
+    info = probe_video(path)
+    every = max(1, info.frame_count // n_frames)
+    return overlay_mask_of([f for _, f in iter_frames(path, every=every)], undistorter)
+
+
+def overlay_mask_of(frames: Iterable[np.ndarray], undistorter: Undistorter) -> np.ndarray:
+    """``overlay_mask`` from BGR frames already read (``ChainageIngest.spread_frames``)."""
+    return static_overlay_mask([_gray(undistorter.frame(f)) for f in frames])
+
+
+def window_frames(track: ChainageTrack, frame: int, span_m: float = SPAN_M, step_m: float = STEP_M) -> list[int]:
+    """The frame itself, then one frame per ``step_m`` of chainage within ``span_m`` of it (first frame at each)."""
+    c0, _ = track.at_frame(frame)
+    chosen = [frame]
+    for c in np.arange(c0 - span_m, c0 + span_m + 1e-9, step_m):
+        k = int(np.argmin(np.abs(track.values - c)))
+        if abs(track.values[k] - c) < step_m / 2 and k not in chosen:
+            chosen.append(k)
+    return chosen
+
+
+def read_ideal_grays(path: str | os.PathLike, frames: Iterable[int], undistorter: Undistorter) -> dict[int, np.ndarray]:
+    """Ideal grey images of the given frames, reading forward once."""
+    return dict(_read_forward(path, frames, lambda f: _gray(undistorter.frame(f))))
+
+
+def _read_forward(path: str | os.PathLike, frames: Iterable[int], convert) -> Iterator[tuple[int, object]]:
+    """(index, convert(BGR frame)) of the given frames, in one forward decoding that stops after the last."""
+    wanted = set(frames)
+    if not wanted:
+        return
+    last = max(wanted)
+    for i, f in FrameScan(path, wanted.__contains__):
+        yield i, convert(f)
+        if i == last:
+            return
+
+
+def contours_at_frames(path: str | os.PathLike, frames: Iterable[int], track: ChainageTrack, undistorter: Undistorter,
+                       shape: str, *, height_mm: float, tolerance_mm: float, mask: np.ndarray | None = None,
+                       ideal_frames: dict[int, np.ndarray] | None = None, step_m: float = STEP_M) -> dict[int, PipeContour]:
+    """The pipe contours of several frames of one video, checked against one another
+    (``pipeline.vision.contour.consensus.reconcile_windows``: the mount does not move, so the fits must agree).
+
+    Each frame's contour is fitted to the rings of the frames around it along
+    the chainage (``window_frames``). The video is read once, forward, for
+    all windows, and each frame's ridge points are found once however many
+    windows share it (in THREADS threads while the next frames decode). A
+    window's pose is fitted, in one more thread, as soon as the ridge points
+    of its last frame are found, while decoding goes on.
+
+    shape, height_mm, tolerance_mm : from the section header (the wall's
+    departure from the nominal profile enters u(p_H)).
+    ideal_frames : when given, receives the ideal (undistorted) BGR image of
+    each of ``frames`` (for thumbnails: no seeking back into the video).
+    step_m : chainage step between a window's frames [m]; the default is the
+    validated one (benchmarks try others: docs/speed.md).
+    """
+    windows = {frame: window_frames(track, frame, step_m=step_m) for frame in sorted(set(frames))}
+    wall_u = wall_u_from_tolerance(height_mm, tolerance_mm)
+    users: dict[int, list[int]] = defaultdict(list)       # frame -> the windows it belongs to
+    for frame, order in windows.items():
+        for i in order:
+            users[i].append(frame)
+    missing = {frame: set(order) for frame, order in windows.items()}
+    candidates: dict[int, object] = {}
+
+    def work(sample):
+        index, bgr = sample
+        ideal = undistorter.frame(bgr)
+        if ideal_frames is not None and index in windows:
+            ideal_frames[index] = ideal
+        return index, frame_candidates(_gray(ideal), mask)
+
+    def fit(frame: int) -> PipeContour:
+        return contour_from_candidates([candidates[i] for i in windows[frame] if i in candidates], undistorter.K, shape,
+                                       wall_u=wall_u)
+
+    # the fits are mostly Python (they hold the GIL), decoding and ridge points mostly not: one fitting thread
+    # keeps the second core busy while the decoder runs; each fit sees exactly the candidates it saw before
+    with ThreadPoolExecutor(max_workers=1) as fitter:
+        fits: dict[int, Future] = {}
+        for index, found in ordered_map(work, _read_forward(path, users, lambda f: f), workers=THREADS,
+                                        waiting=2 * THREADS):
+            candidates[index] = found
+            for frame in users[index]:
+                missing[frame].discard(index)
+                if not missing[frame]:
+                    fits[frame] = fitter.submit(fit, frame)
+        for frame in windows:
+            if frame not in fits:          # a window frame that did not decode: fitted with the frames there are
+                fits[frame] = fitter.submit(fit, frame)
+        contours = {frame: fits[frame].result() for frame in windows}
+    return reconcile_windows(contours, windows)

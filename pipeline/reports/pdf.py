@@ -47,7 +47,7 @@ TABLE_STYLE = [("FONTNAME", (0, 0), (-1, -1), FONT), ("FONTSIZE", (0, 0), (-1, -
                ("FONTNAME", (0, 0), (-1, 0), FONT_BOLD), ("BACKGROUND", (0, 0), (-1, 0), ACCENT),
                ("GRID", (0, 0), (-1, -1), 0.25, colors.grey), ("VALIGN", (0, 0), (-1, -1), "TOP"),
                ("LEFTPADDING", (0, 0), (-1, -1), 2.5), ("RIGHTPADDING", (0, 0), (-1, -1), 2.5)]
-_FONTS = Path(__file__).resolve().parent / "data" / "fonts"
+_FONTS = Path(__file__).resolve().parent.parent / "data" / "fonts"
 _CONTROL = re.compile(r"[\x00-\x08\x0b-\x1f\x7f-\x9f]")
 # Scripts DejaVu lacks, drawn with reportlab's Adobe CID fonts (not embedded: the reader supplies the glyphs,
 # and the text stays extractable).

@@ -26,7 +26,6 @@ import numpy as np
 
 from pipeline import __version__
 from pipeline.formats.certificate import load_certificate
-from pipeline.domain.codes import CODES
 from pipeline.domain.records import Mark, Observation, SectionHeader
 from pipeline.formats.manifest import certificate_path, load_manifest
 from pipeline.formats.marks import check_marks_in_frame, read_marks
@@ -44,6 +43,8 @@ from pipeline.measurement.marked import marked_quantity
 from pipeline.measurement.quantity import MODELS, MarkedQuantity, QuantityResult, measure_quantity
 from pipeline.measurement.wall import contour_under
 from pipeline.app.verdict_records import add_verdicts
+from pipeline.domain.results import (InspectionRecord, MeasurementRecord, ObservationRecord, ThumbnailRecord,
+                                     observation_record)
 
 __all__ = ["InspectionResult", "measure_package", "file_sha256", "file_digests", "package_digest"]
 
@@ -53,20 +54,20 @@ QUANTITY_THREADS = min(2, len(os.sched_getaffinity(0)) if hasattr(os, "sched_get
 
 @dataclass
 class InspectionResult:
-    """Records of one package for the dataset's three tables."""
+    """The records of one package, one per row of the dataset's four tables (``pipeline.domain.results``)."""
 
-    inspection: dict
-    observations: list[dict] = field(default_factory=list)
-    measurements: list[dict] = field(default_factory=list)
-    thumbnails: list[dict] = field(default_factory=list)
+    inspection: InspectionRecord
+    observations: list[ObservationRecord] = field(default_factory=list)
+    measurements: list[MeasurementRecord] = field(default_factory=list)
+    thumbnails: list[ThumbnailRecord] = field(default_factory=list)
 
     @property
     def inspection_id(self) -> str:
-        return self.inspection["inspection_id"]
+        return self.inspection.inspection_id or ""
 
     @property
     def ok(self) -> bool:
-        return self.inspection["status"] == "ok"
+        return self.inspection.status == "ok"
 
 
 def file_sha256(path: str | os.PathLike) -> str:
@@ -103,18 +104,7 @@ def _seed(inspection_id: str, row: int, quantity: str) -> int:
     return zlib.crc32(f"{inspection_id}/{row}/{quantity}".encode())
 
 
-def _observation_record(o: Observation) -> dict:
-    spec = CODES.get(o.code)
-    return {
-        "row": o.row, "distance_m": o.distance_m, "code": o.code, "code_meaning": spec.name if spec else None,
-        "char1": o.char1, "char2": o.char2, "q1": o.q1, "q1_unit": o.q1_unit or None, "q2": o.q2,
-        "q2_unit": o.q2_unit or None, "clock_from": o.clock_from, "clock_to": o.clock_to, "at_joint": o.at_joint,
-        "continuous": o.continuous or None, "video_time_s": o.video_time_s, "photo": o.photo, "remark": o.remark,
-        "valid": not o.problems, "problems": "; ".join(str(p) for p in o.problems) or None,
-    }
-
-
-def _failed(record: dict, error: str) -> InspectionResult:
+def _failed(record: InspectionRecord, error: str) -> InspectionResult:
     record.update(status="failed", error=error)
     return InspectionResult(record)
 
@@ -134,14 +124,14 @@ def measure_package(folder: str | os.PathLike, *, certificates: str | os.PathLik
         raise ValueError(f"unknown model {model!r}; use one of {', '.join(MODELS)}")
     folder = Path(folder)
     t_start = time.perf_counter()
-    record: dict = {"inspection_id": folder.name, "package_folder": str(folder), "pipeline_version": __version__,
-                    "model": model, "processed_at": dt.datetime.now(dt.timezone.utc), "status": "failed",
-                    "error": None, "n_observations": 0, "n_measurements": 0, "n_problems": 0}
+    record = InspectionRecord(inspection_id=folder.name, package_folder=str(folder), pipeline_version=__version__,
+                              model=model, processed_at=dt.datetime.now(dt.timezone.utc), status="failed",
+                              n_observations=0, n_measurements=0, n_problems=0)
     try:
         manifest = load_manifest(folder)
-        record["inspection_id"] = manifest.package_id
+        record.inspection_id = manifest.package_id
         digests = digests or file_digests(folder)          # the video is read once for both hashes
-        record["package_sha256"] = package_digest(digests)
+        record.package_sha256 = package_digest(digests)
         header, observations = load_package_log(manifest)      # header.json + observations.csv, or a transfer
         record.update(_header_fields(header))
         marks, mark_problems = read_marks(manifest.marks, observations)
@@ -157,15 +147,15 @@ def measure_package(folder: str | os.PathLike, *, certificates: str | os.PathLik
         record.update(video_file=manifest.video.name, video_sha256=digests.get(video_key), video_frames=info.frame_count,
                       video_fps=info.fps, video_width_px=info.width, video_height_px=info.height,
                       chainage_read_rate=ingest.read_rate)
-        record["warnings"] = overlay_header_mismatches(ingest.overlay_text, asdict(header))
+        record.warnings = overlay_header_mismatches(ingest.overlay_text, asdict(header))
         und = Undistorter(cert, info.width, info.height, what=str(manifest.video))
         mask = overlay_mask_of(ingest.spread_frames.values(), und)
-        record["time_track_s"] = time.perf_counter() - t0
+        record.time_track_s = time.perf_counter() - t0
     except PipegaugeError as exc:
-        record["time_total_s"] = time.perf_counter() - t_start
+        record.time_total_s = time.perf_counter() - t_start
         return _failed(record, str(exc))
 
-    result = InspectionResult(record, [_observation_record(o) for o in observations])
+    result = InspectionResult(record, [observation_record(o) for o in observations])
     problems: list[str] = [str(p) for o in observations for p in o.problems] + [str(p) for p in mark_problems]
     by_row = {o.row: o for o in observations}
     contours, ideal_frames, t_contour, t_measure = {}, {}, 0.0, 0.0
@@ -192,7 +182,7 @@ def measure_package(folder: str | os.PathLike, *, certificates: str | os.PathLik
 
     # the Monte Carlo runs of the quantities are independent (each its own seed) and mostly large NumPy operations
     # that release the GIL: two at once use both cores; results are assembled in the marks' order
-    jobs: list[tuple[dict, Mark, MarkedQuantity | None, Future | None]] = []
+    jobs: list[tuple[MeasurementRecord, Mark, MarkedQuantity | None, Future | None]] = []
     t0 = time.perf_counter()
     pool = ThreadPoolExecutor(max_workers=QUANTITY_THREADS)
     try:
@@ -251,21 +241,22 @@ def measure_package(folder: str | os.PathLike, *, certificates: str | os.PathLik
         result.measurements.append(row)
     add_verdicts(result, header, observations, ingest.track)
     # what the image alone could not give is reported on its row, but the logged quantities decide the status
-    n_bad = sum(r["status"] != "ok" for r in result.measurements if r["source"] == "marks")
+    n_bad = sum(r.status != "ok" for r in result.measurements if r.source == "marks")
     record.update(status="ok" if not problems and not n_bad else "partial",
                   error=None if not problems and not n_bad else f"{len(problems)} input problem(s), {n_bad} quantity(ies) not measured",
-                  n_observations=len(observations), n_measurements=sum(r["status"] == "ok" for r in result.measurements),
+                  n_observations=len(observations), n_measurements=sum(r.status == "ok" for r in result.measurements),
                   n_problems=len(problems), problems=problems, time_contour_s=t_contour, time_measure_s=t_measure,
                   time_total_s=time.perf_counter() - t_start)
     return result
 
 
-def _thumbnail(ideal_bgr: np.ndarray, contour, marked: MarkedQuantity, row: int, frame: int, source: str) -> dict:
+def _thumbnail(ideal_bgr: np.ndarray, contour, marked: MarkedQuantity, row: int, frame: int,
+               source: str) -> ThumbnailRecord:
     plane = contour.at_points([marked.a, marked.b])
     jpeg = measurement_thumbnail(ideal_bgr, plane.polygon, marked.a, marked.b, confident=plane.confident)
     h, w = ideal_bgr.shape[:2]
-    return {"row": row, "quantity": marked.quantity, "source": source, "frame": frame, "width_px": THUMBNAIL_WIDTH_PX,
-            "height_px": round(h * THUMBNAIL_WIDTH_PX / w), "image_jpeg": jpeg}
+    return ThumbnailRecord(row=row, quantity=marked.quantity, source=source, frame=frame, width_px=THUMBNAIL_WIDTH_PX,
+                           height_px=round(h * THUMBNAIL_WIDTH_PX / w), image_jpeg=jpeg)
 
 
 def _automatic_frame(obs: Observation, marks: list[Mark], track, info) -> int | None:
@@ -290,29 +281,29 @@ def _chainage_at(track, frame: int | None) -> tuple[float, float]:
         return float("nan"), float("nan")
 
 
-def _automatic_base(obs: Observation, frame: int | None, track, model: str) -> dict:
+def _automatic_base(obs: Observation, frame: int | None, track, model: str) -> MeasurementRecord:
     chainage, u_chainage = _chainage_at(track, frame)
-    return {"row": obs.row, "quantity": "Q1", "source": "contour", "code": obs.code, "char1": obs.char1,
-            "char2": obs.char2, "model": model, "frame": frame, "chainage_m": chainage, "u_chainage_m": u_chainage,
-            "distance_m": obs.distance_m, "operator_value": obs.q1, "status": "ok", "error": None}
+    return MeasurementRecord(row=obs.row, quantity="Q1", source="contour", code=obs.code, char1=obs.char1,
+                             char2=obs.char2, model=model, frame=frame, chainage_m=chainage, u_chainage_m=u_chainage,
+                             distance_m=obs.distance_m, operator_value=obs.q1, status="ok")
 
 
 def _header_fields(h: SectionHeader) -> dict:
     return asdict(h)
 
 
-def _measurement_base(obs: Observation, m: Mark, track, model: str) -> dict:
+def _measurement_base(obs: Observation, m: Mark, track, model: str) -> MeasurementRecord:
     chainage, u_chainage = _chainage_at(track, m.frame)
     q = obs.q1 if m.quantity == "Q1" else obs.q2
-    return {"row": obs.row, "quantity": m.quantity, "source": "marks", "code": obs.code, "char1": obs.char1, "char2": obs.char2,
-            "model": model, "frame": m.frame, "chainage_m": chainage, "u_chainage_m": u_chainage,
-            "distance_m": obs.distance_m, "operator_value": q,
-            "a_x_px": m.a[0], "a_y_px": m.a[1], "b_x_px": m.b[0], "b_y_px": m.b[1], "u_mark_px": m.u_px,
-            "status": "ok", "error": None}
+    return MeasurementRecord(row=obs.row, quantity=m.quantity, source="marks", code=obs.code, char1=obs.char1,
+                             char2=obs.char2, model=model, frame=m.frame, chainage_m=chainage, u_chainage_m=u_chainage,
+                             distance_m=obs.distance_m, operator_value=q, a_x_px=m.a[0], a_y_px=m.a[1], b_x_px=m.b[0],
+                             b_y_px=m.b[1], u_mark_px=m.u_px, status="ok")
 
 
 def _quantity_fields(res: QuantityResult) -> dict:
+    """A measured quantity's fields of its measurement record (its model is the row's already)."""
     fields = {k: v for k, v in asdict(res).items() if k not in ("budget", "reasons", "model")}
     fields["warnings"] = "; ".join(res.reasons) or None
-    fields["budget"] = [asdict(b) for b in res.budget]
+    fields["budget"] = list(res.budget)
     return fields

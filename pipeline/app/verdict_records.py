@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import math
 
+from pipeline.domain.results import ClassProbability
 from pipeline.judgement.grading import Grade, grade, scheme
 from pipeline.judgement.grading.probability import result_cdf
 from pipeline.judgement.verdicts.log_check import check_logged
@@ -31,7 +32,7 @@ def _grade_fields(g: Grade) -> dict:
     return {"grading_scheme": g.scheme, "grade_status": g.status, "grade_reason": g.reason, "grade": g.cls,
             "grade_probability": probs[g.most_probable] if probs else None, "grade_worst_likely": g.worst_likely,
             "logged_grade": g.logged_class, "grade_disagrees": g.disagrees,
-            "grade_probabilities": [{"grade": c, "probability": p} for c, p in probs.items()] if probs else None}
+            "grade_probabilities": [ClassProbability(grade=c, probability=p) for c, p in probs.items()] if probs else None}
 
 
 def _measurement_grade(s, m: dict, header, logged, logged_unit) -> Grade:

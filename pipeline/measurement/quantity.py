@@ -52,6 +52,7 @@ from pipeline.maths.profiles import level_tables, wall_point
 from pipeline.measurement.methods import (IN_SECTION, METHODS, across_from_points, reference_dimension, value_from_image_ratio,
                       value_from_points, within_domain)
 from pipeline.measurement.rays import marked_points
+from pipeline.domain.results import BudgetLine
 
 __all__ = ["MarkedQuantity", "QuantityResult", "BudgetEntry", "measure_quantity", "certificate_scale_u", "MODELS",
            "INPUT_DESCRIPTIONS", "RESOLUTION_PX"]
@@ -93,18 +94,8 @@ class MarkedQuantity:
     u_anchor: float = 0.0
 
 
-@dataclass(frozen=True)
-class BudgetEntry:
-    """One input's line in a quantity's uncertainty budget (linearised model)."""
-
-    label: str
-    description: str
-    estimate: float
-    u: float
-    distribution: str
-    sensitivity: float
-    contribution: float       # |c_i| u(x_i) [unit of the quantity]
-    share: float              # of u_c^2
+# One input's line in a quantity's budget is the stored record itself: one definition (pipeline.domain.results).
+BudgetEntry = BudgetLine
 
 
 @dataclass

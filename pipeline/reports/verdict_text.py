@@ -11,6 +11,8 @@ import datetime as dt
 import math
 from typing import Any, Mapping
 
+from pipeline.domain.results import Record
+
 __all__ = ["json_safe", "log_check_text", "grade_text", "probabilities_text", "verdict_lines", "is_missing"]
 
 
@@ -26,6 +28,8 @@ def is_missing(x: Any) -> bool:
 
 def json_safe(x: Any) -> Any:
     """A structure JSON can hold: NaN and infinities -> None, NumPy scalars and arrays -> Python, dates -> ISO text."""
+    if isinstance(x, Record):
+        return json_safe(x.as_dict())
     if isinstance(x, Mapping):
         return {str(k): json_safe(v) for k, v in x.items()}
     if isinstance(x, (list, tuple)):

@@ -29,6 +29,7 @@ import os
 import re
 import secrets
 from pathlib import Path
+from typing import Sequence
 
 import pandas as pd
 import pyarrow as pa
@@ -37,9 +38,11 @@ import pyarrow.parquet as pq
 
 from pipeline.core.atomic import atomic_path
 from pipeline.core.errors import StoreError
+from pipeline.domain.results import RECORDS, InspectionRecord, MeasurementRecord, ObservationRecord, Record, ThumbnailRecord
+from pipeline.store.rows import as_record, from_row, to_row
 from pipeline.store.schema import SCHEMA_VERSION, SCHEMAS, TABLES
 
-__all__ = ["write_inspection", "read_table", "inspection_files", "stored_input_key", "file_stem",
+__all__ = ["write_inspection", "read_table", "read_records", "inspection_files", "stored_input_key", "file_stem",
            "remove_uncommitted", "require_dataset"]
 
 _UNSAFE = re.compile(r"[^A-Za-z0-9._-]|^[._]")
@@ -66,9 +69,9 @@ def inspection_files(root: str | os.PathLike, table: str, inspection_id: str) ->
     return sorted([*folder.glob(f"inspection_date=*/{stem}.parquet"), *folder.glob(f"inspection_date=*/{stem}~*.parquet")])
 
 
-def _arrow_table(table: str, records: list[dict]) -> pa.Table:
+def _arrow_table(table: str, rows: list[dict]) -> pa.Table:
     schema = SCHEMAS[table].remove(SCHEMAS[table].get_field_index("inspection_date"))
-    rows = [{k: r.get(k) for k in schema.names} for r in records]
+    rows = [{k: r.get(k) for k in schema.names} for r in rows]       # the partition key lives in the folder's name
     try:
         t = pa.Table.from_pylist(rows, schema=schema)
     except (pa.ArrowInvalid, pa.ArrowTypeError, OverflowError) as exc:
@@ -76,15 +79,18 @@ def _arrow_table(table: str, records: list[dict]) -> pa.Table:
     return t.replace_schema_metadata({"pipegauge_schema_version": SCHEMA_VERSION, "table": table})
 
 
-def write_inspection(root: str | os.PathLike, inspection: dict, observations: list[dict],
-                     measurements: list[dict], thumbnails: list[dict] | None = None) -> dict[str, Path]:
+def write_inspection(root: str | os.PathLike, inspection: InspectionRecord | dict,
+                     observations: Sequence[ObservationRecord | dict], measurements: Sequence[MeasurementRecord | dict],
+                     thumbnails: Sequence[ThumbnailRecord | dict] | None = None) -> dict[str, Path]:
     """Store one inspection's records as one commit, replacing what was stored for its id; returns the files.
 
-    Every table is converted first, so a record that does not fit the schema
-    raises StoreError before anything is written; the inspection's row is
-    written last and is the commit (see the module's docstring).
+    Records (``pipeline.domain.results``), or mappings of their fields. Every
+    table is converted first, so a field the schema does not know or a value
+    that does not fit raises StoreError before anything is written; the
+    inspection's row is written last and is the commit (module docstring).
     """
     root = Path(root)
+    inspection = as_record("inspections", inspection)
     iid = inspection["inspection_id"]
     date = inspection.get("inspection_date") or inspection["processed_at"].date()
     if isinstance(date, str):
@@ -93,7 +99,7 @@ def write_inspection(root: str | os.PathLike, inspection: dict, observations: li
     stem, partition = file_stem(iid), f"inspection_date={date.isoformat()}"
     records = {"thumbnails": thumbnails or [], "measurements": measurements, "observations": observations,
                "inspections": [inspection]}
-    tables = {t: _arrow_table(t, [{**r, "inspection_id": iid, "write_id": write_id} for r in rs])
+    tables = {t: _arrow_table(t, [{**to_row(as_record(t, r)), "inspection_id": iid, "write_id": write_id} for r in rs])
               for t, rs in records.items()}
     written: dict[str, Path] = {}
     try:
@@ -147,6 +153,13 @@ def read_table(root: str | os.PathLike, table: str, *, start: dt.date | None = N
     keep = pd.MultiIndex.from_frame(commits[["inspection_id", "write_id"]].fillna(_NO_WRITE))
     mine = pd.MultiIndex.from_frame(frame[["inspection_id", "write_id"]].fillna(_NO_WRITE))
     return frame[mine.isin(keep)].reset_index(drop=True)
+
+
+def read_records(root: str | os.PathLike, table: str, *, start: dt.date | None = None, end: dt.date | None = None,
+                 inspection_ids: list[str] | None = None) -> list[Record]:
+    """One table's committed rows as records (``read_table``'s selection), missing values as None."""
+    frame = read_table(root, table, start=start, end=end, inspection_ids=inspection_ids)
+    return [from_row(RECORDS[table], r) for r in frame.to_dict("records")]
 
 
 def _read_files(root: str | os.PathLike, table: str, start: dt.date | None, end: dt.date | None,

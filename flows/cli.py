@@ -211,7 +211,7 @@ def cmd_measure(args: argparse.Namespace) -> int:
 
 def _print_measured(result, args: argparse.Namespace) -> None:
     """What measure stored of one package: its status and problems (stderr), its quantities (stdout)."""
-    from pipeline.maths.metrology.display import format_record
+    from pipeline.reports.value_text import format_record
     from pipeline.reports.verdict_text import json_safe, log_check_text, verdict_lines
 
     rec = result.inspection

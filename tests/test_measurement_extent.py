@@ -10,7 +10,9 @@ import pytest
 
 from pipeline.domain.codes import CODES
 from pipeline.measurement import MarkedQuantity, measure_quantity
-from pipeline.maths.metrology.display import format_record, format_result, is_lopsided
+from pipeline.maths.metrology.display import format_result
+from pipeline.maths.metrology.display import is_lopsided
+from pipeline.reports.value_text import format_record
 from test_measurement import _contour, _truth
 
 

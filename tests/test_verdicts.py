@@ -141,8 +141,7 @@ def test_the_split_normal_holds_95_percent_on_the_stored_interval():
 
 
 def test_the_nightly_summary_ranks_defects_by_grade_not_by_size_and_lists_contradicted_logs_first():
-    import pandas as pd
-
+    from pipeline.domain.results import MeasurementRecord
     from pipeline.reports.summary_report import log_disagreements, worst_observations
 
     rows = [  # a large connection (ungraded), a small EZ1 crack, an EZ3 water level, a deformation EZ0 at 60 %
@@ -155,9 +154,9 @@ def test_the_nightly_summary_ranks_defects_by_grade_not_by_size_and_lists_contra
         dict(row=4, code="BAA", unit="%", high=9.0, grade="EZ0", grade_worst_likely="EZ0", grade_probability=0.6,
              log_check="undecided", E_n=9.0),
     ]
-    m = pd.DataFrame([{**r, "inspection_id": "X", "status": "ok", "grading_scheme": "vsa-2023"} for r in rows])
-    assert list(worst_observations(m, {"X": 300.0}).row) == [4, 2, 3, 1]
-    assert list(log_disagreements(m).row) == [3, 2]
+    m = [MeasurementRecord(**r, inspection_id="X", status="ok", grading_scheme="vsa-2023") for r in rows]
+    assert [r.row for r in worst_observations(m, {"X": 300.0})] == [4, 2, 3, 1]
+    assert [r.row for r in log_disagreements(m)] == [3, 2]
 
 
 def test_the_reports_log_check_text_says_why_a_check_is_undecided():

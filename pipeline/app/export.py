@@ -17,7 +17,7 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 
 from pipeline.core.atomic import atomic_path
-from pipeline.maths.metrology.display import format_record
+from pipeline.reports.value_text import format_record
 from pipeline.maths.metrology.display import significant_step
 from pipeline.store.dataset import read_table, require_dataset
 

@@ -19,6 +19,7 @@ from reportlab.pdfbase.pdfmetrics import stringWidth
 
 from pipeline.reports.pdf import FONT, FONT_BOLD, styles
 from pipeline.reports.style import LOGGED, MEASURED
+from pipeline.core.numbers import is_finite
 
 __all__ = ["pipe_strip", "spread_labels", "strip_span"]
 
@@ -35,12 +36,12 @@ def _clock_y(clock: float, top: float, height: float) -> float:
 def strip_span(observations: Sequence[dict], survey_start_m, survey_end_m, section_length_m) -> tuple[float, float]:
     """The chainage range the strip shows [m]: the surveyed range when the dataset holds it, else the section
     (else the observations' own range); a short survey of a long section fills the strip."""
-    if _finite(survey_end_m) and survey_end_m > 0:
-        start = float(survey_start_m) if _finite(survey_start_m) and survey_start_m < survey_end_m else 0.0
+    if is_finite(survey_end_m) and survey_end_m > 0:
+        start = float(survey_start_m) if is_finite(survey_start_m) and survey_start_m < survey_end_m else 0.0
         return min(start, 0.0), float(survey_end_m)
-    if _finite(section_length_m) and section_length_m > 0:
+    if is_finite(section_length_m) and section_length_m > 0:
         return 0.0, float(section_length_m)
-    return 0.0, max([float(o["distance_m"]) for o in observations if _finite(o.get("distance_m"))] + [1.0])
+    return 0.0, max([float(o["distance_m"]) for o in observations if is_finite(o.get("distance_m"))] + [1.0])
 
 
 def spread_labels(centres: Sequence[float], widths: Sequence[float], lo: float, hi: float,
@@ -88,7 +89,7 @@ def pipe_strip(observations: Sequence[dict], span_m: tuple[float, float], measur
     start, end = span_m
     length = max(end - start, 1e-6)
     left, right = 14 * mm, width - 4 * mm
-    placed = sorted([o for o in observations if _finite(o.get("distance_m"))],
+    placed = sorted([o for o in observations if is_finite(o.get("distance_m"))],
                     key=lambda o: (o["distance_m"], o.get("row") or 0))
     x_of = lambda m: left + (right - left) * ((min(max(m, start), end) - start) / length)  # noqa: E731
     texts = [str(o.get("code") or "?")[:5] for o in placed]
@@ -124,11 +125,11 @@ def pipe_strip(observations: Sequence[dict], span_m: tuple[float, float], measur
         x = x_of(float(o["distance_m"]))
         colour = MEASURED if o.get("row") in measured_rows else LOGGED
         c1, c2 = o.get("clock_from"), o.get("clock_to")
-        if not _finite(c1):
+        if not is_finite(c1):
             d.add(Line(x, bottom, x, top, strokeColor=colour, strokeWidth=0.6, strokeDashArray=[1.5, 1.5]))
         else:
             y1 = _clock_y(float(c1), top, band)
-            if _finite(c2):
+            if is_finite(c2):
                 d.add(Line(x, y1, x, _clock_y(float(c2), top, band), strokeColor=colour, strokeWidth=1.6))
             d.add(Circle(x, y1, 1.2, fillColor=colour, strokeColor=None))
         y = top + 3.0 + row * _ROW
@@ -136,10 +137,6 @@ def pipe_strip(observations: Sequence[dict], span_m: tuple[float, float], measur
         d.add(String(centre, y + 1.6, text, fontName=FONT_BOLD, fontSize=_LABEL_SIZE, textAnchor="middle",
                      fillColor=colour))
     return d
-
-
-def _finite(v) -> bool:
-    return isinstance(v, (int, float)) and math.isfinite(v)
 
 
 def _tick_step(length: float, most: int = 12) -> float:

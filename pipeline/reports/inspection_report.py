@@ -13,12 +13,9 @@ from __future__ import annotations
 
 import datetime as dt
 import io
-import math
 import os
 from pathlib import Path
 
-import numpy as np
-import pandas as pd
 from reportlab.lib import colors
 from reportlab.lib.units import mm
 from reportlab.platypus import Image, KeepTogether, Paragraph, Spacer, Table, TableStyle
@@ -27,8 +24,8 @@ from pipeline import __version__
 from pipeline.domain.codes import plain_description
 from pipeline.core.errors import StoreError
 from pipeline.core.limits import MAX_REPORT_OBSERVATIONS, MAX_REPORT_QUANTITIES, MAX_REPORT_WARNINGS
-from pipeline.store import file_stem, read_table
-from pipeline.maths.metrology.display import format_record     # the one place a value and its interval are written
+from pipeline.store import file_stem, read_records
+from pipeline.reports.value_text import format_record     # the one place a value and its interval are written
 from pipeline.reports.pdf import FRAME_WIDTH, build_pdf, cell, grid_table, key_value_table, safe_text, styles
 from pipeline.reports.graphics import pipe_strip, strip_span
 from pipeline.reports.method import method_statement
@@ -36,6 +33,7 @@ from pipeline.reports.style import number
 from pipeline.reports.verdict_text import grade_text, log_check_text, verdict_lines
 from pipeline.reports.warning_text import measurement_warnings
 from pipeline.maths.metrology import K95
+from pipeline.core.numbers import is_finite, is_missing
 
 __all__ = ["render_inspection_report", "inspection_warnings", "report_file_name", "NEAR_EXPIRY_DAYS"]
 
@@ -47,19 +45,15 @@ def report_file_name(inspection_id: str) -> str:
     return file_stem(inspection_id) + ".pdf"
 
 
-def _missing(v) -> bool:
-    return v is None or (isinstance(v, float) and math.isnan(v)) or v is pd.NaT or v is pd.NA
-
-
 def _txt(v, limit: int = 400) -> str:
-    return "" if _missing(v) else safe_text(v, limit)
+    return "" if is_missing(v) else safe_text(v, limit)
 
 
 _p = cell
 
 
 def _coverage(m: dict) -> str:
-    if _missing(m.get("k")):
+    if is_missing(m.get("k")):
         return f"Monte Carlo, {int(m['mc_trials']):,} trials, shortest 95 % interval [{m['low']:.4g}, {m['high']:.4g}]"
     return f"k = {m['k']:.2f} (linear; Monte Carlo check {'passed' if m.get('linear_validated') else 'failed'})"
 
@@ -80,11 +74,11 @@ def inspection_warnings(inspection: dict, measurements: list[dict], today: dt.da
     out += measurement_warnings(measurements, _name)
     valid = inspection.get("certificate_valid_until")
     when = inspection.get("inspection_date")
-    if not _missing(valid):
-        if not _missing(when) and valid < when:
+    if not is_missing(valid):
+        if not is_missing(when) and valid < when:
             out.append(f"Certificate {inspection.get('certificate_id')} had expired on {valid} before the inspection "
                        f"({when}).")
-        elif not _missing(when) and (valid - when).days <= NEAR_EXPIRY_DAYS:
+        elif not is_missing(when) and (valid - when).days <= NEAR_EXPIRY_DAYS:
             out.append(f"Certificate {inspection.get('certificate_id')} expires on {valid}, within {NEAR_EXPIRY_DAYS} "
                        f"days of the inspection ({when}); recalibrate the camera soon.")
         elif valid < today:
@@ -95,15 +89,15 @@ def inspection_warnings(inspection: dict, measurements: list[dict], today: dt.da
 
 def _name(m: dict) -> str:
     """An observation named for a reader: 'BAA A, deformation, vertical'."""
-    codes = " ".join(str(v) for v in (m.get("code"), m.get("char1"), m.get("char2")) if not _missing(v) and v)
+    codes = " ".join(str(v) for v in (m.get("code"), m.get("char1"), m.get("char2")) if not is_missing(v) and v)
     return f"{codes}, {plain_description(m.get('code') or '', m.get('char1'), m.get('char2'))}"
 
 
 def _header_block(i: dict) -> Table:
-    size = f"{i.get('height_mm'):g} mm high" if not _missing(i.get("height_mm")) else "size not given"
-    if not _missing(i.get("width_mm")):
+    size = f"{i.get('height_mm'):g} mm high" if not is_missing(i.get("height_mm")) else "size not given"
+    if not is_missing(i.get("width_mm")):
         size += f", {i['width_mm']:g} mm wide"
-    if not _missing(i.get("height_tolerance_mm")):
+    if not is_missing(i.get("height_tolerance_mm")):
         size += f", tolerance ± {i['height_tolerance_mm']:g} mm"
     rows = [
         ("Section", f"{_txt(i.get('section_id'))}: {_txt(i.get('start_node'))} → {_txt(i.get('finish_node'))}, "
@@ -115,7 +109,7 @@ def _header_block(i: dict) -> Table:
                    f"valid until {_txt(i.get('certificate_valid_until'))}"),
         ("Video", f"{_txt(i.get('video_file'))}, {_txt(i.get('video_width_px'))}×{_txt(i.get('video_height_px'))} px, "
                   f"{_txt(i.get('video_frames'))} frames; chainage read on "
-                  + (f"{100 * i['chainage_read_rate']:.0f} %" if not _missing(i.get("chainage_read_rate")) else "-")
+                  + (f"{100 * i['chainage_read_rate']:.0f} %" if not is_missing(i.get("chainage_read_rate")) else "-")
                   + " of sampled frames"),
         ("Measurement", f"{_txt(i.get('model'))} model; pipegauge {_txt(i.get('pipeline_version'))}, processed "
                         f"{_txt(str(i.get('processed_at'))[:19])} UTC; status {_txt(i.get('status'))}"),
@@ -149,7 +143,7 @@ def _verdict_block(i: dict, measurements: list[dict]) -> list:
 def _delivered(o: dict) -> str:
     parts = []
     for q, unit in (("q1", "q1_unit"), ("q2", "q2_unit")):
-        if not _missing(o.get(q)):
+        if not is_missing(o.get(q)):
             parts.append(f"{o[q]:g} {_txt(o.get(unit))}")
     return ", ".join(parts)
 
@@ -168,12 +162,12 @@ def _observation_table(observations: list[dict], by_row: dict[int, list[dict]]) 
                 measured.append(f"{_label(m)}: {safe_text(format_record(m))}{flag}")
             else:
                 measured.append(f"{_label(m)}: not measured")
-        clock = "" if _missing(o.get("clock_from")) else f"{int(o['clock_from'])}" + (
-            "" if _missing(o.get("clock_to")) else f"–{int(o['clock_to'])}")
-        codes = " ".join(_txt(v) for v in (o.get("code"), o.get("char1"), o.get("char2")) if not _missing(v) and v)
-        cont = "" if _missing(o.get("continuous")) or not o.get("continuous") else f" ({_txt(o['continuous'])})"
+        clock = "" if is_missing(o.get("clock_from")) else f"{int(o['clock_from'])}" + (
+            "" if is_missing(o.get("clock_to")) else f"–{int(o['clock_to'])}")
+        codes = " ".join(_txt(v) for v in (o.get("code"), o.get("char1"), o.get("char2")) if not is_missing(v) and v)
+        cont = "" if is_missing(o.get("continuous")) or not o.get("continuous") else f" ({_txt(o['continuous'])})"
         rows.append([_p(str(o["row"]), "number"),
-                     _p(f"{o['distance_m']:.2f}" if not _missing(o.get("distance_m")) else "", "number"),
+                     _p(f"{o['distance_m']:.2f}" if not is_missing(o.get("distance_m")) else "", "number"),
                      _p(codes + cont), _p(safe_text(plain_description(o.get("code") or "", o.get("char1"), o.get("char2")))),
                      _p(clock), _p(_delivered(o)), _p("<br/>".join(measured)), _p("<br/>".join(checks)),
                      _p(safe_text(grade_text(o), 300) + (" · logged outside the surveyed range"
@@ -223,8 +217,8 @@ def _input_unit(label: str, unit: str) -> str:
 def _joint_note(m: dict, budget: list[dict]) -> list[Paragraph]:
     """A line when correlated (joint) inputs' contributions add up to more than u_c, which then needs saying."""
     joint = [b for b in budget if "joint" in str(b["distribution"])]
-    squares = sum(float(b["contribution"]) ** 2 for b in budget if _finite(b.get("contribution")))
-    if not (joint and _finite(m.get("u")) and squares > float(m["u"]) ** 2):
+    squares = sum(float(b["contribution"]) ** 2 for b in budget if is_finite(b.get("contribution")))
+    if not (joint and is_finite(m.get("u")) and squares > float(m["u"]) ** 2):
         return []
     return [_p(f"{', '.join(safe_text(b['label']) for b in joint)} (the camera pose) are correlated and partly "
                f"cancel: the contributions' squares add up to more than u_c² (√Σ = {number(squares ** 0.5)}, "
@@ -251,10 +245,6 @@ def _distribution(text: str) -> str:
     return "joint" if "joint" in name else name
 
 
-def _finite(v) -> bool:
-    return isinstance(v, (int, float)) and math.isfinite(v)
-
-
 _THUMB = 50 * mm        # thumbnail width: the marks (3 px circles at 360 px) stay visible
 
 
@@ -267,7 +257,7 @@ def _quantity_block(m: dict, thumbnail: bytes | None) -> KeepTogether:
     facts = [
         ("Result", safe_text(format_record(m)) + " (95 %)"),
         ("u", f"{m['u']:.3g} {m['unit']} (standard)"),
-        ("Logged", "-" if _missing(m.get("operator_value")) else f"{m['operator_value']:g} {m['unit']} (contractor)"),
+        ("Logged", "-" if is_missing(m.get("operator_value")) else f"{m['operator_value']:g} {m['unit']} (contractor)"),
         ("Coverage", _coverage(m)),
         ("Method", f"{_txt(m['method'])}, {_txt(m['model'])} model; seed {m['mc_seed']}"),
         ("Frame", f"{m['frame']} at chainage {m['chainage_m']:.2f} ± {K95 * m['u_chainage_m']:.2f} m (U95)"),
@@ -298,12 +288,6 @@ def _source(record: dict) -> str:
     return record.get("source") or "marks"
 
 
-def _records(frame: pd.DataFrame) -> list[dict]:
-    """Rows as dicts, with pandas' missing markers (NaN, NaT) as None."""
-    return [{k: (None if not isinstance(v, (list, np.ndarray)) and _missing(v) else v) for k, v in r.items()}
-            for r in frame.to_dict("records")]
-
-
 def _more(n: int, what: str, where: str) -> list[Paragraph]:
     """A line saying how many items a bounded report leaves out (pipeline.core.limits), and where they are."""
     if n <= 0:
@@ -316,15 +300,15 @@ def render_inspection_report(data: str | os.PathLike, inspection_id: str, path: 
                              today: dt.date | None = None) -> Path:
     """Render the condition report of ``inspection_id`` from the dataset at ``data`` into the PDF ``path`` (atomic)."""
     today = today or dt.date.today()
-    tables = {t: read_table(data, t, inspection_ids=[inspection_id])
+    tables = {t: read_records(data, t, inspection_ids=[inspection_id])
               for t in ("inspections", "observations", "measurements", "thumbnails")}
-    if tables["inspections"].empty:
+    if not tables["inspections"]:
         raise StoreError(f"{data}: no inspection {inspection_id!r} in the dataset; list them with "
                          "pipegauge export or check the id")
-    inspection = _records(tables["inspections"])[0]
-    observations = sorted(_records(tables["observations"]), key=lambda o: (o["row"]))
-    measurements = sorted(_records(tables["measurements"]), key=lambda m: (m["row"], m["quantity"], _source(m) != "marks"))
-    thumbs = {(t["row"], t["quantity"], _source(t)): t["image_jpeg"] for t in _records(tables["thumbnails"])}
+    inspection = tables["inspections"][0]
+    observations = sorted(tables["observations"], key=lambda o: (o["row"]))
+    measurements = sorted(tables["measurements"], key=lambda m: (m["row"], m["quantity"], _source(m) != "marks"))
+    thumbs = {(t["row"], t["quantity"], _source(t)): t["image_jpeg"] for t in tables["thumbnails"]}
     by_row: dict[int, list[dict]] = {}
     for m in measurements:
         by_row.setdefault(m["row"], []).append(m)
@@ -340,7 +324,7 @@ def render_inspection_report(data: str | os.PathLike, inspection_id: str, path: 
     story += _more(len(warnings) - MAX_REPORT_WARNINGS, "warnings", "the inspection's problems in the dataset")
     span = strip_span(observations, inspection.get("survey_start_m"), inspection.get("survey_end_m"),
                       inspection.get("section_length_m"))
-    beyond = [o["row"] for o in observations if _finite(o.get("distance_m"))
+    beyond = [o["row"] for o in observations if is_finite(o.get("distance_m"))
               and not span[0] - 1e-9 <= o["distance_m"] <= span[1] + 1e-9]
     story += [Paragraph("Observations along the section", st["h2"]),
               pipe_strip(observations, span, set(by_row)),

@@ -8,15 +8,16 @@ import os
 from pathlib import Path
 from typing import Sequence
 
-import pandas as pd
 from reportlab.lib.units import mm
 from reportlab.platypus import Paragraph, Spacer, Table, TableStyle
 
 from pipeline import __version__
 from pipeline.domain.codes import plain_description
-from pipeline.store import read_table
+from pipeline.core.numbers import finite_number
+from pipeline.domain.results import MeasurementRecord
+from pipeline.store import read_records
 from pipeline.judgement.grading import SCHEMES, scheme
-from pipeline.maths.metrology.display import format_record     # the one place a value and its interval are written
+from pipeline.reports.value_text import format_record     # the one place a value and its interval are written
 from pipeline.reports.pdf import TABLE_STYLE, build_pdf, safe_text, styles
 from pipeline.reports.verdict_text import grade_text, is_missing
 
@@ -31,29 +32,31 @@ def _class_rank(scheme_key, cls) -> float:
     return classes.index(cls) if cls in classes else math.inf
 
 
-def worst_observations(measurements: pd.DataFrame, heights_mm: dict[str, float], n: int = 15) -> pd.DataFrame:
+def worst_observations(measurements: Sequence[MeasurementRecord], heights_mm: dict[str, float],
+                       n: int = 15) -> list[MeasurementRecord]:
     """The ``n`` measured quantities to look at first: by condition grade (the most probable class, then the worst
     class with probability >= 5 %, then the probability of the most probable class), then, for equal or no grades, by
-    the upper bound relative to the pipe (high / H for mm, high / 100 for %).
+    the upper bound relative to the pipe (high / H for mm, high / 100 for %), largest first.
     """
-    ok = measurements[measurements.status == "ok"].copy()
-    if ok.empty:
-        return ok
-
-    def severity(r) -> float:
+    def severity(r) -> float | None:
+        high = finite_number(r.high)
+        if high is None:
+            return None
         if r.unit == "%":
-            return r.high / 100.0
+            return high / 100.0
         H = heights_mm.get(r.inspection_id)
-        return r.high / H if H and r.unit == "mm" else float("nan")
+        return high / H if H and r.unit == "mm" else None
 
-    col = lambda name: ok[name] if name in ok else pd.Series([None] * len(ok), index=ok.index)  # noqa: E731
-    ok["severity"] = [severity(r) for r in ok.itertuples()]
-    ok["rank_grade"] = [_class_rank(k, c) for k, c in zip(col("grading_scheme"), col("grade"))]
-    ok["rank_likely"] = [_class_rank(k, c) for k, c in zip(col("grading_scheme"), col("grade_worst_likely"))]
-    ok["rank_p"] = -pd.to_numeric(col("grade_probability"), errors="coerce").fillna(0.0)
-    ok = ok[ok.severity.notna() | (ok.rank_grade < math.inf)]
-    return ok.sort_values(["rank_grade", "rank_likely", "rank_p", "severity"],
-                          ascending=[True, True, True, False], na_position="last").head(n)
+    ranked = []
+    for r in measurements:
+        if r.status != "ok":
+            continue
+        sev, grade_rank = severity(r), _class_rank(r.grading_scheme, r.grade)
+        if sev is None and grade_rank == math.inf:
+            continue                    # neither graded nor comparable with the pipe's size
+        ranked.append(((grade_rank, _class_rank(r.grading_scheme, r.grade_worst_likely),
+                        -(finite_number(r.grade_probability) or 0.0), (0, -sev) if sev is not None else (1, 0.0)), r))
+    return [r for _, r in sorted(ranked, key=lambda kr: kr[0])][:n]
 
 
 def _quantity(r) -> str:
@@ -63,11 +66,10 @@ def _quantity(r) -> str:
     return f"{r.code} {r.char1 or ''} {r.quantity}{tag}"
 
 
-def log_disagreements(measurements: pd.DataFrame, n: int = 30) -> pd.DataFrame:
+def log_disagreements(measurements: Sequence[MeasurementRecord], n: int = 30) -> list[MeasurementRecord]:
     """The logged quantities the measurement contradicts (log check ``disagrees``), the largest E_n first."""
-    if "log_check" not in measurements or measurements.empty:
-        return measurements.iloc[0:0]
-    return measurements[measurements.log_check == "disagrees"].sort_values("E_n", ascending=False).head(n)
+    wrong = [m for m in measurements if m.log_check == "disagrees"]
+    return sorted(wrong, key=lambda m: -(finite_number(m.E_n) or -math.inf))[:n]
 
 
 def render_night_summary(rows: Sequence[dict], data: str | os.PathLike, path: str | os.PathLike, *,
@@ -76,12 +78,12 @@ def render_night_summary(rows: Sequence[dict], data: str | os.PathLike, path: st
     night = night or dt.date.today()
     st = styles()
     ids = [r["inspection_id"] for r in rows]
-    inspections = read_table(data, "inspections", inspection_ids=ids) if ids else pd.DataFrame()
-    measurements = read_table(data, "measurements", inspection_ids=ids) if ids else pd.DataFrame()
+    inspections = read_records(data, "inspections", inspection_ids=ids) if ids else []
+    measurements = read_records(data, "measurements", inspection_ids=ids) if ids else []
     counts = {s: sum(r["status"] == s for r in rows) for s in ("ok", "partial", "failed")}
     processed = sum(bool(r.get("processed", True)) for r in rows)
     refused = sum(bool(r.get("refused")) for r in rows)
-    n_quantities = int((measurements.status == "ok").sum()) if len(measurements) else 0
+    n_quantities = sum(m.status == "ok" for m in measurements)
     story = [Paragraph(f"Nightly summary {night.isoformat()}", st["title"]),
              Paragraph(f"{len(rows)} package(s): {counts['ok']} ok, {counts['partial']} partial, {counts['failed']} "
                        f"failed; {processed} processed in this run, {len(rows) - processed - refused} unchanged since an "
@@ -98,26 +100,25 @@ def render_night_summary(rows: Sequence[dict], data: str | os.PathLike, path: st
     t = Table(table, colWidths=[32 * mm, 32 * mm, 14 * mm, 16 * mm, 14 * mm, 72 * mm], repeatRows=1)
     t.setStyle(TableStyle(TABLE_STYLE))
     story.append(t)
-    wrong = log_disagreements(measurements) if len(measurements) else pd.DataFrame()
+    wrong = log_disagreements(measurements)
     story += [Paragraph("Contractor's log contradicted by the measurement", st["h2"]),
               Paragraph("Logged values outside what the measurement allows: E_n = |logged − measured| / "
                         "√(U95² + U_res²) > 1, the largest first.", st["small"]), Spacer(1, 1.5 * mm)]
     if len(wrong):
         table = [[Paragraph(h, st["cell"]) for h in ("Inspection", "Row", "Code", "Logged", "Measured (95 %)", "E_n")]]
-        for r in wrong.itertuples():
+        for r in wrong:
             table.append([Paragraph(safe_text(r.inspection_id, 80), st["cell"]), Paragraph(str(r.row), st["cell"]),
                           Paragraph(safe_text(_quantity(r)), st["cell"]),
                           Paragraph(f"{r.logged_value:g} {r.unit}", st["cell"]),
-                          Paragraph(safe_text(format_record(r._asdict())), st["cell"]),
+                          Paragraph(safe_text(format_record(r)), st["cell"]),
                           Paragraph(f"{r.E_n:.1f}", st["cell"])])
         t = Table(table, colWidths=[40 * mm, 10 * mm, 25 * mm, 25 * mm, 50 * mm, 20 * mm], repeatRows=1)
         t.setStyle(TableStyle(TABLE_STYLE))
         story.append(t)
     else:
         story.append(Paragraph("None.", st["body"]))
-    heights = ({r.inspection_id: r.height_mm for r in inspections.itertuples() if not math.isnan(r.height_mm or math.nan)}
-               if len(inspections) else {})
-    worst = worst_observations(measurements, heights) if len(measurements) else pd.DataFrame()
+    heights = {r.inspection_id: r.height_mm for r in inspections if finite_number(r.height_mm) is not None}
+    worst = worst_observations(measurements, heights)
     story += [Paragraph("Worst observations", st["h2"]),
               Paragraph("Measured quantities ranked by condition grade (most probable class, then the worst class "
                         "with probability >= 5 %), then by their upper 95 % bound relative to the pipe (mm against the "
@@ -126,13 +127,13 @@ def render_night_summary(rows: Sequence[dict], data: str | os.PathLike, path: st
     if len(worst):
         table = [[Paragraph(h, st["cell"]) for h in ("Inspection", "Row", "Code", "Description", "Value (95 %)",
                                                      "Upper bound", "Grade")]]
-        for r in worst.itertuples():
+        for r in worst:
             table.append([Paragraph(safe_text(r.inspection_id, 80), st["cell"]), Paragraph(str(r.row), st["cell"]),
                           Paragraph(safe_text(_quantity(r)), st["cell"]),
                           Paragraph(safe_text(plain_description(r.code, r.char1, r.char2)), st["cell"]),
-                          Paragraph(safe_text(format_record(r._asdict())), st["cell"]),
+                          Paragraph(safe_text(format_record(r)), st["cell"]),
                           Paragraph(f"{r.high:.3g} {r.unit}", st["cell"]),
-                          Paragraph(safe_text(grade_text(r._asdict()), 200), st["cell"])])
+                          Paragraph(safe_text(grade_text(r), 200), st["cell"])])
         t = Table(table, colWidths=[37 * mm, 8 * mm, 19 * mm, 30 * mm, 27 * mm, 15 * mm, 44 * mm], repeatRows=1)
         t.setStyle(TableStyle(TABLE_STYLE))
         story.append(t)

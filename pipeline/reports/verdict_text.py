@@ -12,18 +12,9 @@ import math
 from typing import Any, Mapping
 
 from pipeline.domain.results import Record
+from pipeline.core.numbers import is_missing
 
 __all__ = ["json_safe", "log_check_text", "grade_text", "probabilities_text", "verdict_lines", "is_missing"]
-
-
-def is_missing(x: Any) -> bool:
-    """None, NaN or pandas' NA/NaT."""
-    if x is None:
-        return True
-    try:
-        return bool(x != x)         # NaN, NaT and pd.NA compare unequal to themselves
-    except (TypeError, ValueError):
-        return False
 
 
 def json_safe(x: Any) -> Any:

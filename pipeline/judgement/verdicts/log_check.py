@@ -34,6 +34,7 @@ steps (the VSA 2023 and NEN 3399 class bands are multiples of 5 %,
 """
 
 from __future__ import annotations
+from pipeline.core.numbers import finite_number
 
 import math
 from dataclasses import dataclass
@@ -75,15 +76,6 @@ class LogCheck:
     U_res: float | None = None
     difference: float | None = None
     E_n: float | None = None
-
-
-def finite_number(x) -> float | None:
-    """x as a finite float, or None (absent, not a number, NaN, infinite)."""
-    try:
-        v = float(x)
-    except (TypeError, ValueError):
-        return None
-    return v if math.isfinite(v) else None
 
 
 def check_logged(logged, logged_unit: str | None, *, value, U95, unit: str | None, confident: bool | None = True,

@@ -15,7 +15,7 @@ Typical use::
 References: JCGM 100:2008 (GUM), JCGM 101:2008 (GUM Supplement 1).
 """
 
-from pipeline.maths.metrology.display import format_record, format_result
+from pipeline.maths.metrology.display import format_result
 from pipeline.maths.metrology.distributions import Arcsine, Distribution, JointNormal, Normal, Rectangular, StudentT, Triangular
 from pipeline.maths.metrology.inputs import InputSet
 from pipeline.maths.metrology.intervals import CoverageInterval, numerical_tolerance, shortest_interval, symmetric_interval
@@ -40,7 +40,6 @@ __all__ = [
     "Triangular",
     "Validation",
     "block_size",
-    "format_record",
     "format_result",
     "coverage_factor",
     "numerical_tolerance",

@@ -1,5 +1,7 @@
 """One way to write a measured value with its 95 % interval, for the report, the command line and the export.
 
+The record's fields are read in ``pipeline.reports.value_text.format_record``; this floor knows numbers only.
+
 * 'value ± U95 unit' when the interval is about symmetric about the value,
   U95 with two significant digits and the value to the same decimal place
   (GUM 7.2.6);
@@ -14,7 +16,7 @@ from __future__ import annotations
 
 import math
 
-__all__ = ["format_result", "format_record", "significant_step", "is_lopsided", "LOPSIDED"]
+__all__ = ["format_result", "significant_step", "is_lopsided", "LOPSIDED"]
 
 LOPSIDED = 1.3     # a shortest interval this uneven about the value is written as [low, high]
 
@@ -55,19 +57,3 @@ def format_result(value: float, U95: float, unit: str, low: float | None = None,
         return f"{value:.{d}f}{unit} [{low:.{d}f}, {high:.{d}f}]"
     d = _decimals(U95)
     return f"{value:.{d}f} {plus_minus} {U95:.{d}f}{unit}"
-
-
-def _flag(x) -> bool:
-    """A stored boolean that may be missing (None, NaN: a record written before the column existed)."""
-    return x is not None and not (isinstance(x, float) and math.isnan(x)) and bool(x)
-
-
-def format_record(m, plus_minus: str = "±") -> str:
-    """``format_result`` of a measurement record (a dict or a row with value, U95, unit, low, high,
-    below_resolution), as the dataset stores it."""
-    get = m.get if hasattr(m, "get") else (lambda k, d=None: getattr(m, k, d))
-    value = get("value")
-    if value is None or not math.isfinite(float(value)):
-        return ""                   # not measured
-    return format_result(get("value"), get("U95"), get("unit") or "", get("low"), get("high"),
-                         _flag(get("below_resolution")), plus_minus)

@@ -26,7 +26,8 @@ os.environ.setdefault("DO_NOT_TRACK", "1")
 os.environ.setdefault("PREFECT_SERVER_ANALYTICS_ENABLED", "false")
 os.environ.setdefault("PREFECT_LOGGING_LEVEL", "WARNING")
 
-from flows.nightly import dataset_folder, nightly, task_runner_for  # noqa: E402
+from flows.nightly import nightly, task_runner_for  # noqa: E402
+from pipeline.app import Layout  # noqa: E402
 from pipeline.app import discover_packages, process_package  # noqa: E402
 from pipeline.vision.video.overlay_ocr import OverlayReader  # noqa: E402
 
@@ -70,7 +71,7 @@ def main() -> None:
         reader = OverlayReader()
         t0 = time.perf_counter()
         for p in packages:
-            outcome = process_package(p, dataset_folder(root / "direct"), certificates=inbox / "certificates",
+            outcome = process_package(p, Layout(root / "direct").dataset, certificates=inbox / "certificates",
                                       reader=reader)
             assert outcome.status == "ok", outcome
         direct = time.perf_counter() - t0

@@ -127,35 +127,23 @@ def cmd_samples(args: argparse.Namespace) -> int:
 # -- calibrate -----------------------------------------------------------------
 
 def cmd_calibrate(args: argparse.Namespace) -> int:
-    from pipeline.app.calibration.certificate import certificate_from_calibration
-    from pipeline.app.calibration.pattern import parse_pattern
-    from pipeline.app.calibration.report import write_calibration_report
-    from pipeline.app.calibration.solve import PARAMETERS, calibrate
-    from pipeline.app.calibration.views import read_views
+    from pipeline.app.calibration.procedure import calibrate_camera
+    from pipeline.app.calibration.solve import PARAMETERS
     from pipeline.core.text import format_table
+    from pipeline.maths.metrology import K95
 
-    pattern = parse_pattern(args.pattern)
-    _say(f"pipegauge calibrate: looking for the {pattern.describe()} in {len(args.inputs)} input(s) ...")
-    views, rejected = read_views(args.inputs, pattern, every=args.every)
-    for source, reason in rejected:
-        _say(f"  rejected {source}: {reason}")
-    _say(f"  pattern found in {len(views)} view(s); calibrating with {args.bootstrap} bootstrap runs ...")
-    cal = calibrate(views, pattern, rejected=rejected, bootstrap=args.bootstrap, seed=args.seed)
-    cert = certificate_from_calibration(cal, pattern, camera_id=args.camera_id,
-                                        certificate_id=args.certificate_id or f"CAL-{args.camera_id}-{args.date}",
-                                        issuer=args.issuer, issue_date=args.date, valid_days=args.valid_days,
-                                        pixel_pitch_um=args.pixel_pitch_um)
-    from pipeline.formats.certificate import save_certificate
-
-    path = save_certificate(cert, args.out)
-    report = write_calibration_report(cal, cert, args.report or path.with_suffix(".pdf"))
-    rows = [(n, f"{cal.values[n]:.6g}", f"{cal.u[n]:.2g}", f"{1.96 * cal.u[n]:.2g}") for n in PARAMETERS]
+    done = calibrate_camera(args.inputs, args.pattern, camera_id=args.camera_id, certificate_id=args.certificate_id,
+                            issuer=args.issuer, issue_date=args.date, valid_days=args.valid_days,
+                            pixel_pitch_um=args.pixel_pitch_um, every=args.every, bootstrap=args.bootstrap,
+                            seed=args.seed, out=args.out, report=args.report, say=_say)
+    cal = done.calibration
+    rows = [(n, f"{cal.values[n]:.6g}", f"{cal.u[n]:.2g}", f"{K95 * cal.u[n]:.2g}") for n in PARAMETERS]
     print(format_table(("parameter", "value", "u", "U95"), rows,
                        title=f"{len(cal.view_rms_px)} views used, {len(cal.rejected)} rejected; "
                              f"RMS reprojection error {cal.rms_px:.3f} px"))
     for source, rms in cal.view_rms_px.items():
         print(f"  {source}: {rms:.3f} px")
-    _say(f"wrote {path} and {report}")
+    _say(f"wrote {done.certificate_path} and {done.report_path}")
     return EXIT_OK
 
 
@@ -185,27 +173,18 @@ def cmd_probe(args: argparse.Namespace) -> int:
 # -- measure / export -----------------------------------------------------------
 
 def cmd_measure(args: argparse.Namespace) -> int:
-    from pipeline.app import duplicate_claims, process_package
-    from pipeline.store.lock import dataset_lock
-    from pipeline.vision.video.overlay_ocr import OverlayReader
+    from pipeline.app import Layout, measure_packages
 
     failed = 0
-    duplicates = duplicate_claims([Path(p) for p in args.packages])
-    for folder, error in duplicates.items():
-        _say(f"{folder}: failed ({error})")
-        failed += 1
-    with dataset_lock(args.data):           # not while a run (or another measure) writes the same dataset
-        reader = OverlayReader()
-        for folder in (p for p in args.packages if Path(p) not in duplicates):
-            # the same path as a run's, input key included: a later run skips what measure stored
-            outcome = process_package(folder, args.data, model=args.model, certificates=args.certificates,
-                                      reader=reader, skip_known=False, keep_result=True,
-                                      progress=_say if args.verbose else None)
-            failed += outcome.status != "ok"
-            if outcome.result is None:
-                _say(f"{folder}: {outcome.status} ({outcome.error})")
-            else:
-                _print_measured(outcome.result, args)
+    layout = Layout.of(args.data)
+    # not while a run (or another measure) writes the same dataset: measure_packages holds its lock
+    for outcome in measure_packages(args.packages, layout, model=args.model, certificates=args.certificates,
+                                    progress=_say if args.verbose else None, say=_say):
+        failed += outcome.status != "ok"
+        if outcome.result is None:
+            _say(f"{outcome.folder}: {outcome.status} ({outcome.error})")
+        else:
+            _print_measured(outcome.result, args)
     return EXIT_FAILED if failed else EXIT_OK
 
 
@@ -290,21 +269,22 @@ def cmd_run(args: argparse.Namespace) -> int:
         return code
     _quiet_prefect()
     from flows.embedded_server import embedded_prefect_server
-    from flows.nightly import dataset_folder, nightly, task_runner_for
-    from pipeline.store.lock import dataset_lock
+    from flows.nightly import nightly, task_runner_for
+    from pipeline.app import Layout, writing
 
     if args.dask and (problem := _dask_unreachable(args.dask)):
         _say(f"pipegauge run: error: cannot reach the Dask scheduler at {args.dask} ({problem}); check that "
              "`dask scheduler` runs there and that this machine may connect to it")
         return EXIT_FAILED
     runner = task_runner_for(args.workers, args.dask)
+    layout = Layout(args.out)
     # The lock first: a second run is refused before Prefect starts anything.
-    with dataset_lock(dataset_folder(args.out)), embedded_prefect_server(args.out, _say):
+    with writing(layout, _say), embedded_prefect_server(layout, _say):
         _say(f"pipegauge run: {args.inbox} -> {args.out} ({args.model} model, "
              + (f"Dask cluster {args.dask})" if args.dask else f"{args.workers} worker(s))"))
         state = nightly.with_options(task_runner=runner)(
             str(args.inbox), str(args.out), args.model, str(args.certificates) if args.certificates else None,
-            return_state=True)
+            hold_lock=False, return_state=True)
         rows = state.result(raise_on_failure=False)        # every package's row, also when the run failed
     if isinstance(rows, BaseException):
         raise rows
@@ -313,7 +293,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     refused = sum(r["refused"] for r in rows)
     _say(f"pipegauge run: {len(rows)} package(s): " + ", ".join(f"{n} {s}" for s, n in counts.items())
          + f"; {new} processed, {len(rows) - new - refused} unchanged since the last run"
-         + (f", {refused} refused unread" if refused else "") + f"; dataset in {dataset_folder(args.out)}")
+         + (f", {refused} refused unread" if refused else "") + f"; dataset in {layout.dataset}")
     return EXIT_FAILED if counts["failed"] else EXIT_OK
 
 
@@ -340,7 +320,9 @@ def cmd_serve(args: argparse.Namespace) -> int:
 
 def _dataset_of(data: Path) -> Path:
     """A run's OUT folder holds the dataset in OUT/dataset; a dataset folder is taken as it is."""
-    return data / "dataset" if (data / "dataset" / "inspections").is_dir() else data
+    from pipeline.app import Layout
+
+    return Layout.of(data).dataset
 
 
 def cmd_report(args: argparse.Namespace) -> int:

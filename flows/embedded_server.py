@@ -18,9 +18,9 @@ import time
 from pathlib import Path
 from typing import Callable, Iterator
 
-__all__ = ["embedded_prefect_server", "PID_FILE"]
+from pipeline.app.layout import Layout
 
-PID_FILE = ".prefect-server.pid"
+__all__ = ["embedded_prefect_server"]
 _SERVER_MARK = b"prefect.server.api.server:create_app"     # in the command line Prefect starts it with
 
 
@@ -48,14 +48,14 @@ def _stop_left_over(pid_file: Path, say: Callable[[str], None]) -> None:
 
 
 @contextlib.contextmanager
-def embedded_prefect_server(out: str | os.PathLike, say: Callable[[str], None]) -> Iterator[None]:
-    """Within: Prefect's embedded server runs, its pid recorded under ``out`` (see the module's docstring).
+def embedded_prefect_server(layout: Layout, say: Callable[[str], None]) -> Iterator[None]:
+    """Within: Prefect's embedded server runs, its pid recorded in the output folder (``Layout.server_pid``).
 
-    Call it while holding the dataset lock of ``out``.
+    Call it while holding the dataset lock of the layout (``pipeline.app.writing``).
     """
     from prefect.settings import PREFECT_API_URL
 
-    pid_file = Path(out) / PID_FILE
+    pid_file = layout.server_pid
     _stop_left_over(pid_file, say)
     if PREFECT_API_URL.value():
         yield

@@ -1,13 +1,6 @@
-"""The nightly pass as a Prefect flow: every package of an inbox measured into a dataset under OUT.
+"""The nightly pass as a Prefect flow: the run policy of ``pipeline.app.night`` with each package a task run.
 
-Layout of OUT (docs/operations.md)::
-
-    OUT/dataset/   the Parquet dataset (docs/dataset.md)
-    OUT/reports/   one PDF condition report per inspection, and summary-YYYY-MM-DD.pdf per night
-    OUT/dataset/.pipegauge.lock   held by the one process writing the dataset
-    OUT/.prefect-server.pid       the embedded Prefect server of the run in progress (pipegauge run)
-
-Each package is its own task run; tasks pass folder paths and plain
+The output folder's layout is ``pipeline.app.layout`` (docs/operations.md). Each package is its own task run; tasks pass folder paths and plain
 records, never frames. Failure isolation: a bad package is a completed task
 whose record says ``failed`` with the error; only a transient error (an
 OSError while writing, for example a full or unmounted disk) fails the task,
@@ -18,9 +11,9 @@ leaving its summary table as an artifact.
 
 from __future__ import annotations
 
+import contextlib
 import datetime as dt
 import itertools
-import os
 import threading
 from pathlib import Path
 
@@ -32,24 +25,12 @@ from prefect.states import Failed
 from prefect.task_runners import ProcessPoolTaskRunner, TaskRunner, ThreadPoolTaskRunner
 
 from flows.console import say
-from pipeline.formats.manifest import CERTIFICATES_FOLDER
-from pipeline.app import PackageOutcome, discover_packages, duplicate_claims, process_package, refused_outcome
-from pipeline.reports import render_night_summary
-from pipeline.store import remove_uncommitted
-from pipeline.store.lock import dataset_lock, remove_stale_temporaries
+from pipeline.app import Layout, PackageOutcome, finish_night, plan_night, process_package, progress_line, writing
 
-__all__ = ["nightly", "measure_package_task", "task_runner_for", "dataset_folder", "reports_folder"]
+__all__ = ["nightly", "measure_package_task", "task_runner_for"]
 
 TRANSIENT = (OSError,)
 _local = threading.local()
-
-
-def dataset_folder(out: str | os.PathLike) -> Path:
-    return Path(out) / "dataset"
-
-
-def reports_folder(out: str | os.PathLike) -> Path:
-    return Path(out) / "reports"
 
 
 def _reader():
@@ -76,8 +57,9 @@ def _transient(task, task_run, state) -> bool:
       retry_condition_fn=_transient, cache_policy=NO_CACHE, persist_result=False)
 def measure_package_task(folder: str, out: str, model: str, certificates: str | None) -> dict:
     """Measure one package into OUT's dataset; returns its summary row."""
-    outcome = process_package(folder, dataset_folder(out), model=model, certificates=certificates, reader=_reader(),
-                              reports=reports_folder(out))
+    layout = Layout(Path(out))
+    outcome = process_package(folder, layout.dataset, model=model, certificates=certificates, reader=_reader(),
+                              reports=layout.reports)
     return outcome.as_row()
 
 
@@ -105,34 +87,26 @@ def _failed_row(folder: str, exc: BaseException) -> dict:
 
 
 @flow(name="pipegauge-nightly", flow_run_name="nightly {inbox}")
-def nightly(inbox: str, out: str, model: str = "perspective", certificates: str | None = None) -> list[dict]:
-    """Measure every package of ``inbox`` into ``out``; returns one summary row per package (also an artifact)."""
-    packages = discover_packages(inbox)
-    certificates = certificates or str(Path(inbox) / CERTIFICATES_FOLDER)
+def nightly(inbox: str, out: str, model: str = "perspective", certificates: str | None = None,
+            hold_lock: bool = True) -> list[dict]:
+    """Measure every package of ``inbox`` into ``out``; returns one summary row per package (also an artifact).
+
+    hold_lock : take the dataset's lock and clean up after an interrupted run (``pipeline.app.night.writing``);
+    False when the caller holds it already (``pipegauge run`` takes it before Prefect starts).
+    """
+    layout = Layout(Path(out))
     rows: list[dict] = []
-    with dataset_lock(dataset_folder(out)):
-        stale = remove_stale_temporaries(out) + remove_uncommitted(dataset_folder(out))
-        if stale:
-            say(f"removed {len(stale)} file(s) left by an interrupted run")
-        say(f"{len(packages)} package(s) in {inbox}")
-        duplicates = duplicate_claims(packages)
-        futures = {measure_package_task.submit(str(p), str(out), model, certificates): str(p)
-                   for p in packages if p not in duplicates}
-        refused = [refused_outcome(p, error).as_row() for p, error in duplicates.items()]
+    with writing(layout, say) if hold_lock else contextlib.nullcontext(layout):
+        plan = plan_night(inbox, certificates)
+        say(f"{len(plan.packages)} package(s) in {inbox}")
+        futures = {measure_package_task.submit(str(p), str(out), model, plan.certificates): str(p)
+                   for p in plan.to_process}
         finished = (_row(future, futures) for future in as_completed(list(futures)))
-        for k, row in enumerate(itertools.chain(refused, finished), 1):
+        for k, row in enumerate(itertools.chain(plan.refused, finished), 1):
             rows.append(row)
-            detail = ("refused" if row["refused"] else f"{row['quantities']} quantities, {row['seconds']} s"
-                      if row["processed"] else "unchanged since the last run")
-            say(f"[{k}/{len(packages)}] {row['package']}: {row['status']} ({detail})"
-                + (f": {row['error']}" if row["error"] else "") + f" on {row['worker']}")
+            say(progress_line(k, len(plan.packages), row))
         rows.sort(key=lambda r: r["package"])
-        summary_path = reports_folder(out) / f"summary-{dt.date.today().isoformat()}.pdf"
-        if any(r["processed"] for r in rows) or not summary_path.is_file():
-            summary = render_night_summary(rows, dataset_folder(out), summary_path)
-            say(f"nightly summary: {summary}")
-        else:
-            say(f"nightly summary: {summary_path} (nothing new tonight: kept as it was)")
+        finish_night(rows, layout, dt.date.today(), say)
     create_table_artifact(rows, key="pipegauge-nightly-summary",
                           description=f"Packages of {inbox} measured into {out} ({model} model)")
     failed = [r for r in rows if r["status"] == "failed"]

@@ -71,7 +71,7 @@ def test_a_log_over_the_row_limit_is_refused_whole_before_it_is_parsed(tmp_path,
                 [{"row": r, "distance_m": "1.0", "code": "BDB"} for r in range(51)])
     with pytest.raises(ObservationLogError, match=r"observations.csv: more than 50 rows; .* deliver one file per pipe"):
         read_log(path, 42.0)
-    monkeypatch.setattr("pipeline.formats.observation_log.MAX_CSV_BYTES", 100)
+    monkeypatch.setattr("pipeline.formats.csvfile.MAX_CSV_BYTES", 100)
     with pytest.raises(ObservationLogError, match=r"observations.csv: [\d,]+ bytes; pipegauge reads an? observation log"):
         read_log(path, 42.0)
 
@@ -279,8 +279,8 @@ def test_a_package_linked_from_outside_the_inbox_is_not_read(tmp_path):
 
 
 def test_a_record_the_store_refuses_is_stored_as_a_failure(tmp_path, monkeypatch):
-    from pipeline.app import inbox
     from pipeline.app import InspectionResult
+    from pipeline.app import process as inbox
 
     folder = _package(tmp_path / "inbox" / "P", "P")
     inspection, observations, measurements = _records("P")
@@ -328,7 +328,7 @@ def test_measure_and_run_refuse_a_dataset_another_process_writes(tmp_path):
     assert time.perf_counter() - start < 300
 
 
-def test_a_second_holder_in_another_process_is_refused_and_one_process_may_reenter(tmp_path):
+def test_a_second_holder_in_another_process_or_in_this_one_is_refused(tmp_path):
     from pipeline.store.lock import dataset_lock
 
     holder = _holding_lock(tmp_path)
@@ -340,8 +340,9 @@ def test_a_second_holder_in_another_process_is_refused_and_one_process_may_reent
         holder.kill()
         holder.wait()
     with dataset_lock(tmp_path):
-        with dataset_lock(tmp_path):                  # the flow inside the command line's lock
-            pass
+        with pytest.raises(StoreError, match="another pipegauge run is writing here"):
+            with dataset_lock(tmp_path):              # the lock is taken once per run, by the run policy
+                pass
     holder = _holding_lock(tmp_path)                   # released when this process left it
     holder.kill()
     holder.wait()

@@ -1,8 +1,7 @@
-"""One inspection package measured end to end: validated inputs, chainage, contours, quantities.
+"""Steps 3-5 of a package's way: contours at the frames the quantities need, the quantities measured, judged.
 
-The result holds plain records, one per inspection, per logged observation
-and per measured quantity (with a thumbnail of its frame), with the column names of the Parquet dataset
-(``pipeline.store``, docs/dataset.md). A bad row of the log, a bad mark or a
+The result holds typed records (``pipeline.domain.results``), one per inspection, per logged observation
+and per measured quantity (with a thumbnail of its frame), as the dataset stores them (docs/dataset.md). A bad row of the log, a bad mark or a
 quantity that cannot be measured is recorded with its error and the rest
 are still measured; a package that cannot be read at all (manifest,
 header, certificate, video) gives one inspection record with status
@@ -12,7 +11,6 @@ header, certificate, video) gives one inspection record with status
 from __future__ import annotations
 
 import datetime as dt
-import hashlib
 import os
 import time
 import zlib
@@ -25,28 +23,25 @@ from typing import Callable
 import numpy as np
 
 from pipeline import __version__
-from pipeline.formats.certificate import load_certificate
-from pipeline.domain.records import Mark, Observation, SectionHeader
-from pipeline.formats.manifest import certificate_path, load_manifest
-from pipeline.formats.marks import check_marks_in_frame, read_marks
-from pipeline.core.errors import MeasurementError, PackageError, PipegaugeError
-from pipeline.formats import load_package_log
-from pipeline.vision.video.ingest import ingest_chainage
-from pipeline.vision.video.overlay_check import overlay_header_mismatches
+from pipeline.domain.records import Mark, Observation
+from pipeline.formats.manifest import PackageManifest
+from pipeline.formats.marks import check_marks_in_frame
+from pipeline.core.errors import MeasurementError, PipegaugeError
 from pipeline.vision.video.overlay_ocr import OverlayReader
 from pipeline.reports.thumbnail import THUMBNAIL_WIDTH_PX, measurement_thumbnail
-from pipeline.vision.video.pipe_contour import contours_at_frames, overlay_mask_of
+from pipeline.vision.video.pipe_contour import contours_at_frames
 from pipeline.vision.video.reader import read_frame
-from pipeline.camera.undistort import Undistorter
 from pipeline.measurement.automatic import measurable_automatically, measure_automatic
 from pipeline.measurement.marked import marked_quantity
 from pipeline.measurement.quantity import MODELS, MarkedQuantity, QuantityResult, measure_quantity
 from pipeline.measurement.wall import contour_under
-from pipeline.app.verdict_records import add_verdicts
+from pipeline.app.judge import add_verdicts
+from pipeline.app.load import load_delivery
+from pipeline.app.locate import locate
 from pipeline.domain.results import (InspectionRecord, MeasurementRecord, ObservationRecord, ThumbnailRecord,
                                      observation_record)
 
-__all__ = ["InspectionResult", "measure_package", "file_sha256", "file_digests", "package_digest"]
+__all__ = ["InspectionResult", "measure_package"]
 
 # quantities whose Monte Carlo runs at once: two where this process may use two cores
 QUANTITY_THREADS = min(2, len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1)
@@ -70,35 +65,6 @@ class InspectionResult:
         return self.inspection.status == "ok"
 
 
-def file_sha256(path: str | os.PathLike) -> str:
-    """SHA-256 of a file's contents, read in 1 MiB chunks."""
-    h = hashlib.sha256()
-    with Path(path).open("rb") as fh:
-        for chunk in iter(lambda: fh.read(1 << 20), b""):
-            h.update(chunk)
-    return h.hexdigest()
-
-
-def file_digests(folder: str | os.PathLike) -> dict[str, str]:
-    """SHA-256 of each file of a package (truth/ excluded), by path relative to the folder.
-
-    A link that leads outside the package raises PackageError before anything is read.
-    """
-    folder = Path(folder)
-    inside = folder.resolve()
-    paths = sorted(p for p in folder.rglob("*") if "truth" not in p.relative_to(folder).parts)
-    for p in paths:
-        if p.is_symlink() and inside not in p.resolve().parents:
-            raise PackageError(f"{p}: a link to {p.resolve()}, outside the package; nothing of the package was read: "
-                               "deliver the file itself")
-    return {p.relative_to(folder).as_posix(): file_sha256(p) for p in paths if p.is_file()}
-
-
-def package_digest(digests: dict[str, str]) -> str:
-    """SHA-256 over a package's file names and their digests (``file_digests``): its identity for re-processing."""
-    return hashlib.sha256("".join(f"{name}\0{d}\n" for name, d in sorted(digests.items())).encode()).hexdigest()
-
-
 def _seed(inspection_id: str, row: int, quantity: str) -> int:
     """A Monte Carlo seed fixed by what is measured, so a re-run repeats every trial."""
     return zlib.crc32(f"{inspection_id}/{row}/{quantity}".encode())
@@ -112,12 +78,16 @@ def _failed(record: InspectionRecord, error: str) -> InspectionResult:
 def measure_package(folder: str | os.PathLike, *, certificates: str | os.PathLike | None = None,
                     model: str = "perspective", reader: OverlayReader | None = None, every: int = 4,
                     progress: Callable[[str], None] | None = None, today: dt.date | None = None,
-                    digests: dict[str, str] | None = None) -> InspectionResult:
-    """Measure every marked quantity of a package; never raises for a bad package (the record says why).
+                    digests: dict[str, str] | None = None, manifest: PackageManifest | None = None) -> InspectionResult:
+    """Measure every logged quantity of a package; never raises for a bad package (the record says why).
+
+    The way: load the delivery (``load``), locate the video along the pipe (``locate``), fit the contours at
+    the frames the quantities need, measure each quantity (marked, and from the image alone), judge
+    (``judge``: log check, grades, survey), assemble the inspection's status.
 
     certificates : folder of certificate files (default: ``certificates/`` beside the package)
     model : "perspective" (default) or "orthographic"; every : overlay sampling interval [frames]
-    digests : the package's ``file_digests`` when the caller has them already
+    digests, manifest : the package's ``file_digests`` and manifest when the caller has them already
     """
     say = progress or (lambda message: None)
     if model not in MODELS:
@@ -128,35 +98,16 @@ def measure_package(folder: str | os.PathLike, *, certificates: str | os.PathLik
                               model=model, processed_at=dt.datetime.now(dt.timezone.utc), status="failed",
                               n_observations=0, n_measurements=0, n_problems=0)
     try:
-        manifest = load_manifest(folder)
-        record.inspection_id = manifest.package_id
-        digests = digests or file_digests(folder)          # the video is read once for both hashes
-        record.package_sha256 = package_digest(digests)
-        header, observations = load_package_log(manifest)      # header.json + observations.csv, or a transfer
-        record.update(_header_fields(header))
-        marks, mark_problems = read_marks(manifest.marks, observations)
-        cert = load_certificate(certificate_path(manifest, certificates))
-        record.update(certificate_id=cert.certificate_id, certificate_valid_until=cert.valid_until,
-                      camera=" ".join(str(cert.camera.get(k, "")) for k in ("make", "model", "serial")).strip() or None)
-        cert.check_valid_on(header.inspection_date)
-        say(f"{manifest.package_id}: reading the chainage overlay")
-        t0 = time.perf_counter()
-        ingest = ingest_chainage(manifest.video, reader, every=every)
-        info = ingest.info
-        video_key = manifest.video.resolve().relative_to(folder.resolve()).as_posix()
-        record.update(video_file=manifest.video.name, video_sha256=digests.get(video_key), video_frames=info.frame_count,
-                      video_fps=info.fps, video_width_px=info.width, video_height_px=info.height,
-                      chainage_read_rate=ingest.read_rate)
-        record.warnings = overlay_header_mismatches(ingest.overlay_text, asdict(header))
-        und = Undistorter(cert, info.width, info.height, what=str(manifest.video))
-        mask = overlay_mask_of(ingest.spread_frames.values(), und)
-        record.time_track_s = time.perf_counter() - t0
+        delivery = load_delivery(folder, record, certificates=certificates, digests=digests, manifest=manifest)
+        where = locate(delivery, record, reader, every=every, say=say)
     except PipegaugeError as exc:
         record.time_total_s = time.perf_counter() - t_start
         return _failed(record, str(exc))
+    manifest, header, observations, cert = delivery.manifest, delivery.header, delivery.observations, delivery.certificate
+    marks, ingest, info, und, mask = delivery.marks, where.ingest, where.info, where.undistorter, where.mask
 
     result = InspectionResult(record, [observation_record(o) for o in observations])
-    problems: list[str] = [str(p) for o in observations for p in o.problems] + [str(p) for p in mark_problems]
+    problems: list[str] = [str(p) for o in observations for p in o.problems] + [str(p) for p in delivery.mark_problems]
     by_row = {o.row: o for o in observations}
     contours, ideal_frames, t_contour, t_measure = {}, {}, 0.0, 0.0
     by_frame: dict[int, list[Mark]] = defaultdict(list)
@@ -203,12 +154,12 @@ def measure_package(folder: str | os.PathLike, *, certificates: str | os.PathLik
                     future = pool.submit(measure_quantity, marked, under(obs, contours[frame]), cert,
                                          H=header.height_mm, tolerance=header.height_tolerance_mm, model=model,
                                          seed=_seed(manifest.package_id, obs.row, m.quantity))
-                except (PipegaugeError, ValueError) as exc:
+                except PipegaugeError as exc:
                     row.update(status="error", error=str(exc))
                 jobs.append((row, m, marked, future))
         for _, _, _, future in jobs:
             error = future.exception() if future is not None else None       # waits for the run
-            if error is not None and not isinstance(error, (PipegaugeError, ValueError)):
+            if error is not None and not isinstance(error, PipegaugeError):
                 raise error                   # unexpected: at once, in the marks' order, as the loop one by one did
     except BaseException:                     # an interrupt or an unexpected error: the queued runs are not waited for
         pool.shutdown(wait=False, cancel_futures=True)
@@ -220,7 +171,7 @@ def measure_package(folder: str | os.PathLike, *, certificates: str | os.PathLik
             try:
                 row.update(_quantity_fields(future.result()))
                 result.thumbnails.append(_thumbnail(ideal(m.frame), contours[m.frame], marked, m.row, m.frame, "marks"))
-            except (PipegaugeError, ValueError) as exc:
+            except PipegaugeError as exc:
                 row.update(status="error", error=str(exc))
         result.measurements.append(row)
     for r, frame in sorted(automatic.items()):
@@ -236,7 +187,7 @@ def measure_package(folder: str | os.PathLike, *, certificates: str | os.PathLik
             t_measure += time.perf_counter() - t0
             row.update(_quantity_fields(res), u_mark_px=q.u_a)
             result.thumbnails.append(_thumbnail(ideal(frame), contours[frame], q, r, frame, "contour"))
-        except (PipegaugeError, ValueError) as exc:
+        except PipegaugeError as exc:
             row.update(status="error", error=str(exc))
         result.measurements.append(row)
     add_verdicts(result, header, observations, ingest.track)
@@ -286,10 +237,6 @@ def _automatic_base(obs: Observation, frame: int | None, track, model: str) -> M
     return MeasurementRecord(row=obs.row, quantity="Q1", source="contour", code=obs.code, char1=obs.char1,
                              char2=obs.char2, model=model, frame=frame, chainage_m=chainage, u_chainage_m=u_chainage,
                              distance_m=obs.distance_m, operator_value=obs.q1, status="ok")
-
-
-def _header_fields(h: SectionHeader) -> dict:
-    return asdict(h)
 
 
 def _measurement_base(obs: Observation, m: Mark, track, model: str) -> MeasurementRecord:

@@ -5,7 +5,6 @@ from __future__ import annotations
 import contextlib
 import fcntl
 import os
-import threading
 from pathlib import Path
 from typing import Iterator
 
@@ -14,35 +13,21 @@ from pipeline.core.errors import StoreError
 __all__ = ["dataset_lock", "remove_stale_temporaries"]
 
 LOCK_NAME = ".pipegauge.lock"
-_held: set[Path] = set()            # the folders whose lock this process holds
-_held_guard = threading.Lock()
 
 
 @contextlib.contextmanager
 def dataset_lock(root: str | os.PathLike) -> Iterator[Path]:
-    """Hold an exclusive lock on the dataset folder ``root``; a second writer (a run, ``measure``) fails at once.
+    """Hold an exclusive lock on the dataset folder ``root``; a second writer (a run, ``measure``, or a second
+    attempt in this very process) fails at once with StoreError.
 
     The operating system releases the lock when the process ends, however it
-    ends, so a killed run never leaves the dataset locked. Re-entrant within
-    one process: the command line takes the lock before Prefect starts, and
-    the flow it then runs takes it again.
+    ends, so a killed run never leaves the dataset locked. It is taken once per
+    run, by the run policy (``pipeline.app.night.writing``).
     """
     root = Path(root)
     root.mkdir(parents=True, exist_ok=True)
-    key = root.resolve()
-    with _held_guard:
-        reentered = key in _held
-    if reentered:               # an inner entry ends before the outer one, which releases the lock
-        yield root
-        return
     with _locked(root):
-        with _held_guard:
-            _held.add(key)
-        try:
-            yield root
-        finally:
-            with _held_guard:
-                _held.discard(key)
+        yield root
 
 
 @contextlib.contextmanager

@@ -1,4 +1,4 @@
-"""The verdicts of one measured package as dataset fields: log check, grades, surveyed length.
+"""Step 5: the verdicts of one measured package as record fields: log check, grades, surveyed length.
 
 Called by ``measure_package`` once every quantity is measured; it only adds
 fields (docs/dataset.md) to the records. The rules are in

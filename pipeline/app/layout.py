@@ -1,0 +1,71 @@
+"""The output folder of a run, defined once (docs/operations.md)::
+
+    OUT/dataset/                  the Parquet dataset (docs/dataset.md)
+    OUT/dataset/.pipegauge.lock   held by the one process writing the dataset (pipeline.store.lock)
+    OUT/reports/                  one PDF condition report per inspection, summary-YYYY-MM-DD.pdf per night
+    OUT/.prefect-server.pid       the embedded Prefect server of the run in progress (pipegauge run)
+
+Every verb takes OUT, or for those that only read or only write the dataset, the dataset folder itself
+(``Layout.of``).
+"""
+
+from __future__ import annotations
+
+import datetime as dt
+import os
+from dataclasses import dataclass
+from pathlib import Path
+
+from pipeline.reports import report_file_name
+
+__all__ = ["Layout"]
+
+
+@dataclass(frozen=True)
+class Layout:
+    """Where a run writes what, under its output folder ``out``."""
+
+    out: Path
+
+    @classmethod
+    def of(cls, folder: str | os.PathLike) -> Layout:
+        """The layout of ``folder``: OUT itself, or the OUT around a dataset folder passed as such (OUT/dataset).
+
+        A dataset folder with no OUT around it (one that is not named ``dataset``) keeps its reports beside it.
+        """
+        folder = Path(folder)
+        if (folder / "dataset" / "inspections").is_dir() or not (folder / "inspections").is_dir():
+            return cls(folder)
+        return _DatasetOnly(folder)
+
+    @property
+    def dataset(self) -> Path:
+        return self.out / "dataset"
+
+    @property
+    def reports(self) -> Path | None:
+        return self.out / "reports"
+
+    @property
+    def server_pid(self) -> Path:
+        return self.out / ".prefect-server.pid"
+
+    def report(self, inspection_id: str) -> Path | None:
+        """The PDF condition report of an inspection (None where the layout keeps no reports)."""
+        return None if self.reports is None else self.reports / report_file_name(inspection_id)
+
+    def summary(self, night: dt.date) -> Path:
+        return (self.reports or self.out) / f"summary-{night.isoformat()}.pdf"
+
+
+@dataclass(frozen=True)
+class _DatasetOnly(Layout):
+    """A dataset folder given as such (``pipegauge measure --data DATASET``): no reports folder of its own."""
+
+    @property
+    def dataset(self) -> Path:
+        return self.out
+
+    @property
+    def reports(self) -> Path | None:
+        return None

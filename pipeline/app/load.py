@@ -1,0 +1,65 @@
+"""Step 1 of a package's way: the delivery loaded and validated (manifest, header, log, marks, certificate).
+
+Everything a package is measured from is read here, once, through its format's module (``pipeline.formats``);
+a problem that leaves nothing to measure raises ``PipegaugeError`` naming the file, and the inspection's record
+holds what was learnt before it.
+"""
+
+from __future__ import annotations
+
+import os
+from dataclasses import asdict, dataclass
+from pathlib import Path
+
+from pipeline.camera.certificate import Certificate
+from pipeline.domain.records import Mark, Observation, RowProblem, SectionHeader
+from pipeline.domain.results import InspectionRecord
+from pipeline.formats import load_package_log
+from pipeline.formats.certificate import load_certificate
+from pipeline.formats.manifest import PackageManifest, certificate_path, load_manifest
+from pipeline.formats.marks import read_marks
+from pipeline.app.identity import file_digests, package_digest
+
+__all__ = ["Delivery", "load_delivery"]
+
+
+@dataclass(frozen=True)
+class Delivery:
+    """One package as delivered, validated: what every later step reads."""
+
+    folder: Path
+    manifest: PackageManifest
+    digests: dict[str, str]           # SHA-256 of each file by its path in the package
+    header: SectionHeader
+    observations: list[Observation]   # each with its own problems
+    marks: list[Mark]
+    mark_problems: list[RowProblem]
+    certificate: Certificate
+
+    @property
+    def video_sha256(self) -> str | None:
+        return self.digests.get(self.manifest.video.resolve().relative_to(self.folder.resolve()).as_posix())
+
+
+def load_delivery(folder: str | os.PathLike, record: InspectionRecord, *,
+                  certificates: str | os.PathLike | None = None, digests: dict[str, str] | None = None,
+                  manifest: PackageManifest | None = None) -> Delivery:
+    """Read and validate a package, filling the inspection's record as it goes (id, header, certificate).
+
+    certificates : folder of certificate files (default: ``certificates/`` beside the package)
+    digests, manifest : the package's ``file_digests`` and manifest when the caller has them already
+    Raises PipegaugeError (the record keeps what was read before).
+    """
+    folder = Path(folder)
+    manifest = manifest or load_manifest(folder)
+    record.inspection_id = manifest.package_id
+    digests = digests or file_digests(folder)          # the video is read once for both hashes
+    record.package_sha256 = package_digest(digests)
+    header, observations = load_package_log(manifest)      # header.json + observations.csv, or a transfer
+    record.update(asdict(header))
+    marks, mark_problems = read_marks(manifest.marks, observations)
+    cert = load_certificate(certificate_path(manifest, certificates))
+    record.update(certificate_id=cert.certificate_id, certificate_valid_until=cert.valid_until,
+                  camera=" ".join(str(cert.camera.get(k, "")) for k in ("make", "model", "serial")).strip() or None)
+    cert.check_valid_on(header.inspection_date)
+    return Delivery(folder, manifest, digests, header, observations, marks, mark_problems, cert)

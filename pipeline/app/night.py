@@ -1,0 +1,105 @@
+"""The run policy, shared by every verb that writes a dataset: the lock, the crash clean-up, the plan of a night,
+its progress lines and its summary.
+
+``pipegauge run`` and ``serve`` (the Prefect flow ``flows.nightly``) and ``pipegauge measure`` all come here, so
+that they hold the same lock, clean up the same way after a killed run, and store a package the same way
+(``pipeline.app.process``). The flow only decides where each package's work runs.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import datetime as dt
+import os
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Callable, Iterator, Sequence
+
+from pipeline.app.inbox import discover_packages, duplicate_claims
+from pipeline.app.layout import Layout
+from pipeline.app.process import PackageOutcome, process_package, refused_outcome
+from pipeline.formats.manifest import CERTIFICATES_FOLDER
+from pipeline.reports import render_night_summary
+from pipeline.store import remove_uncommitted
+from pipeline.store.lock import dataset_lock, remove_stale_temporaries
+
+__all__ = ["writing", "NightPlan", "plan_night", "progress_line", "finish_night", "measure_packages"]
+
+Say = Callable[[str], None]
+
+
+def _quiet(message: str) -> None:
+    pass
+
+
+@contextlib.contextmanager
+def writing(layout: Layout, say: Say = _quiet) -> Iterator[Layout]:
+    """Hold the dataset's lock and clean up what an interrupted run left (temporaries, uncommitted files).
+
+    A second writer of the same dataset, in this process or another, is refused at once (StoreError).
+    """
+    with dataset_lock(layout.dataset):
+        stale = remove_stale_temporaries(layout.out) + remove_uncommitted(layout.dataset)
+        if stale:
+            say(f"removed {len(stale)} file(s) left by an interrupted run")
+        yield layout
+
+
+@dataclass(frozen=True)
+class NightPlan:
+    """What a night will do with an inbox: the packages to process, and those refused unread with their rows."""
+
+    inbox: Path
+    certificates: str
+    packages: list[Path]
+    to_process: list[Path]
+    refused: list[dict] = field(default_factory=list)
+
+
+def plan_night(inbox: str | os.PathLike, certificates: str | os.PathLike | None = None) -> NightPlan:
+    """The inbox's packages; a package id claimed by two folders refuses both (``pipeline.app.inbox``)."""
+    packages = discover_packages(inbox)
+    duplicates = duplicate_claims(packages)
+    return NightPlan(Path(inbox), str(certificates or Path(inbox) / CERTIFICATES_FOLDER), packages,
+                     [p for p in packages if p not in duplicates],
+                     [refused_outcome(p, error).as_row() for p, error in duplicates.items()])
+
+
+def progress_line(k: int, n: int, row: dict) -> str:
+    """One package's line as a night goes: '[3/50] S03: ok (7 quantities, 12.1 s) on host:pid'."""
+    detail = ("refused" if row["refused"] else f"{row['quantities']} quantities, {row['seconds']} s"
+              if row["processed"] else "unchanged since the last run")
+    return (f"[{k}/{n}] {row['package']}: {row['status']} ({detail})" + (f": {row['error']}" if row["error"] else "")
+            + f" on {row['worker']}")
+
+
+def finish_night(rows: Sequence[dict], layout: Layout, night: dt.date | None = None, say: Say = _quiet) -> Path:
+    """The night's summary: rendered when a package was processed tonight or none exists yet, else kept."""
+    path = layout.summary(night or dt.date.today())
+    if any(r["processed"] for r in rows) or not path.is_file():
+        say(f"nightly summary: {render_night_summary(list(rows), layout.dataset, path)}")
+    else:
+        say(f"nightly summary: {path} (nothing new tonight: kept as it was)")
+    return path
+
+
+def measure_packages(folders: Sequence[str | os.PathLike], layout: Layout, *, model: str = "perspective",
+                     certificates: str | os.PathLike | None = None, reader=None,
+                     progress: Say | None = None, say: Say = _quiet) -> Iterator[PackageOutcome]:
+    """``pipegauge measure``: the packages one after another into ``layout``'s dataset, under its lock, each
+    measured again whatever is stored (its outcome carries its records); a report where the layout keeps them.
+
+    Folders that claim one package id are refused unread, as in a night.
+    """
+    from pipeline.vision.video.overlay_ocr import OverlayReader
+
+    folders = [Path(p) for p in folders]
+    duplicates = duplicate_claims(folders)
+    for folder, error in duplicates.items():
+        yield refused_outcome(folder, error)
+    with writing(layout, say):
+        reader = reader or OverlayReader()
+        for folder in (p for p in folders if p not in duplicates):
+            # the same path as a run's, input key included: a later run skips what measure stored
+            yield process_package(folder, layout.dataset, model=model, certificates=certificates, reader=reader,
+                                  skip_known=False, keep_result=True, progress=progress, reports=layout.reports)

@@ -1,0 +1,137 @@
+"""One package's way through a run: refused, skipped as unchanged, or measured, stored and reported.
+
+A package is skipped when the dataset already holds it with the same *input
+key* (``pipeline.app.identity``). A failed package is stored too, so an
+unchanged bad package is not retried every night; fixing any of its files,
+or delivering its certificate, changes the key.
+"""
+
+from __future__ import annotations
+
+import os
+import socket
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Callable
+
+from pipeline.app.identity import file_digests, input_key
+from pipeline.app.inbox import link_out, package_id_of
+from pipeline.app.measure import InspectionResult, measure_package
+from pipeline.core.errors import PackageError, PipegaugeError, StoreError
+from pipeline.formats.manifest import load_manifest
+from pipeline.reports import render_inspection_report, report_file_name
+from pipeline.store import stored_input_key, write_inspection
+from pipeline.vision.video.overlay_ocr import OverlayReader
+
+__all__ = ["PackageOutcome", "process_package", "refused_outcome"]
+
+
+@dataclass(frozen=True)
+class PackageOutcome:
+    """What became of one package in a run (plain values, so it crosses process boundaries)."""
+
+    folder: str
+    inspection_id: str
+    status: str             # ok | partial | failed
+    error: str | None = None
+    n_measurements: int = 0
+    seconds: float = 0.0
+    processed: bool = True  # False: unchanged since the run that stored it (status and error are that run's)
+    refused: bool = False   # True: not read nor stored (a duplicate id, a link out of the inbox); status failed
+    worker: str = field(default_factory=lambda: f"{socket.gethostname()}:{os.getpid()}")
+    # the records as measured, when the caller asked to keep them (never across process boundaries)
+    result: InspectionResult | None = field(default=None, repr=False, compare=False)
+
+    def as_row(self) -> dict:
+        return {"package": Path(self.folder).name, "inspection_id": self.inspection_id, "status": self.status,
+                "quantities": self.n_measurements, "seconds": round(self.seconds, 1), "error": self.error or "",
+                "processed": self.processed and not self.refused, "refused": self.refused, "worker": self.worker}
+
+
+def refused_outcome(folder: str | os.PathLike, error: str, package_id: str | None = None) -> PackageOutcome:
+    """The outcome of a package that is neither read nor stored."""
+    return PackageOutcome(str(folder), package_id or Path(folder).name, "failed", error, processed=False, refused=True)
+
+
+def process_package(folder: str | os.PathLike, out: str | os.PathLike, *, model: str = "perspective",
+                    certificates: str | os.PathLike | None = None, reader: OverlayReader | None = None,
+                    skip_known: bool = True, reports: str | os.PathLike | None = None,
+                    progress: Callable[[str], None] | None = None, keep_result: bool = False) -> PackageOutcome:
+    """Measure one package and store its records in the dataset ``out``; never raises for a bad package.
+
+    reports : folder for the package's PDF condition report, rendered from the
+    dataset (also for a skipped package whose report is missing).
+    skip_known : skip the package when ``out`` holds it with the same input key; the
+    outcome then repeats the stored status and error, with ``processed`` False.
+    keep_result : the outcome carries the measured records (``result``), for a caller that prints them.
+    Errors writing the dataset (OSError) do raise: they may be transient.
+    """
+    t0 = time.perf_counter()
+    folder = Path(folder)
+    if (why := link_out(folder)) is not None:
+        return refused_outcome(folder, why)
+    try:
+        digests = file_digests(folder)
+    except PackageError as exc:
+        return refused_outcome(folder, str(exc))
+    try:
+        manifest = load_manifest(folder)
+    except PipegaugeError:
+        manifest = None             # measure_package records why
+    key = input_key(manifest, digests, certificates, model)
+    package_id = manifest.package_id if manifest else folder.name
+    stored = stored_input_key(out, package_id) if skip_known else None
+    if stored and (other := _other_claimant(stored, folder, package_id)):
+        return refused_outcome(folder, f"package id {package_id!r} is stored from {other}, which still holds it; nothing "
+                                       "of this folder was read or stored: give each package its own package_id",
+                               package_id)
+    if stored and stored["input_sha256"] == key:
+        error = _render(out, package_id, reports, missing_only=True)
+        return PackageOutcome(str(folder), package_id, stored["status"], _joined(stored["error"], error),
+                              stored["n_measurements"] or 0, time.perf_counter() - t0, processed=False)
+    result = measure_package(folder, certificates=certificates, model=model, reader=reader, progress=progress,
+                             digests=digests, manifest=manifest)
+    result.inspection["input_sha256"] = key
+    rec = result.inspection
+    try:
+        write_inspection(out, rec, result.observations, result.measurements, result.thumbnails)
+    except StoreError as exc:       # a record the schema refuses: keep the failure, not the records
+        rec.update(status="failed", error=f"the results could not be stored ({exc}); please report this")
+        write_inspection(out, {k: rec.get(k) for k in _FAILED_FIELDS}, [], [], [])
+        result.measurements = []
+    error = _render(out, rec["inspection_id"], reports)
+    return PackageOutcome(str(folder), rec["inspection_id"], rec["status"], _joined(rec["error"], error),
+                          len(result.measurements), time.perf_counter() - t0, result=result if keep_result else None)
+
+
+# What a failed inspection's record keeps when its full record cannot be stored.
+_FAILED_FIELDS = ("inspection_id", "inspection_date", "processed_at", "package_folder", "package_sha256", "input_sha256",
+                  "pipeline_version", "model", "status", "error")
+
+
+def _other_claimant(stored: dict, folder: Path, package_id: str) -> str | None:
+    """The other folder a stored result of ``package_id`` came from, when it still exists and claims that id."""
+    other = stored.get("package_folder")
+    if not other or Path(other).resolve() == folder.resolve():
+        return None
+    other = Path(other)
+    return str(other) if other.is_dir() and package_id_of(other) == package_id else None
+
+
+def _render(out, inspection_id: str, reports, missing_only: bool = False) -> str | None:
+    """Render an inspection's report; returns why it could not be rendered (the stored result stays)."""
+    if not reports:
+        return None
+    path = Path(reports) / report_file_name(inspection_id)
+    if missing_only and path.is_file():
+        return None
+    try:
+        render_inspection_report(out, inspection_id, path)
+    except PipegaugeError as exc:
+        return f"its PDF report could not be rendered ({exc})"
+    return None
+
+
+def _joined(*errors: str | None) -> str | None:
+    return "; ".join(e for e in errors if e) or None

@@ -34,8 +34,8 @@ class PackageManifest:
     package_id: str
     certificate_id: str
     video: Path
-    header: Path
-    observations: Path
+    header: Path | None              # None when a transfer holds the header
+    observations: Path | None        # None when a transfer holds the log
     marks: Path
     transfer: Path | None = None     # an exchange file holding the header and the log (docs/formats.md)
     section: dict | None = None      # what the transfer does not hold: shape, height_mm... (header.json's fields)
@@ -102,8 +102,8 @@ def load_manifest(folder: str | os.PathLike) -> PackageManifest:
         files[key] = folder / str(name)
     if problems:
         raise PackageError(f"{path}: " + "; ".join(problems))
-    if "transfer" in files:
-        files["header"] = files["observations"] = files["transfer"]
+    if "transfer" in files:         # the transfer holds both: no path stands for a file that is not there
+        files["header"] = files["observations"] = None
     return PackageManifest(folder, ids["package_id"], ids["certificate_id"], **files, section=section)
 
 

@@ -55,7 +55,7 @@ from pipeline.measurement.rays import marked_points
 from pipeline.domain.results import BudgetLine
 
 __all__ = ["MarkedQuantity", "QuantityResult", "BudgetEntry", "measure_quantity", "certificate_scale_u", "MODELS",
-           "INPUT_DESCRIPTIONS", "RESOLUTION_PX"]
+           "INPUT_DESCRIPTIONS", "RESOLUTION_PX", "INPUT_UNITS", "input_unit"]
 
 MODELS = ("orthographic", "perspective")
 CERTIFICATE_DRAWS = 200
@@ -75,6 +75,22 @@ INPUT_DESCRIPTIONS = {
     "wall": "wall position against the nominal profile (tolerance, displaced joints logged before it)",
     "across": "the marks' separation across the measured extent (nuisance, not part of the value)",
 }
+
+
+# The unit of each input's estimate and u in a budget; "approximation" is in the quantity's unit, "across" in mm
+# (perspective) or px (orthographic). The report's budget table reads them here (input_unit).
+INPUT_UNITS = {"H": "mm", "p_H": "px", "p_X": "px", "xa": "px", "ya": "px", "xb": "px", "yb": "px", "xo": "px",
+               "yo": "px", "ox": "H", "oy": "H", "yaw": "rad", "pitch": "rad", "roll": "rad", "wall": "1",
+               "certificate": "1", "across": "mm"}
+
+
+def input_unit(label: str, quantity_unit: str, model: str = "perspective") -> str:
+    """The unit of a budget line's estimate and u: its input's (``INPUT_UNITS``), "" for an input not listed."""
+    if label == "approximation":
+        return quantity_unit
+    if label == "across" and model == "orthographic":
+        return "px"
+    return INPUT_UNITS.get(label, "")
 
 
 @dataclass(frozen=True)

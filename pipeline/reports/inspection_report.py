@@ -34,6 +34,7 @@ from pipeline.reports.verdict_text import grade_text, log_check_text, verdict_li
 from pipeline.reports.warning_text import measurement_warnings
 from pipeline.maths.metrology import K95
 from pipeline.core.numbers import is_finite, is_missing
+from pipeline.measurement.quantity import input_unit
 
 __all__ = ["render_inspection_report", "inspection_warnings", "report_file_name", "NEAR_EXPIRY_DAYS"]
 
@@ -183,11 +184,6 @@ def _observation_table(observations: list[dict], by_row: dict[int, list[dict]]) 
                       split_rows=True)
 
 
-# Units of the budget's inputs (pipeline/measurement/quantity.py: its docstring names them); an input not listed
-# here is shown without a unit.
-_INPUT_UNITS = {"H": "mm", "p_H": "px", "p_X": "px", "xa": "px", "ya": "px", "xb": "px", "yb": "px", "xo": "px",
-                "yo": "px", "ox": "H", "oy": "H", "yaw": "rad", "pitch": "rad", "roll": "rad", "wall": "1",
-                "certificate": "1", "across": "mm"}
 _SCALES = ("wall", "certificate")   # relative factors, 1 at the nominal wall and at the certificate's own parameters
 
 
@@ -198,7 +194,7 @@ def _budget_table(m: dict, budget: list[dict]) -> Table:
     for b in budget:
         label = str(b["label"])
         rows.append([_p(_txt(label), "tiny"), _p(number(b["estimate"], 4), "tiny number"),
-                     _p(number(b["u"]), "tiny number"), _p(safe_text(_input_unit(label, m["unit"])), "tiny"),
+                     _p(number(b["u"]), "tiny number"), _p(safe_text(_input_unit(label, m)), "tiny"),
                      _p(_txt(_distribution(b["distribution"]), 40), "tiny"),
                      _p(number(b["sensitivity"]), "tiny number"), _p(number(abs(b["contribution"])), "tiny number")])
     return grid_table(rows, _BUDGET_WIDTHS, [("TOPPADDING", (0, 0), (-1, -1), 0.3),
@@ -210,8 +206,9 @@ def _budget_table(m: dict, budget: list[dict]) -> Table:
 _BUDGET_WIDTHS = [13 * mm, 14 * mm, 11.5 * mm, 6 * mm, 13.5 * mm, 11 * mm, 12 * mm]
 
 
-def _input_unit(label: str, unit: str) -> str:
-    return unit if label == "approximation" else _INPUT_UNITS.get(label, "")
+def _input_unit(label: str, m) -> str:
+    """The unit of a budget line's input for the measurement ``m`` (a mapping with unit and model)."""
+    return input_unit(label, m["unit"] or "", m.get("model") or "perspective")
 
 
 def _joint_note(m: dict, budget: list[dict]) -> list[Paragraph]:
@@ -233,7 +230,7 @@ def _input_legend(measurements: list[dict]) -> str:
             seen.setdefault(str(b["label"]), {})[str(b["description"]).replace(" [mm]", "")] = None
     out = []
     for label, descriptions in seen.items():
-        unit = _input_unit(label, "the quantity's unit")
+        unit = input_unit(label, "the quantity's unit")
         out.append(f"<b>{safe_text(label)}</b>{f' [{safe_text(unit)}]' if unit else ''} "
                    + " or ".join(safe_text(d) for d in descriptions))
     return "; ".join(out)

@@ -19,7 +19,7 @@ Rigid and flexible pipes (BAA S) are told apart by the header's material
 
 from __future__ import annotations
 
-from pipeline.judgement.grading import Band, Scheme
+from pipeline.judgement.grading.scheme import Band, Scheme
 
 __all__ = ["SCHEME", "FLEXIBLE_MATERIALS"]
 

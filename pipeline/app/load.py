@@ -11,7 +11,7 @@ import os
 from dataclasses import asdict, dataclass
 from pathlib import Path
 
-from pipeline.camera.certificate import Certificate
+from pipeline.camera import Certificate
 from pipeline.domain.records import Mark, Observation, RowProblem, SectionHeader
 from pipeline.domain.results import InspectionRecord
 from pipeline.formats import load_package_log

@@ -20,7 +20,7 @@ import numpy as np
 from pipeline.core.atomic import atomic_path
 from pipeline.core.errors import CertificateError
 from pipeline.core.limits import MAX_JSON_BYTES
-from pipeline.camera.certificate import Certificate, Parameter
+from pipeline.camera import Certificate, Parameter
 from pipeline.camera.conventions import CONVENTIONS, OPTIONAL_ZERO, PARAMETERS, REQUIRED
 
 __all__ = ["FORMAT_NAME", "FORMAT_VERSION", "certificate_from_dict", "load_certificate", "certificate_to_dict",

@@ -16,7 +16,7 @@ import math
 
 import numpy as np
 
-from pipeline.camera.certificate import Certificate
+from pipeline.camera import Certificate
 from pipeline.domain.records import Observation
 from pipeline.vision.contour import PipeContour
 from pipeline.vision.contour.deformed_ring import find_deformed_ring

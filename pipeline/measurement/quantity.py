@@ -44,7 +44,7 @@ from dataclasses import dataclass, field
 import cv2
 import numpy as np
 
-from pipeline.camera.certificate import Certificate
+from pipeline.camera import Certificate
 from pipeline.vision.contour import PipeContour
 from pipeline.core.errors import MeasurementError
 from pipeline.maths.metrology import InputSet, JointNormal, Normal, Rectangular, propagate_linear, propagate_monte_carlo, validate_linear

@@ -11,7 +11,7 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
-from pipeline.camera.certificate import Certificate
+from pipeline.camera import Certificate
 from pipeline.app.calibration.pattern import Pattern
 
 __all__ = ["subpixel_rays", "render_board", "random_board_poses"]

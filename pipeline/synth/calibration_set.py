@@ -8,7 +8,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from pipeline.camera.certificate import Certificate
+from pipeline.camera import Certificate
 from pipeline.app.calibration.pattern import Pattern
 from pipeline.synth.boards import random_board_poses, render_board, subpixel_rays
 

@@ -30,7 +30,7 @@ import cv2
 import numpy as np
 
 from pipeline import __version__
-from pipeline.camera.certificate import Certificate
+from pipeline.camera import Certificate
 from pipeline.synth.overlay import Overlay, chainage_text
 from pipeline.maths.profiles import (
     chord_at_height, clock_to_theta, perimeter, segment_height_for_area_fraction, theta_to_clock, wall_point,

@@ -22,7 +22,7 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from pipeline.camera.certificate import Certificate
+from pipeline.camera import Certificate
 from pipeline.maths.profiles import clock_to_theta, exit_table, perimeter, profile_polygon, segment_height_for_area_fraction, wall_point
 from pipeline.camera.pose import camera_rotation, pixel_rays
 from pipeline.synth.scene import Connection, Crack, Deformation, Deposit, DisplacedJoint, Marker, Scene

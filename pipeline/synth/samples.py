@@ -13,7 +13,7 @@ from typing import Callable
 
 import numpy as np
 
-from pipeline.camera.certificate import Certificate
+from pipeline.camera import Certificate
 from pipeline.formats.certificate import FORMAT_NAME, FORMAT_VERSION, certificate_from_dict
 from pipeline.synth.package import CameraMount, PackageSpec, build_package
 from pipeline.synth.scene import Connection, Crack, Deformation, Deposit, DisplacedJoint, Pipe, Scene

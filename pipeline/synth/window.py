@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from pipeline.camera.certificate import Certificate
+from pipeline.camera import Certificate
 from pipeline.camera.undistort import Undistorter
 from pipeline.synth.render import Renderer
 from pipeline.synth.scene import Scene

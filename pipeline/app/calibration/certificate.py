@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import datetime as dt
 
-from pipeline.camera.certificate import Certificate
+from pipeline.camera import Certificate
 from pipeline.formats.certificate import FORMAT_NAME, FORMAT_VERSION, certificate_from_dict
 from pipeline.app.calibration.pattern import Pattern
 from pipeline.app.calibration.solve import PARAMETERS, SOLVER_FLAGS, Calibration, uncertainty_source

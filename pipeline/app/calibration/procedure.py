@@ -14,7 +14,7 @@ from pipeline.app.calibration.pattern import parse_pattern
 from pipeline.app.calibration.report import write_calibration_report
 from pipeline.app.calibration.solve import Calibration, calibrate
 from pipeline.app.calibration.views import read_views
-from pipeline.camera.certificate import Certificate
+from pipeline.camera import Certificate
 from pipeline.formats.certificate import save_certificate
 
 __all__ = ["CalibrationOutcome", "calibrate_camera"]

@@ -11,7 +11,7 @@ from reportlab.lib.units import mm
 from reportlab.platypus import Paragraph, Spacer
 
 from pipeline import __version__
-from pipeline.camera.certificate import Certificate
+from pipeline.camera import Certificate
 from pipeline.reports.pdf import FONT, FRAME_WIDTH, build_pdf, cell, grid_table, safe_text, styles
 from pipeline.app.calibration.solve import PARAMETERS, Calibration, uncertainty_source
 from pipeline.maths.metrology import K95 as _K95

@@ -17,7 +17,7 @@ from typing import Any
 import numpy as np
 
 from pipeline import __version__
-from pipeline.camera.certificate import Certificate
+from pipeline.camera import Certificate
 from pipeline.camera.lens import distortion_uncertainty
 from pipeline.camera.orthographic import (
     orthographic_length,

@@ -2,8 +2,11 @@
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 from pathlib import Path
+
+from pipeline.domain.records import Observation
 
 __all__ = ["LogReading", "observation_record"]
 
@@ -47,9 +50,8 @@ class LogReading:
                 "problems": self.problems()}
 
 
-def observation_record(o) -> dict:
-    """An Observation as plain fields (distance_m [m], video_time_s [s]), its problems as text."""
-    return {"row": o.row, "distance_m": o.distance_m, "code": o.code, "char1": o.char1, "char2": o.char2, "q1": o.q1,
-            "q1_unit": o.q1_unit, "q2": o.q2, "q2_unit": o.q2_unit, "clock_from": o.clock_from, "clock_to": o.clock_to,
-            "at_joint": o.at_joint, "continuous": o.continuous, "video_time_s": o.video_time_s, "photo": o.photo,
-            "remark": o.remark, "ref": o.ref, "grade": o.grade, "problems": [str(p) for p in o.problems]}
+def observation_record(o: Observation) -> dict:
+    """An Observation as plain fields for JSON (distance_m [m], video_time_s [s]): the record's own fields but the
+    text as delivered, its problems as text."""
+    fields = {f.name: getattr(o, f.name) for f in dataclasses.fields(o) if f.name not in ("fields", "problems")}
+    return {**fields, "problems": [str(p) for p in o.problems]}

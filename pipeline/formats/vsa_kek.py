@@ -29,12 +29,13 @@ from pipeline import __version__
 from pipeline.domain.records import Observation
 from pipeline.domain.codes import quantification
 from pipeline.formats.observation_log import finite_number, parse_log_rows
-from pipeline.core.errors import PipegaugeError, TransferError
+from pipeline.core.errors import TransferError
 from pipeline.core.limits import MAX_TRANSFER_BYTES  # one inspection's transfer is kilobytes; a network's goes elsewhere
 
 __all__ = ["Transfer", "TransferObject", "TransferLog", "read_transfer", "read_transfer_log", "read_log",
            "write_transfer", "transfer_text", "MODELS", "MAX_TRANSFER_BYTES", "MAX_OBJECTS", "MAX_ELEMENTS",
-           "vsa_code", "split_code", "FPS", "SECTION_FIELDS", "package_transfer", "export_transfers"]
+           "vsa_code", "split_code", "FPS", "SECTION_FIELDS", "package_transfer", "measured_values", "inspection_transfer",
+           "write_2019", "write_2020"]
 
 ILI_NS = "http://www.interlis.ch/INTERLIS2.3"
 MODELS = {"2019": ("VSA_KEK_2019_LV95", "20.01.2021"), "2020": ("VSA_KEK_2020_1_LV95", "30.10.2023")}
@@ -513,7 +514,7 @@ def write_transfer(path: str | os.PathLike, inspection: dict, observations: list
     return path
 
 
-# -- from a package or from the dataset ----------------------------------------
+# -- from a package or from stored records -----------------------------------
 
 def package_transfer(folder: str | os.PathLike, path: str | os.PathLike, version: str = "2019") -> Path:
     """Write a package's header and log (as pipegauge reads them) as a transfer; the package's own transfer is
@@ -529,69 +530,65 @@ def package_transfer(folder: str | os.PathLike, path: str | os.PathLike, version
                           video_file=manifest.video.name)
 
 
-def _source_of(package_folder) -> tuple[Transfer | None, dict[int, str]]:
-    """The contractor's transfer of a stored inspection (re-read from its package) and its row -> TID."""
-    from pipeline.formats.manifest import load_manifest
+def measured_values(measurements: list[dict]) -> dict[tuple[int, str], dict]:
+    """The quantities a transfer writes as pipegauge measured them (docs/formats.md, "Exports", Values).
 
-    if not package_folder:
-        return None, {}
-    try:
-        manifest = load_manifest(package_folder)
-        if manifest.transfer is None:
-            return None, {}
-        log = read_transfer_log(manifest.transfer)
-    except PipegaugeError:     # the package moved or changed since it was measured: write fresh objects
-        return None, {}
-    return log.transfer, {o.row: o.ref for o in log.observations}
+    Parameters
+    ----------
+    measurements : list of dict
+        One inspection's measurement rows as the dataset stores them (row, quantity, source, status, confident,
+        value, U95, unit).
 
-
-def export_transfers(root: str | os.PathLike, out: str | os.PathLike, version: str, start: dt.date | None = None,
-                     end: dt.date | None = None) -> list[tuple[Path, int]]:
-    """One transfer per stored inspection (not the failed ones) into the folder ``out``: ``<stem>.xtf``
-    (the dataset's file stem of the id, pipeline.store.file_stem).
-
-    Returns [(path, Kanalschaden written)]. Policy (docs/formats.md): a quantity pipegauge measured with a confident
-    contour goes into Quantifizierung with its U95 in Anmerkung; the contractor's value stays otherwise.
+    Returns
+    -------
+    dict
+        (row, "Q1"|"Q2") -> the measurement with status ok and a confident contour; the marked points' one
+        where there are both, the image-alone measurement otherwise.
     """
-    import pandas as pd
-
-    from pipeline.store import file_stem, read_table, require_dataset
-
-    require_dataset(root)
-
-    def records(frame) -> list[dict]:
-        return [{k: (None if v is pd.NA or (isinstance(v, float) and math.isnan(v)) else v) for k, v in r.items()}
-                for r in frame.to_dict("records")]
-
-    inspections = read_table(root, "inspections", start=start, end=end)
-    observations = read_table(root, "observations", start=start, end=end)
-    measurements = read_table(root, "measurements", start=start, end=end)
-    written = []
-    for ins in records(inspections):
-        if ins["status"] == "failed":
-            continue
-        iid = ins["inspection_id"]
-        ins["inspection_date"] = pd.Timestamp(ins["inspection_date"]).date()
-        rows = records(observations[observations["inspection_id"] == iid])
-        source, refs = _source_of(ins.get("package_folder"))
-        for r in rows:
-            r["ref"] = refs.get(r["row"], "")
-        measured: dict = {}
-        ok = measurements[(measurements["inspection_id"] == iid) & (measurements["status"] == "ok")
-                          & (measurements["confident"] == True)]       # noqa: E712 (a nullable column)
-        for m in sorted(records(ok), key=lambda m: m["source"] != "marks"):   # marks before contour
-            measured.setdefault((m["row"], m["quantity"]), m)
-        path = write_transfer(Path(out) / f"{file_stem(iid)}.xtf", ins, rows, version, measured=measured, source=source,
-                              video_file=ins.get("video_file") or "")
-        written.append((path, len(rows)))
-    return written
+    ok = [m for m in measurements if m.get("status") == "ok" and m.get("confident") == True]  # noqa: E712 (also numpy's bool)
+    measured: dict = {}
+    for m in sorted(ok, key=lambda m: m["source"] != "marks"):     # marks before contour
+        measured.setdefault((m["row"], m["quantity"]), m)
+    return measured
 
 
-def export_2019(root, out, start=None, end=None) -> list[tuple[Path, int]]:
-    """``export_transfers`` in model VSA_KEK_2019_LV95."""
-    return export_transfers(root, out, "2019", start, end)
+def inspection_transfer(folder: str | os.PathLike, stem: str, inspection: dict, observations: list[dict],
+                        measurements: list[dict], source: Transfer | None, version: str) -> tuple[Path, int]:
+    """One stored inspection as the transfer ``folder/<stem>.xtf`` (a ``folder`` writer, pipeline.formats.WRITERS).
+
+    Parameters
+    ----------
+    folder : str or os.PathLike
+        The export's folder.
+    stem : str
+        The file's name without its suffix (the dataset's file stem of the inspection id).
+    inspection : dict
+        The inspection's row (``transfer_text``), with ``video_file``, the video's name.
+    observations : list of dict
+        Its log rows, each with ``ref``: the contractor's TID of the row ("" for none).
+    measurements : list of dict
+        Its measurement rows; ``measured_values`` picks those written.
+    source : Transfer or None
+        The contractor's transfer when the package came as one: its objects, TIDs and values are kept.
+    version : str
+        "2019" or "2020" (a key of ``MODELS``).
+
+    Returns
+    -------
+    (pathlib.Path, int)
+        The file written and the Kanalschaden in it.
+    """
+    path = write_transfer(Path(folder) / f"{stem}.xtf", inspection, observations, version,
+                          measured=measured_values(measurements), source=source,
+                          video_file=inspection.get("video_file") or "")
+    return path, len(observations)
 
 
-def export_2020(root, out, start=None, end=None) -> list[tuple[Path, int]]:
-    """``export_transfers`` in model VSA_KEK_2020_1_LV95."""
-    return export_transfers(root, out, "2020", start, end)
+def write_2019(folder, stem, inspection, observations, measurements, source=None) -> tuple[Path, int]:
+    """``inspection_transfer`` in model VSA_KEK_2019_LV95."""
+    return inspection_transfer(folder, stem, inspection, observations, measurements, source, "2019")
+
+
+def write_2020(folder, stem, inspection, observations, measurements, source=None) -> tuple[Path, int]:
+    """``inspection_transfer`` in model VSA_KEK_2020_1_LV95."""
+    return inspection_transfer(folder, stem, inspection, observations, measurements, source, "2020")

@@ -1,5 +1,6 @@
 """The VSA-KEK INTERLIS 2 models as pipegauge reads and writes them: names, the attributes behind the log's
 columns, the attributes' order, the codes VSA writes otherwise than EN 13508-2, and a transfer's objects.
+The condition classes (Einzelschadenklasse) are the VSA 2023 grading scheme's (pipeline.judgement.grading).
 
 Models ``VSA_KEK_2019_LV95`` and ``VSA_KEK_2020_1_LV95`` (docs/formats.md says which attribute maps to which
 field, and what differs between the two). ``MODELS`` is the one place their names are written
@@ -11,8 +12,10 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from pipeline.judgement.grading.vsa_2023 import SCHEME as VSA_2023
+
 __all__ = ["ILI_NS", "MODELS", "VERSION_OF", "FPS", "QUANTITY_RANGE", "ANMERKUNG_CHARS", "EINZELSCHADENKLASSEN",
-           "FIELD_NAMES", "SECTION_FIELDS", "ATTRIBUTE_ORDER", "ROLES_AFTER", "split_code", "vsa_code",
+           "GRADING_SCHEME", "FIELD_NAMES", "SECTION_FIELDS", "ATTRIBUTE_ORDER", "ROLES_AFTER", "split_code", "vsa_code",
            "TransferObject", "Transfer"]
 
 ILI_NS = "http://www.interlis.ch/INTERLIS2.3"
@@ -21,7 +24,10 @@ VERSION_OF = {name: version for version, (name, _) in MODELS.items()}     # mode
 FPS = 25                            # Videozaehlerstand hh:mm:ss:ff counts frames 0..24 (VSA_KEK model)
 QUANTITY_RANGE = (0, 100000)        # Quantifizierung1/2: the model's integer range [mm or %]
 ANMERKUNG_CHARS = 100              # Kanalschaden.Anmerkung is TEXT*100 (other texts are cut at their own length)
-EINZELSCHADENKLASSEN = ("EZ0", "EZ1", "EZ2", "EZ3", "EZ4")     # the models' enumeration, "unbekannt" aside
+# Einzelschadenklasse: the models' enumeration is VSA's single-defect classes ("unbekannt" aside), the classes of
+# the scheme pipegauge grades by; they are written once, in the scheme
+EINZELSCHADENKLASSEN = VSA_2023.classes
+GRADING_SCHEME = VSA_2023.key       # the scheme whose grade a transfer carries as Einzelschadenklasse
 # VSA-KEK characterises codes that EN 13508-2 (pipeline/domain/codes.py) does not: the VSA code stands for the EN one
 _VSA_ALIASES = {"BAGA": ("BAG", "", "")}
 _EN_ALIASES = {v: k for k, v in _VSA_ALIASES.items()}

@@ -17,8 +17,8 @@ from xml.sax.saxutils import escape, quoteattr
 
 from pipeline import __version__
 from pipeline.core.atomic import atomic_path
-from pipeline.formats.vsa_kek.model import (ANMERKUNG_CHARS, ATTRIBUTE_ORDER, EINZELSCHADENKLASSEN, FPS, ILI_NS, MODELS,
-                                            QUANTITY_RANGE, ROLES_AFTER, Transfer, TransferObject, vsa_code)
+from pipeline.formats.vsa_kek.model import (ANMERKUNG_CHARS, ATTRIBUTE_ORDER, EINZELSCHADENKLASSEN, FPS, GRADING_SCHEME,
+                                            ILI_NS, MODELS, QUANTITY_RANGE, ROLES_AFTER, Transfer, TransferObject, vsa_code)
 
 __all__ = ["transfer_text", "write_transfer", "package_transfer", "measured_values", "inspection_transfer",
            "write_2019", "write_2020"]
@@ -160,7 +160,7 @@ def transfer_text(inspection: dict, observations: list[dict], version: str, *, m
             note = "; ".join(notes) + f" (pipegauge {__version__}, {inspection.get('model') or 'perspective'})"
             remark = f"{note}; {remark}" if remark else note
         a["Anmerkung"] = remark[:ANMERKUNG_CHARS]
-        ours = obs.get("grade") if obs.get("grading_scheme") == "vsa-2023" else None
+        ours = obs.get("grade") if obs.get("grading_scheme") == GRADING_SCHEME else None
         if isinstance(ours, str) and ours in EINZELSCHADENKLASSEN:
             a["Einzelschadenklasse"] = ours      # pipegauge's VSA 2023 grade (docs/verdicts.md) over the contractor's
         elif not k_src:

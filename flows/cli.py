@@ -190,7 +190,7 @@ def cmd_measure(args: argparse.Namespace) -> int:
 
 def _print_measured(result, args: argparse.Namespace) -> None:
     """What measure stored of one package: its status and problems (stderr), its quantities (stdout)."""
-    from pipeline.reports.value_text import format_record
+    from pipeline.domain.value_text import format_record
     from pipeline.reports.verdict_text import json_safe, log_check_text, verdict_lines
 
     rec = result.inspection
@@ -334,10 +334,11 @@ def cmd_report(args: argparse.Namespace) -> int:
 
 
 def cmd_export(args: argparse.Namespace) -> int:
-    from pipeline.formats import WRITERS, writer
+    from pipeline.app.export import export
+    from pipeline.formats import WRITERS
 
     fmt = args.format or ("parquet" if args.out.suffix.lower() == ".parquet" else "csv")
-    written = writer(fmt)(_dataset_of(args.data), args.out, args.start, args.end)
+    written = export(fmt, _dataset_of(args.data), args.out, args.start, args.end)
     if WRITERS[fmt].out == "file":
         _say(f"pipegauge export: {sum(n for _, n in written)} quantities written to {args.out} ({fmt})")
     else:

@@ -93,15 +93,33 @@ def format_names() -> dict[str, str]:
     return names
 
 
+DEFINING = ("FORMAT_NAME", "MODELS")       # the attributes a format's module defines its names in
+
+
+def _assigns(tree: ast.Module, attributes: tuple[str, ...]) -> bool:
+    """Whether a module assigns one of ``attributes`` at its top level."""
+    targets = [t for n in tree.body if isinstance(n, (ast.Assign, ast.AnnAssign))
+               for t in (n.targets if isinstance(n, ast.Assign) else [n.target])]
+    return any(isinstance(t, ast.Name) and t.id in attributes for t in targets)
+
+
 def format_name_definitions(root: Path, names: dict[str, str]) -> list[str]:
-    """Every string literal equal to a format's name outside the module that defines it, in pipeline/ and flows/."""
+    """Every string literal equal to a format's name outside the module that defines it, in pipeline/ and flows/.
+
+    A format registered as a package (pipeline/formats/vsa_kek/) defines its names in the one module of the
+    package that assigns FORMAT_NAME or MODELS; its other modules import them like everyone else.
+    """
     found = []
     for folder in ("pipeline", "flows"):
         for path in sorted((root / folder).rglob("*.py")):
             module = _module(path, root).removesuffix(".__init__")
-            for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            tree = ast.parse(path.read_text(encoding="utf-8"))
+            defines = _assigns(tree, DEFINING)
+            own = {owner for owner in names.values()
+                   if module == owner or (module.startswith(owner + ".") and defines)}
+            for node in ast.walk(tree):
                 if isinstance(node, ast.Constant) and isinstance(node.value, str) and node.value in names \
-                        and names[node.value] != module:
+                        and names[node.value] not in own:
                     found.append(f"{path.relative_to(root)}:{node.lineno} writes {node.value!r}, "
                                  f"defined in {names[node.value]}")
     return found
@@ -147,8 +165,11 @@ def test_a_planted_second_definition_of_a_format_name_is_caught(tmp_path):
     report = root / "pipeline" / "reports" / "planted.py"
     report.write_text('HEADER = {"format": "pipegauge-section-header", "format_version": 1}\n')
     (root / "flows" / "planted.py").write_text('MODEL = "VSA_KEK_2019_LV95"\n')
+    # inside the format's own package, but not in the module that defines the names
+    (root / "pipeline" / "formats" / "vsa_kek" / "planted.py").write_text('MODEL = "VSA_KEK_2020_1_LV95"\n')
     found = format_name_definitions(root, format_names())
-    assert found == ["pipeline/reports/planted.py:1 writes 'pipegauge-section-header', defined in pipeline.formats.header",
+    assert found == ["pipeline/formats/vsa_kek/planted.py:1 writes 'VSA_KEK_2020_1_LV95', defined in pipeline.formats.vsa_kek",
+                     "pipeline/reports/planted.py:1 writes 'pipegauge-section-header', defined in pipeline.formats.header",
                      "flows/planted.py:1 writes 'VSA_KEK_2019_LV95', defined in pipeline.formats.vsa_kek"]
 
 

@@ -16,7 +16,7 @@ import pypdfium2 as pdfium
 import pypdfium2.raw as pdfium_c
 import pytest
 
-from pipeline.reports.value_text import format_record
+from pipeline.domain.value_text import format_record
 from pipeline.reports import render_inspection_report
 from pipeline.reports.example import example_inspection
 from pipeline.reports.style import number

@@ -17,7 +17,7 @@ from flows.cli import main
 from pipeline.core.errors import StoreError
 from pipeline.app import process_package
 from pipeline.maths.metrology.display import is_lopsided
-from pipeline.reports.value_text import format_record
+from pipeline.domain.value_text import format_record
 from pipeline.reports import render_inspection_report, render_night_summary
 from pipeline.reports.example import example_inspection
 from pipeline.reports.inspection_report import inspection_warnings

@@ -1,56 +1,78 @@
-"""Exports for asset management: one row per measured quantity, value and U95, as CSV or Parquet.
+"""The exports for asset management: the dataset read and handed to a format's writer (``pipegauge export``).
 
-CSV cells that a spreadsheet would run as a formula (text starting with
-=, +, -, @, a tab or a carriage return) are written with a leading
-apostrophe (OWASP's advice on CSV injection); numbers are written as numbers.
+This is the one place an export reads the dataset (``pipeline.store``); the writers in ``pipeline.formats``
+are functions of the rows they are given, registered by name in ``pipeline.formats.WRITERS``:
+
+* a ``file`` writer (csv, parquet) gets the export's table, one row per measured quantity: the measurements
+  joined with their observation and inspection (``export_frame``);
+* a ``folder`` writer (vsa-kek-2019, vsa-kek-2020) gets one stored inspection at a time (not the failed ones):
+  its inspection, observation and measurement rows, and the contractor's transfer when the package came as one
+  (re-read from the package, for its objects and TIDs).
 """
 
 from __future__ import annotations
 
-import csv
 import datetime as dt
+import math
 import os
 from pathlib import Path
 
 import pandas as pd
-import pyarrow as pa
-import pyarrow.parquet as pq
 
-from pipeline.core.atomic import atomic_path
-from pipeline.reports.value_text import format_record
-from pipeline.maths.metrology.display import significant_step
-from pipeline.store.dataset import read_table, require_dataset
+from pipeline.core.errors import PipegaugeError
+from pipeline.formats import WRITERS, writer
+from pipeline.formats.manifest import load_manifest
+from pipeline.formats.tabular import export_table, write_csv, write_parquet
+from pipeline.formats.vsa_kek import Transfer, read_transfer_log
+from pipeline.store import file_stem, read_table, require_dataset
 
-__all__ = ["export_frame", "export_csv", "export_parquet", "spreadsheet_safe", "EXPORT_COLUMNS", "display_columns"]
-
-EXPORT_COLUMNS = [
-    "inspection_id", "inspection_date", "section_id", "start_node", "finish_node", "row", "distance_m", "code",
-    "code_meaning", "char1", "char2", "quantity", "source", "value", "U95", "unit", "low", "high", "interval", "model",
-    "clock_from", "clock_to", "chainage_m", "confident", "warnings", "status", "error", "remark",
-    "result", "below_resolution",     # issue 20: the value as the report writes it (value ± U95 or [low, high])
-    # issue 21: the verdicts (docs/dataset.md), display roundings, provenance
-    "logged_value", "logged_resolution", "log_check", "log_difference", "E_n", "log_check_reason",
-    "grading_scheme", "grade", "grade_probability", "grade_worst_likely", "logged_grade", "grade_disagrees",
-    "grade_probabilities", "grade_status", "grade_reason", "outside_survey", "section_grade",
-    "value_display", "U95_display", "E_n_display", "grade_probability_display",
-    "certificate_id", "pipeline_version", "processed_at",
-]
-_FORMULA_START = ("=", "+", "-", "@", "\t", "\r")
+__all__ = ["export", "export_frame", "export_csv", "export_parquet", "inspection_exports"]
 
 
-def spreadsheet_safe(value):
-    """A text cell that cannot start a spreadsheet formula; other values unchanged."""
-    if isinstance(value, str) and value.startswith(_FORMULA_START):
-        return "'" + value
-    return value
+def export(name: str, root: str | os.PathLike, out: str | os.PathLike, start: dt.date | None = None,
+           end: dt.date | None = None) -> list[tuple[Path, int]]:
+    """Export the dataset in the format ``name`` (a key of ``pipeline.formats.WRITERS``).
+
+    Parameters
+    ----------
+    name : str
+        The export format; an unknown name raises PipegaugeError naming the known ones.
+    root : str or os.PathLike
+        The dataset folder; StoreError when it holds none.
+    out : str or os.PathLike
+        The file to write (``out == "file"`` formats) or the folder of one file per inspection (``"folder"``).
+    start, end : datetime.date, optional
+        The first and last inspection date exported (inclusive).
+
+    Returns
+    -------
+    list of (pathlib.Path, int)
+        Each file written and the records in it (quantities for a table, observations for a transfer).
+    """
+    write = writer(name)
+    if WRITERS[name].out == "file":
+        return [(Path(out), write(export_frame(root, start, end), out))]
+    return [write(Path(out), stem, inspection, observations, measurements, source)
+            for stem, inspection, observations, measurements, source in inspection_exports(root, start, end)]
 
 
 def export_frame(root: str | os.PathLike, start: dt.date | None = None, end: dt.date | None = None) -> pd.DataFrame:
-    """Measurements joined with their observation and section, for inspection dates start..end.
+    """The export's table: measurements joined with their observation and section, for inspection dates start..end.
 
-    Committed inspections only (pipeline.store.dataset). A log that repeats a
-    row number (flagged as a problem) joins each measurement with the first
-    row of that number, so no measurement is exported twice.
+    Committed inspections only (``pipeline.store.read_table``). A log that repeats a row number (flagged as a
+    problem) joins each measurement with the first row of that number, so no measurement is exported twice.
+
+    Parameters
+    ----------
+    root : str or os.PathLike
+        The dataset folder; StoreError when it holds none.
+    start, end : datetime.date, optional
+        The first and last inspection date (inclusive).
+
+    Returns
+    -------
+    pandas.DataFrame
+        One row per measured quantity, the columns of ``pipeline.formats.tabular.EXPORT_COLUMNS``.
     """
     require_dataset(root)
     m = read_table(root, "measurements", start=start, end=end).drop(columns=["distance_m"])
@@ -60,49 +82,85 @@ def export_frame(root: str | os.PathLike, start: dt.date | None = None, end: dt.
     i = read_table(root, "inspections", start=start, end=end)[
         ["inspection_id", "section_id", "start_node", "finish_node", "section_grade", "certificate_id",
          "pipeline_version", "processed_at"]]
-    out = (m.merge(o, on=["inspection_id", "row"], how="left", validate="many_to_one")
-           .merge(i, on="inspection_id", how="left", validate="many_to_one"))
-    out["result"] = [format_record(r) for r in out.to_dict("records")]
-    out = display_columns(out)
-    return out.reindex(columns=EXPORT_COLUMNS).sort_values(["inspection_date", "inspection_id", "row", "quantity", "source"],
-                                                           ignore_index=True)
-
-
-def _rounded(x: float, step: float) -> float | None:
-    return None if pd.isna(x) or pd.isna(step) else round(round(x / step) * step, 10)
-
-
-def display_columns(frame: pd.DataFrame) -> pd.DataFrame:
-    """Add the numbers rounded for display: value and U95 to U95's two significant digits (GUM 7.2.6), E_n to
-    0.01, the most probable class's probability to whole % [%]; class probabilities as text 'EZ1 0.55; ...'."""
-    out = frame.copy()
-    steps = out["U95"].map(lambda u: significant_step(u) if pd.notna(u) else float("nan"))
-    out["value_display"] = [_rounded(v, s) for v, s in zip(out["value"], steps)]
-    out["U95_display"] = [_rounded(u, s) for u, s in zip(out["U95"], steps)]
-    out["E_n_display"] = out["E_n"].round(2)
-    out["grade_probability_display"] = (100 * out["grade_probability"]).round(0)
-    out["grade_probabilities"] = out["grade_probabilities"].map(
-        lambda rows: None if rows is None or isinstance(rows, float)        # a missing list reads as None or NaN
-        else "; ".join(f"{r['grade']} {r['probability']:.3f}" for r in rows))
-    return out
+    joined = (m.merge(o, on=["inspection_id", "row"], how="left", validate="many_to_one")
+              .merge(i, on="inspection_id", how="left", validate="many_to_one"))
+    return export_table(joined)
 
 
 def export_csv(root: str | os.PathLike, path: str | os.PathLike, start: dt.date | None = None,
                end: dt.date | None = None) -> int:
-    """Write the export as UTF-8 CSV (atomically); returns the number of rows."""
-    frame = export_frame(root, start, end)
-    with atomic_path(path) as tmp, Path(tmp).open("w", newline="", encoding="utf-8") as fh:
-        w = csv.writer(fh)
-        w.writerow(EXPORT_COLUMNS)
-        for rec in frame.itertuples(index=False):
-            w.writerow(["" if v is None or (isinstance(v, float) and pd.isna(v)) else spreadsheet_safe(v) for v in rec])
-    return len(frame)
+    """Write the export as UTF-8 CSV (``pipeline.formats.tabular.write_csv``); returns the number of rows."""
+    return write_csv(export_frame(root, start, end), path)
 
 
 def export_parquet(root: str | os.PathLike, path: str | os.PathLike, start: dt.date | None = None,
                    end: dt.date | None = None) -> int:
-    """Write the export as one Parquet file (atomically); returns the number of rows."""
-    frame = export_frame(root, start, end)
-    with atomic_path(path) as tmp:
-        pq.write_table(pa.Table.from_pandas(frame, preserve_index=False), tmp)
-    return len(frame)
+    """Write the export as one Parquet file (``pipeline.formats.tabular.write_parquet``); returns the number of rows."""
+    return write_parquet(export_frame(root, start, end), path)
+
+
+def _records(frame: pd.DataFrame) -> list[dict]:
+    """Rows as plain dicts, a missing value (NaN, pd.NA) as None, as the writers expect."""
+    return [{k: (None if v is pd.NA or (isinstance(v, float) and math.isnan(v)) else v) for k, v in r.items()}
+            for r in frame.to_dict("records")]
+
+
+def _by_inspection(rows: list[dict]) -> dict[str, list[dict]]:
+    """Rows grouped by inspection id, each group in the dataset's order."""
+    groups: dict[str, list[dict]] = {}
+    for r in rows:
+        groups.setdefault(r["inspection_id"], []).append(r)
+    return groups
+
+
+def inspection_exports(root: str | os.PathLike, start: dt.date | None = None, end: dt.date | None = None):
+    """What a ``folder`` writer gets, one stored inspection at a time (the failed ones are not exported).
+
+    Parameters
+    ----------
+    root : str or os.PathLike
+        The dataset folder; StoreError when it holds none.
+    start, end : datetime.date, optional
+        The first and last inspection date (inclusive).
+
+    Yields
+    ------
+    tuple
+        ``(stem, inspection, observations, measurements, source)``: the file stem of the inspection's id
+        (``pipeline.store.file_stem``: one-to-one, safe as a file name), its row as a dict (``inspection_date`` a
+        ``datetime.date``), its observation rows (each with ``ref``, the contractor's TID of the row or ""),
+        its measurement rows, and the contractor's transfer (or None).
+    """
+    require_dataset(root)
+    inspections = read_table(root, "inspections", start=start, end=end)
+    observations = _by_inspection(_records(read_table(root, "observations", start=start, end=end)))
+    measurements = _by_inspection(_records(read_table(root, "measurements", start=start, end=end)))
+    for ins in _records(inspections):
+        if ins["status"] == "failed":
+            continue
+        iid = ins["inspection_id"]
+        ins["inspection_date"] = pd.Timestamp(ins["inspection_date"]).date()
+        rows = observations.get(iid, [])
+        source, refs = _source_of(ins.get("package_folder"))
+        for r in rows:
+            r["ref"] = refs.get(r["row"], "")
+        yield file_stem(iid), ins, rows, measurements.get(iid, []), source
+
+
+def _source_of(package_folder) -> tuple[Transfer | None, dict[int, str]]:
+    """The contractor's transfer of a stored inspection (re-read from its package) and its row -> TID.
+
+    The dataset keeps the measured log, not the contractor's objects; a transfer export keeps those (their TIDs,
+    metadata and files), so the package's transfer is read again. A package moved or changed since it was
+    measured gives (None, {}): the export then writes fresh objects.
+    """
+    if not package_folder:
+        return None, {}
+    try:
+        manifest = load_manifest(package_folder)
+        if manifest.transfer is None:
+            return None, {}
+        log = read_transfer_log(manifest.transfer)
+    except PipegaugeError:     # the package moved or changed since it was measured: write fresh objects
+        return None, {}
+    return log.transfer, {o.row: o.ref for o in log.observations}

@@ -1,8 +1,9 @@
 """The registry of formats: each file format's module, and the readers and writers of exchange formats by name.
 
 The registries name each format's functions as ``module:function`` and import them on first use, so that the
-command line can list the formats without loading pandas. How to add a format: docs/formats.md (a new module,
-one line here).
+command line can list the formats without loading pandas. A writer is a function of the records it is given;
+``pipeline.app.export`` reads them from the dataset and calls it. How to add a format: docs/formats.md (a new
+module, one line here).
 """
 
 from __future__ import annotations
@@ -55,11 +56,24 @@ class Reader:
 
 @dataclass(frozen=True)
 class Writer:
-    """An export format: ``write(dataset, out, start, end) -> [(path written, records in it)]`` (dates inclusive)."""
+    """An export format: how ``--out`` is taken and the format's writing function, a function of records.
+
+    ``out == "file"``: ``write(table, path) -> rows written``, the whole export in one file; ``table`` is the
+    export's table (a pandas DataFrame of ``pipeline.formats.tabular.EXPORT_COLUMNS``, one row per measured
+    quantity).
+
+    ``out == "folder"``: ``write(folder, stem, inspection, observations, measurements, source) -> (path, records
+    written)``, called once per exported inspection; the writer names the file ``stem`` + its suffix in
+    ``folder``. ``inspection`` is the inspection's row (a dict), ``observations`` and ``measurements`` its rows
+    (lists of dicts, each observation with ``ref``, the contractor's id of the row), ``source`` the parsed
+    transfer the package was delivered as, or None.
+
+    ``pipeline.app.export.export`` reads these from the dataset and calls the writer.
+    """
 
     name: str
     out: str                          # "file" (one file) or "folder" (one file per inspection)
-    target: str
+    target: str                       # "module:function"
     description: str
 
     def load(self) -> Callable:
@@ -77,9 +91,9 @@ READERS = {r.name: r for r in (
 WRITERS = {w.name: w for w in (
     Writer("csv", "file", "pipeline.formats.tabular:write_csv", "one row per measured quantity, UTF-8 CSV"),
     Writer("parquet", "file", "pipeline.formats.tabular:write_parquet", "one row per measured quantity, Parquet"),
-    Writer("vsa-kek-2019", "folder", "pipeline.formats.vsa_kek:export_2019",
+    Writer("vsa-kek-2019", "folder", "pipeline.formats.vsa_kek:write_2019",
            "one VSA_KEK_2019_LV95 transfer per inspection"),
-    Writer("vsa-kek-2020", "folder", "pipeline.formats.vsa_kek:export_2020",
+    Writer("vsa-kek-2020", "folder", "pipeline.formats.vsa_kek:write_2020",
            "one VSA_KEK_2020_1_LV95 transfer per inspection"),
 )}
 
@@ -116,7 +130,7 @@ def load_package_log(manifest):
 
 
 def writer(name: str) -> Callable:
-    """The writing function of an export format."""
+    """The writing function of an export format (a key of ``WRITERS``), a function of records (``Writer``)."""
     if name not in WRITERS:
         raise PipegaugeError(f"unknown export format {name!r}; one of {', '.join(WRITERS)}")
     return WRITERS[name].load()

@@ -25,7 +25,7 @@ from pipeline.domain.codes import plain_description
 from pipeline.core.errors import StoreError
 from pipeline.core.limits import MAX_REPORT_OBSERVATIONS, MAX_REPORT_QUANTITIES, MAX_REPORT_WARNINGS
 from pipeline.store import file_stem, read_records
-from pipeline.reports.value_text import format_record     # the one place a value and its interval are written
+from pipeline.domain.value_text import format_record     # the one place a value and its interval are written
 from pipeline.reports.pdf import FRAME_WIDTH, build_pdf, cell, grid_table, key_value_table, safe_text, styles
 from pipeline.reports.graphics import pipe_strip, strip_span
 from pipeline.reports.method import method_statement

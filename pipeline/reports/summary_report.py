@@ -17,7 +17,7 @@ from pipeline.core.numbers import finite_number
 from pipeline.domain.results import MeasurementRecord
 from pipeline.store import read_records
 from pipeline.judgement.grading import SCHEMES, scheme
-from pipeline.reports.value_text import format_record     # the one place a value and its interval are written
+from pipeline.domain.value_text import format_record     # the one place a value and its interval are written
 from pipeline.reports.pdf import TABLE_STYLE, build_pdf, safe_text, styles
 from pipeline.reports.verdict_text import grade_text, is_missing
 

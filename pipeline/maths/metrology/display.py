@@ -1,6 +1,6 @@
 """One way to write a measured value with its 95 % interval, for the report, the command line and the export.
 
-The record's fields are read in ``pipeline.reports.value_text.format_record``; this floor knows numbers only.
+The record's fields are read in ``pipeline.domain.value_text.format_record``; this floor knows numbers only.
 
 * 'value ± U95 unit' when the interval is about symmetric about the value,
   U95 with two significant digits and the value to the same decimal place

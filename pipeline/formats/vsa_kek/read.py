@@ -1,0 +1,245 @@
+"""Reading a VSA-KEK transfer: one inspection's header fields and log, streamed and bounded against hostile files.
+
+The reader needs no model file: it reads the XML with defusedxml (no DTD, so no entity expansion and no
+external entity), refuses a file over :data:`MAX_TRANSFER_BYTES` before parsing and stops at
+:data:`MAX_OBJECTS` objects or :data:`MAX_ELEMENTS` elements while parsing. Values are judged by the coding
+layer (``pipeline.formats.observation_log.parse_log_rows``), as for observations.csv.
+
+Quirks of real transfers it tolerates (seen in the TEKSI test transfer): a TID used by two objects of different
+classes, empty elements (``<Quantifizierung1/>``), XML comments between attributes, a REF carrying a BID.
+"""
+
+from __future__ import annotations
+
+import datetime as dt
+import os
+import re
+from dataclasses import dataclass
+from pathlib import Path
+from xml.etree.ElementTree import ParseError
+
+from defusedxml import DefusedXmlException
+from defusedxml.ElementTree import DefusedXMLParser
+
+from pipeline.core.errors import TransferError
+from pipeline.core.limits import MAX_TRANSFER_BYTES  # one inspection's transfer is kilobytes; a network's goes elsewhere
+from pipeline.domain.codes import quantification
+from pipeline.domain.records import Observation
+from pipeline.formats.observation_log import finite_number, parse_log_rows
+from pipeline.formats.vsa_kek.model import FIELD_NAMES, FPS, MODELS, VERSION_OF, Transfer, TransferObject, split_code
+
+__all__ = ["TransferLog", "read_transfer", "read_transfer_log", "read_log", "MAX_TRANSFER_BYTES", "MAX_OBJECTS",
+           "MAX_ELEMENTS", "MAX_TEXT"]
+
+MAX_OBJECTS = 20_000                # objects (Untersuchung, Kanalschaden, Datei...) in one transfer
+MAX_ELEMENTS = 500_000              # XML elements, attributes of the objects included
+MAX_TEXT = 10_000                   # characters kept of one element's text (the model's longest is 200)
+_COUNTER = re.compile(r"^(\d{2}):(\d{2}):(\d{2}):(\d{2})$")
+
+
+@dataclass
+class TransferLog:
+    """What pipegauge reads in a transfer: the header's fields it holds, the log, the files it names."""
+
+    transfer: Transfer
+    inspection: TransferObject
+    header_fields: dict           # header.json's fields the transfer holds (section_id, nodes, date, length...)
+    details: dict                 # the rest of Untersuchung, as delivered (device, vehicle, weather...)
+    observations: list[Observation]
+    video: str                    # the Datei of the inspection's video ("" when none)
+
+
+
+
+def _local(tag: str) -> str:
+    return tag.rsplit("}", 1)[-1]
+
+
+def read_transfer(path: str | os.PathLike) -> Transfer:
+    """Parse a VSA-KEK transfer, bounded in size and objects; raises TransferError naming file, line, element, TID."""
+    path = Path(path)
+    try:
+        size = path.stat().st_size
+    except FileNotFoundError:
+        raise TransferError(f"{path}: the transfer file is missing") from None
+    if size > MAX_TRANSFER_BYTES:
+        raise TransferError(f"{path}: {size} bytes; a transfer of one inspection is at most {MAX_TRANSFER_BYTES} bytes "
+                            "here; deliver one transfer per inspected section")
+    reader = _Reader(path)
+    parser = DefusedXMLParser(target=reader, forbid_dtd=True)
+    reader.parser = parser
+    try:
+        with path.open("rb") as fh:
+            for chunk in iter(lambda: fh.read(1 << 16), b""):
+                parser.feed(chunk)
+        parser.close()
+    except DefusedXmlException as exc:
+        raise TransferError(f"{path}: refused: the file declares a DTD or entities ({type(exc).__name__}, line "
+                            f"{reader.line()}); an INTERLIS transfer has none (entity expansion and external entities "
+                            "are never read)") from None
+    except ParseError as exc:
+        raise TransferError(f"{path}: not well-formed XML ({exc}); check the file is a complete INTERLIS 2 transfer") from None
+    if not reader.basket:
+        raise TransferError(f"{path}: no basket in DATASECTION; an INTERLIS 2 transfer of VSA-KEK holds one")
+    model = reader.basket.split(".")[0]
+    return Transfer(path, model, VERSION_OF[model], reader.bid, reader.objects)
+
+
+class _Reader:
+    """Streaming target of the XML parser: objects are collected as they end, no tree is kept (bounded memory)."""
+
+    def __init__(self, path: Path):
+        self.path, self.parser = path, None
+        self.models: list[str] = []
+        self.objects: list[TransferObject] = []
+        self.basket, self.bid = "", ""
+        self.stack: list[str] = []
+        self.current: TransferObject | None = None
+        self.text: list[str] = []
+        self.n_elements = 0
+
+    def line(self) -> int:
+        return self.parser.parser.CurrentLineNumber if self.parser else 0   # expat's position, for messages
+
+    def start(self, tag: str, attrib: dict) -> None:
+        name = _local(tag)
+        self.stack.append(name)
+        self.text = []
+        self.n_elements += 1
+        path, stack, current = self.path, self.stack, self.current
+        if self.n_elements > MAX_ELEMENTS:
+            raise TransferError(f"{path} line {self.line()}: more than {MAX_ELEMENTS} XML elements (at element {name}"
+                                f"{' in ' + current.cls + ' TID ' + current.tid if current else ''}); "
+                                "deliver one transfer per inspected section")
+        depth = len(stack)
+        if depth == 1 and name != "TRANSFER":
+            raise TransferError(f"{path}: root element {name}, not an INTERLIS 2 TRANSFER")
+        if name == "MODEL" and stack[:2] == ["TRANSFER", "HEADERSECTION"]:
+            self.models.append(attrib.get("NAME", ""))
+        elif depth == 3 and stack[1] == "DATASECTION":
+            if self.basket:
+                raise TransferError(f"{path} line {self.line()}: a second basket {name}; a package's transfer holds one")
+            self.basket, self.bid = name, attrib.get("BID", "")
+            _check_model(path, name.split(".")[0], self.models)
+        elif depth == 4 and stack[1] == "DATASECTION":
+            tid = attrib.get("TID")
+            if len(self.objects) >= MAX_OBJECTS:
+                raise TransferError(f"{path} line {self.line()}: more than {MAX_OBJECTS} objects (the next is {name} "
+                                    f"TID {tid!r}); deliver one transfer per inspected section")
+            if not tid:
+                raise TransferError(f"{path} line {self.line()}: element {name} (object {len(self.objects) + 1}) has no TID")
+            self.current = TransferObject(name.rsplit(".", 1)[-1], tid, self.line())
+            self.objects.append(self.current)
+        elif depth == 5 and current is not None and attrib.get("REF") is not None:
+            current.refs[name] = (attrib["REF"], attrib.get("BID"))
+
+    def data(self, text: str) -> None:
+        if sum(map(len, self.text)) < MAX_TEXT:
+            self.text.append(text)
+
+    def end(self, tag: str) -> None:
+        depth, current, stack = len(self.stack), self.current, self.stack
+        if current is not None and depth == 5 and stack[-1] not in current.refs and stack[-1] != "Metaattribute":
+            current.attrs[stack[-1]] = "".join(self.text).strip()
+        elif current is not None and depth == 7 and stack[4] == "Metaattribute":
+            current.meta[stack[-1]] = "".join(self.text).strip()
+        elif depth == 4:
+            self.current = None
+        self.text = []
+        stack.pop()
+
+
+def _check_model(path: Path, model: str, declared: list[str]) -> None:
+    if model not in VERSION_OF:
+        raise TransferError(f"{path}: basket of model {model!r}; pipegauge reads VSA-KEK transfers of "
+                            f"{' or '.join(n for n, _ in MODELS.values())}")
+    if model not in declared:
+        raise TransferError(f"{path}: the basket's model {model} is not declared in HEADERSECTION/MODELS "
+                            f"({', '.join(declared) or 'none'}); declare it")
+
+
+def _counter_to_time(text: str) -> str:
+    """hh:mm:ss:ff (25 frames/s) as the log's hh:mm:ss.ss; malformed text is passed on for the log's check."""
+    m = _COUNTER.match(text)
+    if not m or int(m[4]) >= FPS:
+        return text
+    return f"{m[1]}:{m[2]}:{m[3]}.{int(m[4]) * 100 // FPS:02d}"
+
+
+def read_transfer_log(path: str | os.PathLike) -> TransferLog:
+    """The inspection of a transfer as pipegauge reads it: header fields, log (validated) and files.
+
+    Kanalschaden become log rows numbered 0, 1, ... in file order (marks.csv refers to these numbers).
+    """
+    t = read_transfer(path)
+    inspections = t.of("Untersuchung")
+    if len(inspections) != 1:
+        raise TransferError(f"{t.path}: {len(inspections)} Untersuchung objects; a package holds one inspection: "
+                            "deliver one transfer per inspected section")
+    u = inspections[0]
+    a = u.attrs
+    fields = {"section_id": a.get("Bezeichnung", ""), "start_node": a.get("vonPunktBezeichnung", ""),
+              "finish_node": a.get("bisPunktBezeichnung", ""), "contractor": a.get("Ausfuehrender", "")}
+    problems = []
+    date = a.get("Zeitpunkt", "")
+    try:
+        fields["inspection_date"] = dt.datetime.strptime(date, "%Y%m%d").date().isoformat()
+    except ValueError:
+        problems.append(f"attribute Zeitpunkt {date!r} is not a date YYYYMMDD")
+    length = finite_number(a.get("Inspizierte_Laenge", ""))
+    if length is None:
+        problems.append(f"attribute Inspizierte_Laenge {a.get('Inspizierte_Laenge')!r} is not a length in m")
+    else:
+        fields["section_length_m"] = length
+    if problems:
+        raise TransferError(f"{u.where(t.path)}: " + "; ".join(problems))
+    details = {k: v for k, v in a.items() if k not in ("Bezeichnung", "vonPunktBezeichnung", "bisPunktBezeichnung",
+                                                       "Ausfuehrender", "Zeitpunkt", "Inspizierte_Laenge") and v}
+    others: dict[str, int] = {}
+    for o in t.objects:
+        if o.cls not in ("Untersuchung", "Kanalschaden", "Datentraeger", "Datei"):
+            others[o.cls] = others.get(o.cls, 0) + 1
+    if others:     # manhole damage (Normschachtschaden)... is not a pipe log: said, not read
+        details["not read"] = ", ".join(f"{n} {cls}" for cls, n in sorted(others.items()))
+    files = t.of("Datei")
+    photos: dict[str, list[str]] = {}
+    for d in files:
+        if d.attrs.get("Klasse") == "Kanalschaden" and d.attrs.get("Art") == "Foto":
+            photos.setdefault(d.attrs.get("Objekt", ""), []).append(d.attrs.get("Bezeichnung", ""))
+    video = next((d.attrs.get("Bezeichnung", "") for d in files if d.attrs.get("Klasse") == "Untersuchung"
+                  and d.attrs.get("Objekt") == u.tid and d.attrs.get("Art") in ("digitales_Video", "Video")), "")
+    rows = []
+    for n, k in enumerate(t.of("Kanalschaden")):
+        ref = k.refs.get("UntersuchungRef", ("", None))[0]
+        if ref != u.tid:
+            raise TransferError(f"{k.where(t.path)}: UntersuchungRef {ref!r} names no Untersuchung of the transfer "
+                                f"(its Untersuchung is {u.tid}); correct the reference")
+        ka = k.attrs
+        code, char1, char2 = split_code(ka.get("KanalSchadencode", ""))
+        raw = {"row": str(n), "distance_m": ka.get("Distanz", ""), "code": code, "char1": char1, "char2": char2,
+               "clock_from": _clock(ka.get("SchadenlageAnfang", "")), "clock_to": _clock(ka.get("SchadenlageEnde", "")),
+               "at_joint": {"ja": "Y", "nein": "N"}.get(ka.get("Verbindung", ""), ka.get("Verbindung", "")),
+               "continuous": ka.get("Streckenschaden", ""), "video_time": _counter_to_time(ka.get("Videozaehlerstand", "")),
+               "photo": ";".join(photos.get(k.tid, [])), "remark": ka.get("Anmerkung", ""), "ref": k.tid,
+               "grade": ka.get("Einzelschadenklasse", "")}
+        for q in ("1", "2"):
+            text = ka.get(f"Quantifizierung{q}", "")
+            spec = quantification(code, f"Q{q}", char1)
+            raw[f"q{q}"], raw[f"q{q}_unit"] = text, (spec.unit if spec and text else "")
+        rows.append((f"Kanalschaden TID {k.tid} (line {k.line})", raw))
+    observations = parse_log_rows(rows, t.path.name, length, FIELD_NAMES)
+    return TransferLog(t, u, fields, details, observations, video)
+
+
+def _clock(text: str) -> str:
+    """SchadenlageAnfang/Ende 0..12; 0 is VSA's 'no position' (the log's empty clock)."""
+    return "" if text.strip() in ("", "0") else text.strip()
+
+
+def read_log(path: str | os.PathLike):
+    """The ``pipeline.formats`` reader: a transfer as a ``LogReading`` (its Transfer kept as ``source``)."""
+    from pipeline.formats import LogReading
+
+    t = read_transfer_log(path)
+    return LogReading(t.transfer.path, "vsa-kek", t.header_fields, {"model": t.transfer.model, "TID": t.inspection.tid,
+                      **t.details}, t.observations, t.video, t.transfer)

@@ -16,14 +16,25 @@ The way of one package, a module per step::
 ``paper``.
 """
 
-from pipeline.app.identity import file_digests, file_sha256, input_key, package_digest
-from pipeline.app.inbox import discover_packages, duplicate_claims, package_id_of
-from pipeline.app.layout import Layout
-from pipeline.app.measure import InspectionResult, measure_package
-from pipeline.app.night import NightPlan, finish_night, measure_packages, plan_night, progress_line, writing
-from pipeline.app.process import PackageOutcome, process_package, refused_outcome
+from __future__ import annotations
 
-__all__ = ["file_digests", "file_sha256", "input_key", "package_digest", "discover_packages", "duplicate_claims",
-           "package_id_of", "Layout", "InspectionResult", "measure_package", "NightPlan", "finish_night",
-           "measure_packages", "plan_night", "progress_line", "writing", "PackageOutcome", "process_package",
-           "refused_outcome"]
+import importlib
+from typing import Any
+
+# The face is lazy: `pipegauge export` or `probe` must not load the video and contour stack that `measure` needs.
+_HOMES = {
+    "file_digests": "identity", "file_sha256": "identity", "input_key": "identity", "package_digest": "identity",
+    "discover_packages": "inbox", "duplicate_claims": "inbox", "package_id_of": "inbox",
+    "Layout": "layout",
+    "InspectionResult": "measure", "measure_package": "measure",
+    "NightPlan": "night", "finish_night": "night", "measure_packages": "night", "plan_night": "night",
+    "progress_line": "night", "writing": "night",
+    "PackageOutcome": "process", "process_package": "process", "refused_outcome": "process",
+}
+__all__ = list(_HOMES)
+
+
+def __getattr__(name: str) -> Any:
+    if name not in _HOMES:
+        raise AttributeError(f"module 'pipeline.app' has no attribute {name!r}")
+    return getattr(importlib.import_module(f"pipeline.app.{_HOMES[name]}"), name)

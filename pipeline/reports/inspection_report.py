@@ -35,6 +35,7 @@ from pipeline.reports.warning_text import measurement_warnings
 from pipeline.maths.metrology import K95
 from pipeline.core.numbers import is_finite, is_missing
 from pipeline.measurement.quantity import input_unit
+from pipeline.judgement.grading import DEFAULT_SCHEME, SCHEMES, scheme
 
 __all__ = ["render_inspection_report", "inspection_warnings", "report_file_name", "NEAR_EXPIRY_DAYS"]
 
@@ -136,9 +137,15 @@ def _verdict_block(i: dict, measurements: list[dict]) -> list:
             Paragraph("Log check: the contractor's value against the measurement, E_n = |logged − measured| / "
                       "√(U95² + U_res²) with U_res from the logged value's step; E_n ≤ 1 agrees. Where the "
                       "pipe's outline is not trusted the check is undecided unless E_n > 2 (then it disagrees). "
-                      "Grades: "
-                      "VSA 2023 single-defect classes EZ0 (worst) to EZ4 with the probability of each class from "
-                      "the measurement's distribution.", styles()["small"])]
+                      f"Grades: {_scheme_sentence(i)}", styles()["small"])]
+
+
+def _scheme_sentence(i) -> str:
+    """The grading scheme in words, from the scheme itself (pipeline.judgement.grading): its classes, worst first."""
+    key = i.get("grading_scheme")
+    s = scheme(key if key in SCHEMES else DEFAULT_SCHEME)
+    return (f"{s.name} single-defect classes {s.classes[0]} (worst) to {s.classes[-1]} with the probability of each "
+            "class from the measurement's distribution.")
 
 
 def _delivered(o: dict) -> str:

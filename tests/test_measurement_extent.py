@@ -108,7 +108,8 @@ def test_the_export_writes_each_value_as_the_report_does(tmp_path):
     import csv
     import datetime as dt
 
-    from pipeline.store import export_csv, write_inspection
+    from pipeline.app.export import export_csv
+    from pipeline.store import write_inspection
 
     inspection = {"inspection_id": "P1", "inspection_date": dt.date(2026, 11, 30), "section_id": "S9", "status": "ok",
                   "model": "perspective", "problems": [], "pipeline_version": "0.1.0",

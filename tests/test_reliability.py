@@ -20,8 +20,9 @@ from pipeline.formats.observation_log import read_log
 from pipeline.formats.marks import read_marks
 from pipeline.formats.observation_log import LOG_COLUMNS
 from pipeline.core.errors import ObservationLogError, StoreError
-from pipeline.store import (export_csv, export_frame, file_stem, inspection_files, read_table, remove_uncommitted,
-                            stored_input_key, write_inspection)
+from pipeline.app.export import export_csv, export_frame
+from pipeline.store import (file_stem, inspection_files, read_table, remove_uncommitted, stored_input_key,
+                            write_inspection)
 
 ROOT = Path(__file__).resolve().parent.parent
 SAMPLES = ROOT / "sample_videos"

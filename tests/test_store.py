@@ -13,7 +13,8 @@ from pathlib import Path
 import pyarrow.dataset as ds
 import pyarrow.parquet as pq
 
-from pipeline.store import SCHEMAS, export_csv, export_parquet, inspection_files, read_table, write_inspection
+from pipeline.app.export import export_csv, export_parquet
+from pipeline.store import SCHEMAS, inspection_files, read_table, write_inspection
 
 SAMPLES = Path(__file__).resolve().parent.parent / "sample_videos"
 

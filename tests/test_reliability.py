@@ -194,6 +194,7 @@ def test_schema_2_reference_dataset_still_reads(tmp_path):
     assert [p.name for p in inspection_files(data, "measurements", "S01-circular-clean")][0].startswith("S01-circular-clean~")
 
 
+@pytest.mark.slow
 def test_export_refuses_a_missing_dataset_and_exports_each_measurement_once(tmp_path):
     with pytest.raises(StoreError, match="no pipegauge dataset here"):
         export_frame(tmp_path / "nonexistent")
@@ -217,6 +218,7 @@ def test_atomic_write_errors_name_the_users_path(tmp_path):
     assert isinstance(err.value, OSError) and err.value.errno == 28
 
 
+@pytest.mark.slow
 def test_probe_debug_image_to_an_unwritable_path_fails(tmp_path):
     real = ROOT / "tests" / "data" / "real_frames" / "1.045-1.040_0004.jpg"
     blocked = tmp_path / "file"
@@ -306,6 +308,7 @@ def _holding_lock(folder: Path) -> subprocess.Popen:
     return proc
 
 
+@pytest.mark.slow
 def test_measure_and_run_refuse_a_dataset_another_process_writes(tmp_path):
     out = tmp_path / "out"
     holder = _holding_lock(out / "dataset")
@@ -329,6 +332,7 @@ def test_measure_and_run_refuse_a_dataset_another_process_writes(tmp_path):
     assert time.perf_counter() - start < 300
 
 
+@pytest.mark.slow
 def test_a_second_holder_in_another_process_is_refused_and_one_process_may_reenter(tmp_path):
     from pipeline.store.lock import dataset_lock
 
@@ -348,6 +352,7 @@ def test_a_second_holder_in_another_process_is_refused_and_one_process_may_reent
     holder.wait()
 
 
+@pytest.mark.slow
 def test_the_quantities_run_side_by_side_keep_their_errors_to_their_rows_and_an_unexpected_one_stops_the_package(
         monkeypatch, reader):
     """Two Monte Carlo runs at a time: a domain error stays on its row, an unexpected error is raised, not

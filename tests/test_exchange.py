@@ -1,10 +1,10 @@
 """Exchange formats: the real VSA-KEK transfer read field by field, exports checked by the official validator,
 hostile transfers refused within bounds, a sample delivered as a transfer measuring exactly as its CSV package.
 
-The VSA-KEK 2019 model files may not be passed on (their headers say so): the ``ili_models`` fixture downloads
-the sdist of qgepqwat2ili 0.17, which ships them, into a cache outside the repository and extracts only the .ili
-files. The validator (PyPI ``ilivalidator``, the official one as a native library) runs in a subprocess: its
-memory grows with every call.
+The VSA-KEK 2019 model files may not be passed on (their headers say so): ``./dev test`` fetches them once into a
+cache outside the repository (tests/ili_cache.py), and the ``ili_models`` fixture reads that cache, offline. The
+validator (PyPI ``ilivalidator``, the official one as a native library) runs in a subprocess: its memory grows with
+every call.
 """
 
 from __future__ import annotations
@@ -14,13 +14,13 @@ import os
 import shutil
 import subprocess
 import sys
-import tarfile
 import textwrap
 import tracemalloc
 from pathlib import Path
 
 import pytest
 
+import ili_cache
 from flows.cli import main
 from pipeline import __version__
 from pipeline.formats.manifest import load_manifest
@@ -32,9 +32,6 @@ from pipeline.formats.vsa_kek import (MAX_ELEMENTS, MAX_OBJECTS, MAX_TRANSFER_BY
 ROOT = Path(__file__).resolve().parent.parent
 SAMPLES = ROOT / "sample_videos"
 REAL_XTF = Path(__file__).resolve().parent / "data" / "real_frames" / "1.045-1.040_VSA-KEK-channel-damage.xtf"
-ILI_CACHE = Path(os.environ.get("PIPEGAUGE_ILI_CACHE", Path.home() / ".cache" / "pipegauge" / "ili"))
-SDIST = "qgepqwat2ili==0.17"
-MODEL_2019 = "VSA_KEK_2019_2_d_LV95-20210120.ili"
 SAMPLE_IDS = ("S01-circular-clean", "S02-circular-water-offset", "S03-egg-concrete")
 
 
@@ -42,18 +39,10 @@ SAMPLE_IDS = ("S01-circular-clean", "S02-circular-water-offset", "S03-egg-concre
 
 @pytest.fixture(scope="session")
 def ili_models() -> Path:
-    """The folder of the VSA-KEK 2019 model and the models it imports, fetched once into the cache."""
-    folder = ILI_CACHE / "qgepqwat2ili-0.17" / "qgepqwat2ili" / "ili"
-    if not (folder / MODEL_2019).is_file():
-        ILI_CACHE.mkdir(parents=True, exist_ok=True)
-        done = subprocess.run([sys.executable, "-m", "pip", "download", "--no-deps", SDIST,
-                               "-d", str(ILI_CACHE)], capture_output=True, text=True, timeout=600)
-        assert done.returncode == 0, f"cannot fetch the VSA-KEK model files ({SDIST}): {done.stderr[-2000:]}"
-        with tarfile.open(next(ILI_CACHE.glob("qgepqwat2ili-0.17.tar.gz"))) as tar:
-            members = [m for m in tar.getmembers() if m.isfile() and "/qgepqwat2ili/ili/" in m.name and m.name.endswith(".ili")]
-            tar.extractall(ILI_CACHE, members=members, filter="data")
-    assert (folder / MODEL_2019).is_file(), f"{folder} holds no {MODEL_2019}"
-    return folder
+    """The folder of the VSA-KEK 2019 model and the models it imports, from the cache that ``./dev test`` fills."""
+    assert ili_cache.cached(), (f"{ili_cache.MODELS} holds no {ili_cache.MODEL_2019}: fetch the VSA-KEK model files "
+                                "once with `.venv/bin/python tests/ili_cache.py` (needs the internet; ./dev test does it)")
+    return ili_cache.MODELS
 
 
 _VALIDATE = textwrap.dedent("""

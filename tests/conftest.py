@@ -12,6 +12,19 @@ import pytest
 
 from processes import base_env, free_port, stop, wait_for
 
+# Session fixtures that measure the samples, load the OCR models or start a server: a test that needs one is slow.
+SLOW_FIXTURES = ("sample_night", "reader", "prefect_server")
+
+
+def pytest_collection_modifyitems(config, items):
+    """Refuse a test that needs a slow session fixture without the ``slow`` mark, so that ``-m "not slow"`` never
+    builds one of them."""
+    unmarked = [item.nodeid for item in items if item.get_closest_marker("slow") is None
+                and any(name in SLOW_FIXTURES for name in getattr(item, "fixturenames", ()))]
+    if unmarked:
+        raise pytest.UsageError(f"these tests use one of {', '.join(SLOW_FIXTURES)} and want @pytest.mark.slow: "
+                                + ", ".join(unmarked))
+
 
 @pytest.fixture(scope="session")
 def reader():

@@ -14,6 +14,8 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
+
 ROOT = Path(__file__).resolve().parent.parent
 PIPELINE = ROOT / "pipeline"
 
@@ -196,6 +198,7 @@ def _loaded_after(statement: str) -> set[str]:
     return set(out.split())
 
 
+@pytest.mark.slow
 def test_the_library_never_loads_prefect_and_the_models_load_no_video_stack():
     everything = _loaded_after("import pipeline, pipeline.app, pipeline.store, pipeline.reports, "
                                "pipeline.formats, pipeline.measurement, pipeline.vision.video, pipeline.vision.contour")

@@ -48,6 +48,7 @@ def deformed(cert):
     return _seen(scene, cert, 3000.0 - 2.5 * H, offset_mm=(0.0, -15.0), pitch_deg=1.0)
 
 
+@pytest.mark.slow
 def test_water_line_is_found_at_the_true_level(wet):
     frames, contour = wet
     line = find_water_line(frames[0], contour.view)
@@ -57,6 +58,7 @@ def test_water_line_is_found_at_the_true_level(wet):
     assert line.a[0] < contour.view.vanishing_point[0] < line.b[0]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("model", ["perspective", "orthographic"])
 def test_water_level_from_the_image_holds_the_truth_in_its_interval(wet, cert, model):
     frames, contour = wet
@@ -67,6 +69,7 @@ def test_water_level_from_the_image_holds_the_truth_in_its_interval(wet, cert, m
     assert any("water line edge fit" in b.description for b in res.budget)
 
 
+@pytest.mark.slow
 def test_deformed_ring_gives_the_vertical_deformation(deformed, cert):
     frames, contour = deformed
     # the pose is fitted to the undeformed rings; the deformed joint's rings are found and left out
@@ -80,12 +83,14 @@ def test_deformed_ring_gives_the_vertical_deformation(deformed, cert):
     assert res.confident
 
 
+@pytest.mark.slow
 def test_an_undeformed_joint_is_not_taken_for_a_deformation(cert):
     frames, contour = _seen(Scene(Pipe("circular", H, "concrete", 1000.0)), cert, 1200.0, offset_mm=(0.0, -15.0))
     ring = find_deformed_ring(frames[0], contour)
     assert ring is None or not ring.confident
 
 
+@pytest.mark.slow
 def test_a_dry_pipe_has_no_water_line(cert):
     frames, contour = _seen(Scene(Pipe("circular", H, "concrete", 1000.0)), cert, 1500.0, offset_mm=(10.0, -20.0))
     assert find_water_line(frames[0], contour.view) is None
@@ -93,6 +98,7 @@ def test_a_dry_pipe_has_no_water_line(cert):
         measure_automatic(_obs("BDD"), contour, frames[0], cert, H=H, tolerance=0.0, model="perspective", seed=1)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("model", ["perspective", "orthographic"])
 def test_the_horizontal_dimension_of_the_deformed_ring(deformed, cert, model):
     """The rendered deformation squashes the section to an ellipse of width 1.09 H: BAA B = 100 (1 - 1.09) = -9 %."""

@@ -40,6 +40,7 @@ def calibration(images):
     return calibrate(views, PATTERN, rejected=rejected, bootstrap=20, pattern_runs=8, seed=1)
 
 
+@pytest.mark.slow
 def test_recovers_the_known_camera_within_its_uncertainty(calibration):
     z = {n: (calibration.values[n] - true_value(n)) / calibration.u[n] for n in PARAMETERS}
     assert all(abs(v) < 3 for v in z.values()), z
@@ -48,6 +49,7 @@ def test_recovers_the_known_camera_within_its_uncertainty(calibration):
     assert 0.03 < calibration.image_coordinate_u_px < 0.2
 
 
+@pytest.mark.slow
 def test_certificate_uncertainty_is_never_below_the_solver_or_the_bootstrap(calibration):
     for n in PARAMETERS:
         assert calibration.u[n] >= max(calibration.u_solver[n], calibration.u_bootstrap[n])
@@ -55,6 +57,7 @@ def test_certificate_uncertainty_is_never_below_the_solver_or_the_bootstrap(cali
     assert np.allclose(np.sqrt(np.diag(cov)), [calibration.u[n] for n in PARAMETERS])
 
 
+@pytest.mark.slow
 def test_too_few_views(images):
     views, rejected = read_views(images[:4], PATTERN)
     with pytest.raises(CalibrationError, match="found in 4 view\\(s\\), at least 6 are needed"):
@@ -75,6 +78,7 @@ def test_pattern_never_found(tmp_path):
         calibrate(views, PATTERN, rejected=rejected)
 
 
+@pytest.mark.slow
 def test_mixed_image_sizes(images, tmp_path):
     small = tmp_path / "small.png"
     cv2.imwrite(str(small), cv2.resize(cv2.imread(str(images[0])), (640, 512)))
@@ -82,6 +86,7 @@ def test_mixed_image_sizes(images, tmp_path):
         read_views(list(images[1:4]) + [small], PATTERN)
 
 
+@pytest.mark.slow
 def test_a_view_that_fits_badly_is_rejected_and_named(images):
     views, _ = read_views(images, PATTERN)
     bad = views[2].corners.copy()
@@ -107,6 +112,7 @@ def test_bad_pattern_specifications(text, message):
         parse_pattern(text)
 
 
+@pytest.mark.slow
 def test_cli_writes_a_certificate_that_drives_the_rest_unchanged(images, tmp_path, capsys):
     out = tmp_path / "cam.json"
     code = main(["calibrate", *map(str, images), "--pattern", "chessboard:9x6:25:0.02:0.05", "--camera-id", "SYN-0001",
@@ -125,6 +131,7 @@ def test_cli_writes_a_certificate_that_drives_the_rest_unchanged(images, tmp_pat
     assert json.loads(out.read_text())["image_size_px"] == {"width": 720, "height": 576}
 
 
+@pytest.mark.slow
 def test_charuco_board_seen_in_part_recovers_the_known_camera(tmp_path):
     pattern = parse_pattern("charuco:8x6:30:22:0.02")
     images = write_calibration_set(TRUE, pattern, tmp_path, n=8, seed=5)
@@ -142,6 +149,7 @@ def test_charuco_board_seen_in_part_recovers_the_known_camera(tmp_path):
     assert cal.rms_px < 0.3
 
 
+@pytest.mark.slow
 def test_calibrate_then_measure_a_synthetic_package_with_the_new_certificate(images, tmp_path, capsys):
     """The chain the paper proposes: calibrate the camera, then measure with what was calibrated."""
     from pipeline.store import read_table

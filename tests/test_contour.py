@@ -57,6 +57,7 @@ def test_pipe_view_reproduces_the_rendered_geometry():
                 assert np.allclose(depth, world[on_wall, 2] - cam_z, atol=1.0)   # [mm], from 0.1 px rounding
 
 
+@pytest.mark.slow
 def test_contour_on_a_sample_with_water_offset_and_tilt():
     truth, frames, cert = _truth(S02)
     video = S02 / "video.mp4"
@@ -148,6 +149,7 @@ def test_an_untrusted_window_borrows_the_pose_of_a_trusted_overlapping_one():
     assert alone[1002] is partial
 
 
+@pytest.mark.slow
 def test_a_single_still_gives_the_ring_of_its_visible_joint_face():
     """One rendered still, camera on the axis: the ring found lies within the joint's band (from the socket
     face before the gap to the gap's far edge), and is seen all round."""
@@ -246,6 +248,7 @@ def test_pose_and_depth_fit_reaches_scipy_least_squares_solution(loss):
         assert np.allclose(ours.jac, ref.jac, rtol=1e-4, atol=1e-3 * np.abs(ref.jac).max())
 
 
+@pytest.mark.slow
 def test_windows_fitted_while_decoding_equal_the_fits_one_after_another_and_keep_the_ideal_frames():
     from pipeline.vision.contour.consensus import reconcile_windows
     from pipeline.vision.contour.detect import contour_from_candidates, frame_candidates, wall_u_from_tolerance

@@ -1,10 +1,10 @@
 """Exchange formats: the real VSA-KEK transfer read field by field, exports checked by the official validator,
 hostile transfers refused within bounds, a sample delivered as a transfer measuring exactly as its CSV package.
 
-The VSA-KEK 2019 model files may not be passed on (their headers say so): the ``ili_models`` fixture downloads
-the sdist of qgepqwat2ili 0.17, which ships them, into a cache outside the repository and extracts only the .ili
-files. The validator (PyPI ``ilivalidator``, the official one as a native library) runs in a subprocess: its
-memory grows with every call.
+The VSA-KEK 2019 model files may not be passed on (their headers say so): ``./dev test`` fetches them once into a
+cache outside the repository (tests/ili_cache.py), and the ``ili_models`` fixture reads that cache, offline. The
+validator (PyPI ``ilivalidator``, the official one as a native library) runs in a subprocess: its memory grows with
+every call.
 """
 
 from __future__ import annotations
@@ -14,13 +14,13 @@ import os
 import shutil
 import subprocess
 import sys
-import tarfile
 import textwrap
 import tracemalloc
 from pathlib import Path
 
 import pytest
 
+import ili_cache
 from flows.cli import main
 from pipeline import __version__
 from pipeline.formats.manifest import load_manifest
@@ -32,9 +32,6 @@ from pipeline.formats.vsa_kek import (MAX_ELEMENTS, MAX_OBJECTS, MAX_TRANSFER_BY
 ROOT = Path(__file__).resolve().parent.parent
 SAMPLES = ROOT / "sample_videos"
 REAL_XTF = Path(__file__).resolve().parent / "data" / "real_frames" / "1.045-1.040_VSA-KEK-channel-damage.xtf"
-ILI_CACHE = Path(os.environ.get("PIPEGAUGE_ILI_CACHE", Path.home() / ".cache" / "pipegauge" / "ili"))
-SDIST = "qgepqwat2ili==0.17"
-MODEL_2019 = "VSA_KEK_2019_2_d_LV95-20210120.ili"
 SAMPLE_IDS = ("S01-circular-clean", "S02-circular-water-offset", "S03-egg-concrete")
 
 
@@ -42,18 +39,10 @@ SAMPLE_IDS = ("S01-circular-clean", "S02-circular-water-offset", "S03-egg-concre
 
 @pytest.fixture(scope="session")
 def ili_models() -> Path:
-    """The folder of the VSA-KEK 2019 model and the models it imports, fetched once into the cache."""
-    folder = ILI_CACHE / "qgepqwat2ili-0.17" / "qgepqwat2ili" / "ili"
-    if not (folder / MODEL_2019).is_file():
-        ILI_CACHE.mkdir(parents=True, exist_ok=True)
-        done = subprocess.run([sys.executable, "-m", "pip", "download", "--no-deps", SDIST,
-                               "-d", str(ILI_CACHE)], capture_output=True, text=True, timeout=600)
-        assert done.returncode == 0, f"cannot fetch the VSA-KEK model files ({SDIST}): {done.stderr[-2000:]}"
-        with tarfile.open(next(ILI_CACHE.glob("qgepqwat2ili-0.17.tar.gz"))) as tar:
-            members = [m for m in tar.getmembers() if m.isfile() and "/qgepqwat2ili/ili/" in m.name and m.name.endswith(".ili")]
-            tar.extractall(ILI_CACHE, members=members, filter="data")
-    assert (folder / MODEL_2019).is_file(), f"{folder} holds no {MODEL_2019}"
-    return folder
+    """The folder of the VSA-KEK 2019 model and the models it imports, from the cache that ``./dev test`` fills."""
+    assert ili_cache.cached(), (f"{ili_cache.MODELS} holds no {ili_cache.MODEL_2019}: fetch the VSA-KEK model files "
+                                "once with `.venv/bin/python tests/ili_cache.py` (needs the internet; ./dev test does it)")
+    return ili_cache.MODELS
 
 
 _VALIDATE = textwrap.dedent("""
@@ -161,6 +150,7 @@ def transfer_package(sample: str, dest: Path, version: str = "2019") -> Path:
     return dest
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("sample", SAMPLE_IDS)
 def test_each_sample_as_a_2019_transfer_passes_the_validator_and_reads_back(sample, tmp_path, ili_models):
     pkg = transfer_package(sample, tmp_path / sample)
@@ -174,6 +164,7 @@ def test_each_sample_as_a_2019_transfer_passes_the_validator_and_reads_back(samp
     assert all(o.ref.startswith("pg") and len(o.ref) == 16 for o in log_xtf)
 
 
+@pytest.mark.slow
 def test_the_validator_rejects_an_out_of_range_distance_and_an_unknown_code(tmp_path, ili_models):
     text = transfer_package("S02-circular-water-offset", tmp_path / "S02").joinpath("inspection.xtf").read_text()
     broken = tmp_path / "broken.xtf"
@@ -185,6 +176,7 @@ def test_the_validator_rejects_an_out_of_range_distance_and_an_unknown_code(tmp_
     assert any("value BAJX is not a member of the enumeration in attribute KanalSchadencode" in e for e in errors), errors
 
 
+@pytest.mark.slow
 def test_a_2020_export_reads_back_to_the_same_observations_and_passes_as_2019(tmp_path, ili_models):
     """2020.1 cannot be validated offline (its model is not public): its output is read back by our reader and
     written again as 2019, the documented 2020.1 -> 2019 mapping (a proxy), which the validator checks."""
@@ -265,7 +257,8 @@ HOSTILE = {
 }
 
 
-@pytest.mark.parametrize("kind", HOSTILE)
+@pytest.mark.parametrize("kind", [pytest.param(k, marks=pytest.mark.slow) if k == "million-elements" else k
+                                  for k in HOSTILE])        # a million elements parsed under tracemalloc: seconds
 def test_a_hostile_transfer_is_refused_with_a_clear_error_in_bounded_memory(kind, tmp_path):
     make, message = HOSTILE[kind]
     path = tmp_path / f"{kind}.xtf"
@@ -291,6 +284,7 @@ def test_a_transfer_over_the_size_cap_is_refused_before_parsing(tmp_path):
 
 # -- a whole run: hostile and good transfer packages, and the round trip --------
 
+@pytest.mark.slow
 def test_a_sample_delivered_as_a_transfer_measures_bit_for_bit_as_its_csv_package(tmp_path, ili_models, capsys,
                                                                                    sample_night):
     """S02 as a 2019 transfer measures to exactly the CSV package's values; a hostile package in the same
@@ -349,6 +343,7 @@ def test_a_sample_delivered_as_a_transfer_measures_bit_for_bit_as_its_csv_packag
     assert {r: exported.observations[r].grade for r in graded.row} == dict(zip(graded.row, graded.grade))
 
 
+@pytest.mark.slow
 def test_the_real_transfer_exported_as_2019_passes_the_validator(tmp_path, ili_models):
     """The contractor's 2020.1 objects written through the 2020.1 -> 2019 mapping: every object kept, the TID the
     TEKSI sample uses twice given to its Datei alone, and the validator accepts the result."""

@@ -5,11 +5,14 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
+import pytest
+
 from golden_samples import differences, dump_night
 
 GOLDEN = Path(__file__).resolve().parent / "data" / "golden-samples.json"
 
 
+@pytest.mark.slow
 def test_every_stored_field_and_report_text_of_the_samples_is_unchanged(sample_night):
     expected = json.loads(GOLDEN.read_text(encoding="utf-8"))
     found = differences(expected, dump_night(sample_night))

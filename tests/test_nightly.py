@@ -15,6 +15,8 @@ import pytest
 from pipeline.store import read_table
 from processes import base_env, free_port, stop, wait_for
 
+pytestmark = pytest.mark.slow          # Prefect flows, servers and runs of the CLI, or Prefect imported
+
 ROOT = Path(__file__).resolve().parent.parent
 SAMPLES = ROOT / "sample_videos"
 GOOD = ("S01-circular-clean", "S02-circular-water-offset")

@@ -21,6 +21,7 @@ def paper_run(tmp_path_factory):
     return json.loads(proc.stdout), out
 
 
+@pytest.mark.slow
 def test_table1_corner_distortion_and_u95(paper_run):
     result, _ = paper_run
     t1 = result["table1_distortion"]
@@ -30,6 +31,7 @@ def test_table1_corner_distortion_and_u95(paper_run):
         assert corner["U95_monte_carlo_px"] == pytest.approx(corner["U95_linear_px"], rel=0.05)
 
 
+@pytest.mark.slow
 def test_figure9_follows_eq14(paper_run):
     f9 = paper_run[0]["figure9"]
     H, p_H = f9["H_mm"], f9["p_H_px"]
@@ -40,6 +42,7 @@ def test_figure9_follows_eq14(paper_run):
     assert f9["SC_mm_per_px"] == pytest.approx(2.0)
 
 
+@pytest.mark.slow
 def test_field_of_view_and_perspective_sweep(paper_run):
     result = paper_run[0]
     fov = result["field_of_view"]
@@ -52,6 +55,7 @@ def test_field_of_view_and_perspective_sweep(paper_run):
     assert last["U95_X_mm"] == pytest.approx(1.96 * 100 * np.sqrt(1 + 2 * (336.28 / 657.52) ** 2), rel=0.05)
 
 
+@pytest.mark.slow
 def test_files_are_written_and_the_pdf_has_the_figures(paper_run):
     _, out = paper_run
     assert json.loads((out / "paper-reproduction.json").read_text())["certificate_id"] == "PAPER-2020-T1"
@@ -62,6 +66,7 @@ def test_files_are_written_and_the_pdf_has_the_figures(paper_run):
         assert heading in text
 
 
+@pytest.mark.slow
 def test_terminal_tables(capsys, tmp_path):
     assert main(["paper", "--no-files"]) == 0
     text = capsys.readouterr().out

@@ -21,7 +21,8 @@ from pipeline.formats.marks import read_marks
 from pipeline.formats.observation_log import LOG_COLUMNS
 from pipeline.core.errors import ObservationLogError, StoreError
 from pipeline.app.export import export_csv, export_frame
-from pipeline.store import file_stem, inspection_files, read_table, remove_uncommitted, stored_input_key, write_inspection
+from pipeline.store import (file_stem, inspection_files, read_table, remove_uncommitted, stored_input_key,
+                            write_inspection)
 
 ROOT = Path(__file__).resolve().parent.parent
 SAMPLES = ROOT / "sample_videos"
@@ -193,6 +194,7 @@ def test_schema_2_reference_dataset_still_reads(tmp_path):
     assert [p.name for p in inspection_files(data, "measurements", "S01-circular-clean")][0].startswith("S01-circular-clean~")
 
 
+@pytest.mark.slow
 def test_export_refuses_a_missing_dataset_and_exports_each_measurement_once(tmp_path):
     with pytest.raises(StoreError, match="no pipegauge dataset here"):
         export_frame(tmp_path / "nonexistent")
@@ -216,6 +218,7 @@ def test_atomic_write_errors_name_the_users_path(tmp_path):
     assert isinstance(err.value, OSError) and err.value.errno == 28
 
 
+@pytest.mark.slow
 def test_probe_debug_image_to_an_unwritable_path_fails(tmp_path):
     real = ROOT / "tests" / "data" / "real_frames" / "1.045-1.040_0004.jpg"
     blocked = tmp_path / "file"
@@ -305,6 +308,7 @@ def _holding_lock(folder: Path) -> subprocess.Popen:
     return proc
 
 
+@pytest.mark.slow
 def test_measure_and_run_refuse_a_dataset_another_process_writes(tmp_path):
     out = tmp_path / "out"
     holder = _holding_lock(out / "dataset")
@@ -328,6 +332,7 @@ def test_measure_and_run_refuse_a_dataset_another_process_writes(tmp_path):
     assert time.perf_counter() - start < 300
 
 
+@pytest.mark.slow
 def test_a_second_holder_in_another_process_or_in_this_one_is_refused(tmp_path):
     from pipeline.store.lock import dataset_lock
 
@@ -348,13 +353,31 @@ def test_a_second_holder_in_another_process_or_in_this_one_is_refused(tmp_path):
     holder.wait()
 
 
+@pytest.mark.slow
 def test_the_quantities_run_side_by_side_keep_their_errors_to_their_rows_and_an_unexpected_one_stops_the_package(
         monkeypatch, reader):
     """Two Monte Carlo runs at a time: a domain error stays on its row, an unexpected error is raised, not
-    waited out behind the queued runs nor turned into a row's error."""
+    waited out behind the queued runs nor turned into a row's error.
+
+    The package is measured twice, but its video only once: the second measurement takes the first one's chainage
+    track and contours (and the ideal frames the contours' pass kept), so that only its quantities run again."""
     import pipeline.app.measure as conductor
     from pipeline.core.errors import MeasurementError
 
+    def once(stage):
+        kept = []
+
+        def first_result(*args, **kwargs):
+            if not kept:
+                kept.append(stage(*args, **kwargs))
+                kept.append(dict(kwargs.get("ideal_frames") or {}))
+            if kwargs.get("ideal_frames") is not None:
+                kwargs["ideal_frames"].update(kept[1])
+            return kept[0]
+        return first_result
+
+    monkeypatch.setattr(conductor, "ingest_chainage", once(conductor.ingest_chainage))
+    monkeypatch.setattr(conductor, "contours_at_frames", once(conductor.contours_at_frames))
     real = conductor.measure_quantity
     doomed = conductor._seed("S03-egg-concrete", 2, "Q1")      # row 2's Q1 (marks.csv), whichever thread runs it
 

@@ -105,6 +105,7 @@ def _budget_numbers(measurements) -> set[str]:
     return out
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", PACKAGES)
 def test_sample_reports_lay_out_cleanly(sample_night, name):
     pages = _check_layout(sample_night / "reports" / f"{name}.pdf")
@@ -118,12 +119,14 @@ def test_sample_reports_lay_out_cleanly(sample_night, name):
         assert len(pages) <= S01_PAGES_BEFORE // 2, len(pages)
 
 
+@pytest.mark.slow
 def test_sample_summary_lays_out_cleanly(sample_night):
     pages = _check_layout(sample_night / "reports" / "summary.pdf")
     flat = " ".join(_lines(pages))
     assert "Worst observations" in flat
 
 
+@pytest.mark.slow
 def test_sample_warnings_are_plain_and_said_once(sample_night):
     text = [t for page in _pages(sample_night / "reports" / "S01-circular-clean.pdf") for *_, t in page["boxes"]]
     flat = " ".join(" ".join(text).split())
@@ -158,6 +161,7 @@ def _stress_records():
     return inspection, observations, measurements, thumbnails
 
 
+@pytest.mark.slow
 def test_stress_report_lays_out_cleanly(tmp_path):
     write_inspection(tmp_path / "dataset", *_stress_records())
     path = render_inspection_report(tmp_path / "dataset", "STRESS-1", tmp_path / "stress.pdf")

@@ -58,6 +58,7 @@ def measured(tmp_path_factory):
     return root
 
 
+@pytest.mark.slow
 def test_every_stored_quantity_appears_with_its_U95_and_unit(measured):
     path = measured / "reports" / "S02-circular-water-offset.pdf"
     text = _text(path)
@@ -84,6 +85,7 @@ def test_every_stored_quantity_appears_with_its_U95_and_unit(measured):
     assert sum(len(page.images) for page in reader.pages) == len(m)
 
 
+@pytest.mark.slow
 def test_report_pages_render_to_images(measured, tmp_path):
     out = tmp_path / "again.pdf"
     assert main(["report", "S02-circular-water-offset", "--data", str(measured), "--out", str(out)]) == 0

@@ -12,6 +12,7 @@ from pathlib import Path
 
 import pyarrow.dataset as ds
 import pyarrow.parquet as pq
+import pytest
 
 from pipeline.app.export import export_csv, export_parquet
 from pipeline.store import SCHEMAS, inspection_files, read_table, write_inspection
@@ -77,6 +78,7 @@ def _run(*args, cwd=None):
     return subprocess.run([sys.executable, "-m", "flows.cli", *args], capture_output=True, text=True, cwd=cwd)
 
 
+@pytest.mark.slow
 def test_measure_a_sample_and_a_broken_package_in_one_run(tmp_path):
     inbox = tmp_path / "inbox"
     shutil.copytree(SAMPLES / "certificates", inbox / "certificates")

@@ -35,6 +35,7 @@ def encode_and_decode(frames, path):
 MARKERS = [Marker(600.0, c, 3.0) for c in (1, 3, 5, 7, 9, 11)] + [Marker(900.0, c, 4.0) for c in (2, 4, 8, 10, 12)]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("shape", ["circular", "egg"])
 def test_wall_points_appear_where_opencv_projects_them(tmp_path, shape):
     cert = sample_certificate(720, 576)
@@ -62,6 +63,7 @@ def test_wall_points_appear_where_opencv_projects_them(tmp_path, shape):
     assert max(errors) < 0.5, f"marker position errors [px]: {np.round(errors, 3)}"
 
 
+@pytest.mark.slow
 def test_joint_ring_radius_is_f_R_over_d(tmp_path):
     """The bright ring of a joint (the socket's end face, lit head-on) has radius f R / d in the ideal image."""
     cert = sample_certificate(720, 576)
@@ -90,6 +92,7 @@ def test_joint_ring_radius_is_f_R_over_d(tmp_path):
         assert measured == pytest.approx(expected, abs=0.5), f"d = {d} mm: f R / d = {expected:.2f} px, ring at {measured:.2f} px"
 
 
+@pytest.mark.slow
 def test_a_joint_inside_a_deformed_stretch_is_drawn_deformed_also_when_it_is_displaced():
     """The wall positions follow the deformation whatever else changes the rays (here a displaced joint's segments)."""
     from pipeline.vision.contour.ridges import dark_centre, ridge_points

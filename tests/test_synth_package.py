@@ -51,6 +51,7 @@ def decode_all(path):
         frames.append(frame)
 
 
+@pytest.mark.slow
 def test_package_holds_what_a_contractor_delivers(tiny):
     manifest = json.loads((tiny / "package.json").read_text())
     assert manifest["format"] == "pipegauge-inspection-package" and manifest["certificate_id"] == "SYN-720x576"
@@ -68,6 +69,7 @@ def test_package_holds_what_a_contractor_delivers(tiny):
     assert not list(tiny.parent.glob(".*tmp*")), "no temporary folder is left behind"
 
 
+@pytest.mark.slow
 def test_ground_truth_matches_the_files(tiny):
     truth = json.loads((tiny / "truth" / "truth.json").read_text())
     frames = read_csv(tiny / "truth" / "frames.csv")
@@ -91,6 +93,7 @@ def test_ground_truth_matches_the_files(tiny):
     assert water["quantities"][0]["true_value"] == 20.0
 
 
+@pytest.mark.slow
 def test_regeneration_is_deterministic_whatever_the_number_of_workers(tiny, tmp_path):
     again = build_package(tiny_spec(), sample_certificate(720, 576), tmp_path, workers=2)
     for name in ("package.json", "header.json", "observations.csv", "marks.csv", "truth/truth.json", "truth/frames.csv"):
@@ -99,6 +102,7 @@ def test_regeneration_is_deterministic_whatever_the_number_of_workers(tiny, tmp_
     assert all(np.array_equal(x, y) for x, y in zip(a, b))
 
 
+@pytest.mark.slow
 def test_rebuilding_replaces_the_package_in_place(tmp_path):
     cert = sample_certificate(720, 576)
     first = build_package(tiny_spec(seed=1), cert, tmp_path)
@@ -123,6 +127,7 @@ def ocr():
     return RapidOCR()
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("package", [spec.package_id for spec, _ in sample_specs()])
 def test_overlay_shows_the_true_counter_reading(ocr, package):
     folder = SAMPLES / package

@@ -18,6 +18,8 @@ from pipeline.reports import render_inspection_report
 from pipeline.store import read_table
 from pipeline.judgement.verdicts.log_check import U_RES_FACTOR
 
+pytestmark = pytest.mark.slow          # every test shares one package measured end to end
+
 SAMPLES = Path(__file__).resolve().parent.parent / "sample_videos"
 PACKAGE = "S02-circular-water-offset"
 

@@ -27,6 +27,7 @@ REAL = DATA / "real_frames"
 PACKAGES = ["S01-circular-clean", "S02-circular-water-offset", "S03-egg-concrete"]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name, expected", [("0001", 5.52), ("0002", 7.74), ("0003", 15.46), ("0004", 20.66)])
 def test_real_frames_chainage_read_exactly(reader, name, expected):
     frame = cv2.imread(str(REAL / f"1.045-1.040_{name}.jpg"))
@@ -40,6 +41,7 @@ def test_chainage_forms(text, value):
     assert parse_chainage(text) == value
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("package", PACKAGES)
 def test_sample_chainage_reads_and_track(reader, package):
     video = SAMPLES / package / "video.mp4"
@@ -93,6 +95,7 @@ def test_truncated_videos_are_refused_with_the_last_good_frame(tmp_path):
         probe_video(empty)
 
 
+@pytest.mark.slow
 def test_video_without_overlay(reader, tmp_path):
     plain = np.full((288, 360, 3), 90, np.uint8)
     cv2.circle(plain, (180, 144), 60, (20, 20, 20), -1)
@@ -120,6 +123,7 @@ def test_point_undistortion_inverts_the_projection():
     assert np.abs(und.points(distorted.reshape(-1, 2)) - ideal).max() < 1e-6
 
 
+@pytest.mark.slow
 def test_probe_command_on_a_real_frame(capsys):
     assert main(["probe", str(REAL / "1.045-1.040_0004.jpg"), "--json"]) == 0
     report = json.loads(capsys.readouterr().out)
@@ -127,6 +131,7 @@ def test_probe_command_on_a_real_frame(capsys):
     assert any("Vitrified Clay" in line for line in report["overlay_lines"])
 
 
+@pytest.mark.slow
 def test_probe_at_a_chainage_finds_the_first_frame_there(capsys):
     """``probe VIDEO --chainage C``: the track maps C to the first frame whose counter shows it, with u; the
     contour there is found."""
@@ -147,6 +152,7 @@ def test_probe_at_a_chainage_finds_the_first_frame_there(capsys):
     assert {s["camera"] for s in report["track"]["segments"]} == {"moving", "stopped"}
 
 
+@pytest.mark.slow
 def test_probe_at_a_chainage_the_camera_never_reaches_is_a_usage_error(capsys):
     video = SAMPLES / "S02-circular-water-offset" / "video.mp4"
     assert main(["probe", str(video), "--chainage", "99"]) == 2
@@ -155,6 +161,7 @@ def test_probe_at_a_chainage_the_camera_never_reaches_is_a_usage_error(capsys):
     assert "--chainage needs a video" in capsys.readouterr().err
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", ["1.045-1.040_0002.jpg", "1.045-1.040_0003.jpg"])
 def test_probe_finds_the_joint_ring_on_real_frames(capsys, tmp_path, name):
     debug = tmp_path / "debug.png"
@@ -170,6 +177,7 @@ def test_probe_finds_the_joint_ring_on_real_frames(capsys, tmp_path, name):
     assert cv2.imread(str(debug)).shape == (576, 840, 3)
 
 
+@pytest.mark.slow
 def test_overlay_lines_against_the_header(reader):
     from pipeline.vision.video.overlay_check import overlay_header_mismatches
 
@@ -189,6 +197,7 @@ def test_overlay_lines_against_the_header(reader):
         assert overlay_header_mismatches(lines, header) == [], (package, lines)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("package", PACKAGES)
 def test_ingest_reads_most_frames_by_learned_glyphs(reader, package):
     video = SAMPLES / package / "video.mp4"
@@ -260,6 +269,7 @@ def test_a_template_read_that_is_no_chainage_goes_to_the_ocr_and_keeps_the_templ
     assert (overlay.ocr_reads, overlay.disagreements) == (1, 0) and overlay.glyphs.sums
 
 
+@pytest.mark.slow
 def test_ingest_of_a_sample_delivered_as_h264(reader, tmp_path):
     """S02 re-encoded with libx264 as contractors deliver (compression blurs the glyphs and leaves specks in the
     box): the same reading and track targets as the sample as written."""
@@ -273,6 +283,7 @@ def test_ingest_of_a_sample_delivered_as_h264(reader, tmp_path):
     assert error.max() < 0.02, f"largest track error {error.max():.4f} m"
 
 
+@pytest.mark.slow
 def test_ingest_refuses_a_truncated_video(reader, tmp_path):
     frames = []
     for k in range(40):

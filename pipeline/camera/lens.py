@@ -7,6 +7,7 @@ a certificate's parameters and their (co)variances through the GUM engine.
 from __future__ import annotations
 
 import math
+from typing import Callable, cast
 
 import numpy as np
 
@@ -51,13 +52,16 @@ def distortion_uncertainty(
     Returns {"dx", "dy", "d"} -> result.
     """
     # Each convention's own model, so no conversion (which needs fx = fy) stands in between.
+    model: Callable[..., dict[str, np.ndarray]]
+    names: tuple[str, ...]
     if cert.convention == "pixel":
         model, names = distortion_components, DISTORTION_PARAMETERS
     else:
         model, names = opencv_distortion_components, OPENCV_PARAMETERS
     inputs = cert.input_set(names).extended({"x": float(x), "y": float(y)})
+    # the model returns a mapping of outputs, so each method returns a dict of results
     if method == "linear":
-        return propagate_linear(model, inputs, k=coverage_factor(math.inf))
+        return cast(dict[str, LinearResult], propagate_linear(model, inputs, k=coverage_factor(math.inf)))
     if method == "montecarlo":
-        return propagate_monte_carlo(model, inputs, seed=seed)
+        return cast(dict[str, MonteCarloResult], propagate_monte_carlo(model, inputs, seed=seed))
     raise ValueError(f"method must be 'linear' or 'montecarlo', got {method!r}")

@@ -96,7 +96,7 @@ _SURFACE = {"A": "increased roughness", "B": "spalling", "C": "aggregate visible
             "H": "reinforcement corroded", "I": "missing wall", "J": "corrosion products", "K": "bulge", "Z": "other"}
 _CRACK_SHAPES = {"A": "longitudinal", "B": "circumferential", "C": "complex", "D": "spiral", "E": "star"}
 
-_TABLE = (
+_TABLE: tuple[Code, ...] = (
     Code("BAA", "deformation", {"A": "vertical", "B": "horizontal"},
          q1={ANY: _q("%", "change of the dimension in the characterised direction", "deformation")}),
     Code("BAB", "crack", _CRACK_CHARS, _CRACK_SHAPES,

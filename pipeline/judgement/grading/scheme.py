@@ -128,8 +128,7 @@ def grade(s: Scheme, code: str, char1: str | None, *, unit: str | None, dn_mm: f
     if not bands:
         return Grade(s.key, "ungraded", why)
     n = len(s.classes)
-    logged_ok = logged is not None and math.isfinite(logged)
-    logged_class = s.classes[class_index(bands, logged, n)] if logged_ok else None
+    logged_class = s.classes[class_index(bands, logged, n)] if logged is not None and math.isfinite(logged) else None
     if cdf is None:
         if logged_class is None:
             return Grade(s.key, "unmeasured", (unmeasured_reason or "not measured") + "; no logged value either")

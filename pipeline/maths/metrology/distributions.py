@@ -221,7 +221,7 @@ class JointNormal:
     kind: str = field(default="normal (joint)", init=False)
     _factor: np.ndarray = field(init=False, repr=False, compare=False)
 
-    def __init__(self, labels: Sequence[str], x: Sequence[float], cov: Sequence[Sequence[float]]):
+    def __init__(self, labels: Sequence[str], x: Sequence[float] | np.ndarray, cov: Sequence[Sequence[float]] | np.ndarray):
         labels = tuple(labels)
         x_arr = np.asarray(x, dtype=float)
         cov_arr = np.asarray(cov, dtype=float)

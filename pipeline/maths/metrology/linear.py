@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Callable, Mapping
+from typing import Callable, Mapping, cast
 
 import numpy as np
 
@@ -168,7 +168,8 @@ def propagate_linear(
     method = "numeric (central differences)"
     if sensitivities is not None:
         given = sensitivities(**inputs.estimates())
-        per_output = {name: given} if single else given
+        # one output: {label: c_i}; several: {output: {label: c_i}}
+        per_output = cast(Mapping[str, Mapping[str, float]], {name: given} if single else given)
         for out_name in jac:
             jac[out_name] = np.array([float(per_output[out_name].get(m.label, 0.0)) for m in members])
         method = "analytic"

@@ -29,7 +29,7 @@ def evaluate_outputs(model: Model, values: Mapping[str, np.ndarray | float], n: 
     with np.errstate(all="ignore"):
         out = model(**values)
     single = not isinstance(out, Mapping)
-    raw = {name: out} if single else dict(out)
+    raw = dict(out) if isinstance(out, Mapping) else {name: out}
     outputs: dict[str, np.ndarray] = {}
     for key, arr in raw.items():
         arr = np.broadcast_to(np.asarray(arr, dtype=float), (n,))

@@ -93,13 +93,13 @@ def measure_packages(folders: Sequence[str | os.PathLike], layout: Layout, *, mo
     """
     from pipeline.vision.video.overlay_ocr import OverlayReader
 
-    folders = [Path(p) for p in folders]
-    duplicates = duplicate_claims(folders)
-    for folder, error in duplicates.items():
-        yield refused_outcome(folder, error)
+    paths = [Path(p) for p in folders]
+    duplicates = duplicate_claims(paths)
+    for path, error in duplicates.items():
+        yield refused_outcome(path, error)
     with writing(layout, say):
         reader = reader or OverlayReader()
-        for folder in (p for p in folders if p not in duplicates):
+        for folder in (p for p in paths if p not in duplicates):
             # the same path as a run's, input key included: a later run skips what measure stored
             yield process_package(folder, layout.dataset, model=model, certificates=certificates, reader=reader,
                                   skip_known=False, keep_result=True, progress=progress, reports=layout.reports)

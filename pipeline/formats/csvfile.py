@@ -24,7 +24,7 @@ def read_table(path: Path, required: tuple[str, ...], what: str, max_rows: int) 
         with path.open(newline="", encoding="utf-8-sig") as fh:
             reader = csv.DictReader(fh)
             columns = reader.fieldnames or []
-            rows = []
+            rows: list[dict[str, str]] = []
             for raw in reader:
                 if len(rows) == max_rows:
                     raise too_many(path, what, max_rows)

@@ -79,12 +79,12 @@ def load_manifest(folder: str | os.PathLike) -> PackageManifest:
         if not isinstance(value, str) or not _ID.fullmatch(value):
             problems.append(f"field {key!r}: {value!r} is not an id (letters, digits, '.', '_', '-'; at most 128)")
         ids[key] = value if isinstance(value, str) else ""
-    files = {}
+    files: dict[str, Path] = {}
     names = tuple(DEFAULT_FILES.items())
     section = None
     if "transfer" in data:
         # the transfer stands for the header and the log
-        names = (("video", DEFAULT_FILES["video"]), ("transfer", None), ("marks", DEFAULT_FILES["marks"]))
+        names = (("video", DEFAULT_FILES["video"]), ("transfer", ""), ("marks", DEFAULT_FILES["marks"]))
         for key in ("header", "observations"):
             if key in data:
                 problems.append(f"field {key!r}: a package with a 'transfer' takes its {key} from it; remove {key!r}")
@@ -102,9 +102,11 @@ def load_manifest(folder: str | os.PathLike) -> PackageManifest:
         files[key] = folder / str(name)
     if problems:
         raise PackageError(f"{path}: " + "; ".join(problems))
-    if "transfer" in files:         # the transfer holds both: no path stands for a file that is not there
-        files["header"] = files["observations"] = None
-    return PackageManifest(folder, ids["package_id"], ids["certificate_id"], **files, section=section)
+    transfer = files.get("transfer")    # it holds the header and the log: no path stands for a file not there
+    return PackageManifest(folder, ids["package_id"], ids["certificate_id"], video=files["video"],
+                           header=None if transfer else files["header"],
+                           observations=None if transfer else files["observations"], marks=files["marks"],
+                           transfer=transfer, section=section)
 
 
 def certificate_path(manifest: PackageManifest, certificates: str | os.PathLike | None = None) -> Path:

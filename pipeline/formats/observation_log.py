@@ -101,14 +101,14 @@ def parse_log_rows(rows, file: str, section_length_m: float, field_names: dict[s
                     bad(column, f"{code} needs a characterisation 1 ({', '.join(allowed)})")
                 elif not allowed and value:
                     bad(column, f"{code} takes no characterisation {column[-1]}, got {value!r}")
-        values = {}
+        values: dict[str, float | None] = {}
         for q in ("q1", "q2"):
             text, unit = f[q], f[f"{q}_unit"]
             expected = spec.quantification(q.upper(), f["char1"].upper()) if spec else None
             values[q] = None
             if text:
-                values[q] = _float(text)
-                if values[q] is None or values[q] < 0:
+                values[q] = number = _float(text)
+                if number is None or number < 0:
                     bad(q, f"{text!r} is not a quantification (a number >= 0)")
                 if spec is not None and expected is None:
                     bad(q, f"{code} {f['char1']} takes no quantification {q.upper()}; leave it empty")
@@ -117,12 +117,12 @@ def parse_log_rows(rows, file: str, section_length_m: float, field_names: dict[s
             elif expected is not None and (text or unit) and unit != expected.unit:
                 bad(f"{q}_unit", f"{code} {q.upper()} ({expected.meaning}) is in {expected.unit}, "
                                  f"not {unit or 'no unit'!r}")
-        clocks = {}
+        clocks: dict[str, int | None] = {}
         for column in ("clock_from", "clock_to"):
             clocks[column] = None
             if f[column]:
-                clocks[column] = _int(f[column])
-                if clocks[column] is None or not 1 <= clocks[column] <= 12:
+                clocks[column] = hour = _int(f[column])
+                if hour is None or not 1 <= hour <= 12:
                     bad(column, f"{f[column]!r} is not a clock position 1-12")
         if f["at_joint"].upper() not in ("", "Y", "N"):
             bad("at_joint", f"{f['at_joint']!r}: use Y, N or leave it empty")

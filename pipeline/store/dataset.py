@@ -90,15 +90,15 @@ def write_inspection(root: str | os.PathLike, inspection: InspectionRecord | dic
     inspection's row is written last and is the commit (module docstring).
     """
     root = Path(root)
-    inspection = as_record("inspections", inspection)
-    iid = inspection["inspection_id"]
-    date = inspection.get("inspection_date") or inspection["processed_at"].date()
+    record = as_record("inspections", inspection)
+    iid = record["inspection_id"]
+    date = record.get("inspection_date") or record["processed_at"].date()
     if isinstance(date, str):
         date = dt.date.fromisoformat(date)
     write_id = secrets.token_hex(8)
     stem, partition = file_stem(iid), f"inspection_date={date.isoformat()}"
     records = {"thumbnails": thumbnails or [], "measurements": measurements, "observations": observations,
-               "inspections": [inspection]}
+               "inspections": [record]}
     tables = {t: _arrow_table(t, [{**to_row(as_record(t, r)), "inspection_id": iid, "write_id": write_id} for r in rs])
               for t, rs in records.items()}
     written: dict[str, Path] = {}

@@ -178,7 +178,7 @@ def read_transfer_log(path: str | os.PathLike) -> TransferLog:
                             "deliver one transfer per inspected section")
     u = inspections[0]
     a = u.attrs
-    fields = {"section_id": a.get("Bezeichnung", ""), "start_node": a.get("vonPunktBezeichnung", ""),
+    fields: dict[str, object] = {"section_id": a.get("Bezeichnung", ""), "start_node": a.get("vonPunktBezeichnung", ""),
               "finish_node": a.get("bisPunktBezeichnung", ""), "contractor": a.get("Ausfuehrender", "")}
     problems = []
     date = a.get("Zeitpunkt", "")
@@ -227,6 +227,7 @@ def read_transfer_log(path: str | os.PathLike) -> TransferLog:
             spec = quantification(code, f"Q{q}", char1)
             raw[f"q{q}"], raw[f"q{q}_unit"] = text, (spec.unit if spec and text else "")
         rows.append((f"Kanalschaden TID {k.tid} (line {k.line})", raw))
+    assert length is not None                       # a transfer without its length was refused above
     observations = parse_log_rows(rows, t.path.name, length, FIELD_NAMES)
     return TransferLog(t, u, fields, details, observations, video)
 

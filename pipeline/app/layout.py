@@ -29,14 +29,11 @@ class Layout:
 
     @classmethod
     def of(cls, folder: str | os.PathLike) -> Layout:
-        """The layout of ``folder``: OUT itself, or the OUT around a dataset folder passed as such (OUT/dataset).
-
-        A dataset folder with no OUT around it (one that is not named ``dataset``) keeps its reports beside it.
+        """The layout of a folder a verb's ``--data`` names: a run's OUT (it holds ``dataset/``), else the dataset
+        folder itself, which keeps no reports (``pipegauge measure --data DATASET`` as before there were OUTs).
         """
         folder = Path(folder)
-        if (folder / "dataset" / "inspections").is_dir() or not (folder / "inspections").is_dir():
-            return cls(folder)
-        return _DatasetOnly(folder)
+        return cls(folder) if (folder / "dataset").is_dir() else _DatasetOnly(folder)
 
     @property
     def dataset(self) -> Path:

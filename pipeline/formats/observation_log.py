@@ -15,10 +15,11 @@ from pathlib import Path
 from pipeline.core.limits import MAX_DISTANCE_M, MAX_LOG_ROWS, MAX_REMARK_CHARS, MAX_ROW_NUMBER, MAX_TEXT_FIELD_CHARS
 from pipeline.core.numbers import finite_number, whole_number
 from pipeline.domain.codes import CODES, UNITS
-from pipeline.domain.records import DISTANCE_SLACK_M, Observation, RowProblem
+from pipeline.domain.records import DISTANCE_SLACK_M, Observation, RowProblem, SectionHeader
 from pipeline.formats.csvfile import clip, read_table, too_many
+from pipeline.formats.header import load_header
 
-__all__ = ["read_log", "parse_log_rows", "LOG_COLUMNS", "MAX_LOG_ROWS"]
+__all__ = ["read_log", "read_log_with_header", "parse_log_rows", "LOG_COLUMNS", "MAX_LOG_ROWS"]
 
 LOG_COLUMNS = ("row", "distance_m", "code", "char1", "char2", "q1", "q1_unit", "q2", "q2_unit",
                "clock_from", "clock_to", "at_joint", "continuous", "video_time", "photo", "remark")
@@ -39,6 +40,16 @@ def read_log(path: str | os.PathLike, section_length_m: float) -> list[Observati
     path = Path(path)
     rows = read_table(path, LOG_COLUMNS, "observation log", MAX_LOG_ROWS)
     return parse_log_rows(((f"line {line}", raw) for line, raw in enumerate(rows, start=2)), path.name, section_length_m)
+
+
+def read_log_with_header(path: str | os.PathLike, header_path: str | os.PathLike) -> tuple[SectionHeader, list[Observation]]:
+    """observations.csv with its header.json: the header, and the log's distances checked against its length.
+
+    The one way a CSV log is read with its header, in a package (``registry.load_package_log``) or alone
+    (``tabular.read_csv_log``).
+    """
+    header = load_header(header_path)
+    return header, read_log(path, header.section_length_m)
 
 
 def parse_log_rows(rows, file: str, section_length_m: float, field_names: dict[str, str] | None = None) -> list[Observation]:

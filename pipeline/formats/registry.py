@@ -119,11 +119,9 @@ def load_package_log(manifest):
     manifest : a ``pipeline.formats.PackageManifest``; returns (SectionHeader, list of Observation)
     """
     if manifest.transfer is None:
-        from pipeline.formats.header import load_header
-        from pipeline.formats.observation_log import read_log
+        from pipeline.formats.observation_log import read_log_with_header
 
-        header = load_header(manifest.header)
-        return header, read_log(manifest.observations, header.section_length_m)
+        return read_log_with_header(manifest.observations, manifest.header)
     reading = read_log_file(manifest.transfer)
     return reading.section_header(manifest.section, f"{manifest.transfer} with {manifest.folder / 'package.json'}"), \
         reading.observations

@@ -16,8 +16,7 @@ import os
 from pathlib import Path
 
 from pipeline.core.atomic import atomic_path
-from pipeline.formats.header import load_header
-from pipeline.formats.observation_log import read_log
+from pipeline.formats.observation_log import read_log, read_log_with_header
 from pipeline.domain.value_text import format_record
 from pipeline.maths.metrology.display import significant_step
 
@@ -49,9 +48,11 @@ def read_csv_log(path: str | os.PathLike):
 
     path = Path(path)
     header_path = path.with_name("header.json")
-    header = load_header(header_path) if header_path.is_file() else None
-    fields = header.as_record() if header else {}
-    observations = read_log(path, header.section_length_m if header else math.inf)
+    if header_path.is_file():
+        header, observations = read_log_with_header(path, header_path)
+        fields = header.as_record()
+    else:
+        header, observations, fields = None, read_log(path, math.inf), {}
     details = {} if header else {"note": "no header.json beside the log: distances not checked against a length"}
     return LogReading(path, "pipegauge-csv", fields, details, observations)
 

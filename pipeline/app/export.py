@@ -13,7 +13,6 @@ are functions of the rows they are given, registered by name in ``pipeline.forma
 from __future__ import annotations
 
 import datetime as dt
-import math
 import os
 from pathlib import Path
 
@@ -24,7 +23,7 @@ from pipeline.formats import WRITERS, writer
 from pipeline.formats.manifest import load_manifest
 from pipeline.formats.tabular import export_table, write_csv, write_parquet
 from pipeline.formats.vsa_kek import Transfer, read_transfer_log
-from pipeline.store import file_stem, read_table, require_dataset
+from pipeline.store import file_stem, read_records, read_table, require_dataset, to_row
 
 __all__ = ["export", "export_frame", "export_csv", "export_parquet", "inspection_exports"]
 
@@ -99,10 +98,9 @@ def export_parquet(root: str | os.PathLike, path: str | os.PathLike, start: dt.d
     return write_parquet(export_frame(root, start, end), path)
 
 
-def _records(frame: pd.DataFrame) -> list[dict]:
-    """Rows as plain dicts, a missing value (NaN, pd.NA) as None, as the writers expect."""
-    return [{k: (None if v is pd.NA or (isinstance(v, float) and math.isnan(v)) else v) for k, v in r.items()}
-            for r in frame.to_dict("records")]
+def _rows(root, table: str, start, end) -> list[dict]:
+    """A table's committed rows as plain dicts for the writers, through the records (a missing value as None)."""
+    return [to_row(r) for r in read_records(root, table, start=start, end=end)]
 
 
 def _by_inspection(rows: list[dict]) -> dict[str, list[dict]]:
@@ -132,10 +130,9 @@ def inspection_exports(root: str | os.PathLike, start: dt.date | None = None, en
         its measurement rows, and the contractor's transfer (or None).
     """
     require_dataset(root)
-    inspections = read_table(root, "inspections", start=start, end=end)
-    observations = _by_inspection(_records(read_table(root, "observations", start=start, end=end)))
-    measurements = _by_inspection(_records(read_table(root, "measurements", start=start, end=end)))
-    for ins in _records(inspections):
+    observations = _by_inspection(_rows(root, "observations", start, end))
+    measurements = _by_inspection(_rows(root, "measurements", start, end))
+    for ins in _rows(root, "inspections", start, end):
         if ins["status"] == "failed":
             continue
         iid = ins["inspection_id"]

@@ -17,6 +17,7 @@ from xml.sax.saxutils import escape, quoteattr
 
 from pipeline import __version__
 from pipeline.core.atomic import atomic_path
+from pipeline.core.numbers import is_missing
 from pipeline.formats.vsa_kek.model import (ANMERKUNG_CHARS, ATTRIBUTE_ORDER, EINZELSCHADENKLASSEN, FPS, GRADING_SCHEME,
                                             ILI_NS, MODELS, QUANTITY_RANGE, ROLES_AFTER, Transfer, TransferObject, vsa_code)
 
@@ -150,11 +151,11 @@ def transfer_text(inspection: dict, observations: list[dict], version: str, *, m
             a[f"Quantifizierung{q}"] = "" if value is None or math.isnan(value) else _quantity(value)
             if m:
                 notes.append(_measured_note(m))
-        a["SchadenlageAnfang"] = str(int(obs["clock_from"])) if _present(obs.get("clock_from")) else "0"
-        a["SchadenlageEnde"] = str(int(obs["clock_to"])) if _present(obs.get("clock_to")) else "0"
+        a["SchadenlageAnfang"] = str(int(obs["clock_from"])) if not is_missing(obs.get("clock_from")) else "0"
+        a["SchadenlageEnde"] = str(int(obs["clock_to"])) if not is_missing(obs.get("clock_to")) else "0"
         a["Verbindung"] = "ja" if obs.get("at_joint") else "nein"
         a["Streckenschaden"] = _text(obs.get("continuous"), 3)
-        a["Videozaehlerstand"] = _time_to_counter(obs["video_time_s"]) if _present(obs.get("video_time_s")) else ""
+        a["Videozaehlerstand"] = _time_to_counter(obs["video_time_s"]) if not is_missing(obs.get("video_time_s")) else ""
         remark = _text(obs.get("remark"))
         if notes:
             note = "; ".join(notes) + f" (pipegauge {__version__}, {inspection.get('model') or 'perspective'})"
@@ -200,10 +201,6 @@ def transfer_text(inspection: dict, observations: list[dict], version: str, *, m
             '</HEADERSECTION>\n<DATASECTION>\n'
             f'<{model}.KEK BID={quoteattr(bid)}>\n{body}\n</{model}.KEK>\n'
             '</DATASECTION>\n</TRANSFER>\n')
-
-
-def _present(value) -> bool:
-    return value is not None and not (isinstance(value, float) and math.isnan(value))
 
 
 def write_transfer(path: str | os.PathLike, inspection: dict, observations: list[dict], version: str, **kwargs) -> Path:

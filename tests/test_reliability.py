@@ -361,6 +361,7 @@ def test_the_quantities_run_side_by_side_keep_their_errors_to_their_rows_and_an_
 
     The package is measured twice, but its video only once: the second measurement takes the first one's chainage
     track and contours (and the ideal frames the contours' pass kept), so that only its quantities run again."""
+    import pipeline.app.locate as locate_step
     import pipeline.app.measure as conductor
     from pipeline.core.errors import MeasurementError
 
@@ -376,7 +377,7 @@ def test_the_quantities_run_side_by_side_keep_their_errors_to_their_rows_and_an_
             return kept[0]
         return first_result
 
-    monkeypatch.setattr(conductor, "ingest_chainage", once(conductor.ingest_chainage))
+    monkeypatch.setattr(locate_step, "ingest_chainage", once(locate_step.ingest_chainage))
     monkeypatch.setattr(conductor, "contours_at_frames", once(conductor.contours_at_frames))
     real = conductor.measure_quantity
     doomed = conductor._seed("S03-egg-concrete", 2, "Q1")      # row 2's Q1 (marks.csv), whichever thread runs it

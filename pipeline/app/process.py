@@ -54,15 +54,15 @@ def refused_outcome(folder: str | os.PathLike, error: str, package_id: str | Non
     return PackageOutcome(str(folder), package_id or Path(folder).name, "failed", error, processed=False, refused=True)
 
 
-def process_package(folder: str | os.PathLike, out: str | os.PathLike, *, model: str = "perspective",
+def process_package(folder: str | os.PathLike, dataset: str | os.PathLike, *, model: str = "perspective",
                     certificates: str | os.PathLike | None = None, reader: OverlayReader | None = None,
                     skip_known: bool = True, reports: str | os.PathLike | None = None,
                     progress: Callable[[str], None] | None = None, keep_result: bool = False) -> PackageOutcome:
-    """Measure one package and store its records in the dataset ``out``; never raises for a bad package.
+    """Measure one package and store its records in the dataset folder ``dataset``; never raises for a bad package.
 
     reports : folder for the package's PDF condition report, rendered from the
     dataset (also for a skipped package whose report is missing).
-    skip_known : skip the package when ``out`` holds it with the same input key; the
+    skip_known : skip the package when ``dataset`` holds it with the same input key; the
     outcome then repeats the stored status and error, with ``processed`` False.
     keep_result : the outcome carries the measured records (``result``), for a caller that prints them.
     Errors writing the dataset (OSError) do raise: they may be transient.
@@ -81,13 +81,13 @@ def process_package(folder: str | os.PathLike, out: str | os.PathLike, *, model:
         manifest = None             # measure_package records why
     key = input_key(manifest, digests, certificates, model)
     package_id = manifest.package_id if manifest else folder.name
-    stored = stored_input_key(out, package_id) if skip_known else None
+    stored = stored_input_key(dataset, package_id) if skip_known else None
     if stored and (other := _other_claimant(stored, folder, package_id)):
         return refused_outcome(folder, f"package id {package_id!r} is stored from {other}, which still holds it; nothing "
                                        "of this folder was read or stored: give each package its own package_id",
                                package_id)
     if stored and stored["input_sha256"] == key:
-        error = _render(out, package_id, reports, missing_only=True)
+        error = _render(dataset, package_id, reports, missing_only=True)
         return PackageOutcome(str(folder), package_id, stored["status"], _joined(stored["error"], error),
                               stored["n_measurements"] or 0, time.perf_counter() - t0, processed=False)
     result = measure_package(folder, certificates=certificates, model=model, reader=reader, progress=progress,
@@ -95,12 +95,12 @@ def process_package(folder: str | os.PathLike, out: str | os.PathLike, *, model:
     result.inspection["input_sha256"] = key
     rec = result.inspection
     try:
-        write_inspection(out, rec, result.observations, result.measurements, result.thumbnails)
+        write_inspection(dataset, rec, result.observations, result.measurements, result.thumbnails)
     except StoreError as exc:       # a record the schema refuses: keep the failure, not the records
         rec.update(status="failed", error=f"the results could not be stored ({exc}); please report this")
-        write_inspection(out, {k: rec.get(k) for k in _FAILED_FIELDS}, [], [], [])
+        write_inspection(dataset, {k: rec.get(k) for k in _FAILED_FIELDS}, [], [], [])
         result.measurements = []
-    error = _render(out, rec["inspection_id"], reports)
+    error = _render(dataset, rec["inspection_id"], reports)
     return PackageOutcome(str(folder), rec["inspection_id"], rec["status"], _joined(rec["error"], error),
                           len(result.measurements), time.perf_counter() - t0, result=result if keep_result else None)
 
@@ -119,7 +119,7 @@ def _other_claimant(stored: dict, folder: Path, package_id: str) -> str | None:
     return str(other) if other.is_dir() and package_id_of(other) == package_id else None
 
 
-def _render(out, inspection_id: str, reports, missing_only: bool = False) -> str | None:
+def _render(dataset, inspection_id: str, reports, missing_only: bool = False) -> str | None:
     """Render an inspection's report; returns why it could not be rendered (the stored result stays)."""
     if not reports:
         return None
@@ -127,7 +127,7 @@ def _render(out, inspection_id: str, reports, missing_only: bool = False) -> str
     if missing_only and path.is_file():
         return None
     try:
-        render_inspection_report(out, inspection_id, path)
+        render_inspection_report(dataset, inspection_id, path)
     except PipegaugeError as exc:
         return f"its PDF report could not be rendered ({exc})"
     return None

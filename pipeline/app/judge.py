@@ -19,7 +19,7 @@ from pipeline.domain.results import ClassProbability
 from pipeline.judgement.grading import Grade, grade, scheme
 from pipeline.judgement.grading.probability import result_cdf
 from pipeline.judgement.verdicts.log_check import check_logged
-from pipeline.core.numbers import finite_number as _f
+from pipeline.core.numeric import finite_number as _f
 from pipeline.judgement.verdicts.survey import survey_verdict
 
 __all__ = ["add_verdicts", "LOG_VERDICTS"]

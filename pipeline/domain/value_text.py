@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from pipeline.core.numbers import finite_number, is_missing
+from pipeline.core.numeric import finite_number, is_missing
 from pipeline.maths.metrology.display import format_result
 
 __all__ = ["format_record"]

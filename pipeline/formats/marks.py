@@ -11,8 +11,8 @@ import os
 from pathlib import Path
 
 from pipeline.core.limits import MAX_FRAME_INDEX, MAX_MARK_LINES
-from pipeline.core.numbers import finite_number as _float
-from pipeline.core.numbers import whole_number as _int
+from pipeline.core.numeric import finite_number as _float
+from pipeline.core.numeric import whole_number as _int
 from pipeline.domain.records import Mark, Observation, RowProblem
 from pipeline.formats.csvfile import clip as _clip
 from pipeline.formats.csvfile import read_table

@@ -13,7 +13,7 @@ import re
 from pathlib import Path
 
 from pipeline.core.limits import MAX_DISTANCE_M, MAX_LOG_ROWS, MAX_REMARK_CHARS, MAX_ROW_NUMBER, MAX_TEXT_FIELD_CHARS
-from pipeline.core.numbers import finite_number, whole_number
+from pipeline.core.numeric import finite_number, whole_number
 from pipeline.domain.codes import CODES, UNITS
 from pipeline.domain.records import DISTANCE_SLACK_M, Observation, RowProblem, SectionHeader
 from pipeline.formats.csvfile import clip, read_table, too_many

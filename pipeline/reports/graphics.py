@@ -19,7 +19,7 @@ from reportlab.pdfbase.pdfmetrics import stringWidth
 
 from pipeline.reports.pdf import FONT, FONT_BOLD, styles
 from pipeline.reports.style import LOGGED, MEASURED
-from pipeline.core.numbers import is_finite
+from pipeline.core.numeric import is_finite
 
 __all__ = ["pipe_strip", "spread_labels", "strip_span"]
 

@@ -33,7 +33,7 @@ from pipeline.reports.style import number
 from pipeline.reports.verdict_text import grade_text, log_check_text, verdict_lines
 from pipeline.reports.warning_text import measurement_warnings
 from pipeline.maths.metrology import K95
-from pipeline.core.numbers import is_finite, is_missing
+from pipeline.core.numeric import is_finite, is_missing
 from pipeline.measurement.quantity import input_unit
 from pipeline.judgement.grading import DEFAULT_SCHEME, SCHEMES, scheme
 

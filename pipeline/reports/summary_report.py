@@ -13,7 +13,7 @@ from reportlab.platypus import Paragraph, Spacer, Table, TableStyle
 
 from pipeline import __version__
 from pipeline.domain.codes import plain_description
-from pipeline.core.numbers import finite_number
+from pipeline.core.numeric import finite_number
 from pipeline.domain.results import MeasurementRecord
 from pipeline.store import read_records
 from pipeline.judgement.grading import SCHEMES, scheme

@@ -12,7 +12,7 @@ import math
 from typing import Any, Mapping
 
 from pipeline.domain.results import Record
-from pipeline.core.numbers import is_missing
+from pipeline.core.numeric import is_missing
 
 __all__ = ["json_safe", "log_check_text", "grade_text", "probabilities_text", "verdict_lines", "is_missing"]
 

@@ -17,7 +17,7 @@ from typing import Any, Iterable, Mapping
 import numpy as np
 
 from pipeline.core.errors import StoreError
-from pipeline.core.numbers import is_missing
+from pipeline.core.numeric import is_missing
 from pipeline.domain.results import RECORDS, BudgetLine, ClassProbability, Record
 
 __all__ = ["to_row", "from_row", "as_record", "records_from_rows"]

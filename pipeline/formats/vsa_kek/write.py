@@ -17,7 +17,7 @@ from xml.sax.saxutils import escape, quoteattr
 
 from pipeline import __version__
 from pipeline.core.atomic import atomic_path
-from pipeline.core.numbers import is_missing
+from pipeline.core.numeric import is_missing
 from pipeline.formats.vsa_kek.model import (ANMERKUNG_CHARS, ATTRIBUTE_ORDER, EINZELSCHADENKLASSEN, FPS, GRADING_SCHEME,
                                             ILI_NS, MODELS, QUANTITY_RANGE, ROLES_AFTER, Transfer, TransferObject, vsa_code)
 

@@ -34,7 +34,7 @@ steps (the VSA 2023 and NEN 3399 class bands are multiples of 5 %,
 """
 
 from __future__ import annotations
-from pipeline.core.numbers import finite_number
+from pipeline.core.numeric import finite_number
 
 import math
 from dataclasses import dataclass

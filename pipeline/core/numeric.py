@@ -37,10 +37,11 @@ def whole_number(x: Any) -> int | None:
 def is_missing(x: Any) -> bool:
     """None, NaN, or pandas' NA/NaT (every one of them compares unequal to itself).
 
-    >>> is_missing(None), is_missing(float("nan")), is_missing(0.0), is_missing("")
-    (True, True, False, False)
+    >>> import pandas as pd
+    >>> is_missing(None), is_missing(float("nan")), is_missing(pd.NA), is_missing(pd.NaT), is_missing(0.0), is_missing("")
+    (True, True, True, True, False, False)
     """
-    if x is None:
+    if x is None or type(x).__name__ == "NAType":     # pandas' NA: its comparisons are NA, not a bool
         return True
     try:
         return bool(x != x)

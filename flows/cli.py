@@ -14,7 +14,7 @@ import json
 import os
 import sys
 from pathlib import Path
-from typing import Callable, Sequence
+from typing import Callable, Sequence, cast
 
 # One OpenBLAS thread unless the user says otherwise, set before NumPy loads it: the pose fits' small matrix
 # products gain nothing from more, and with two the idle threads' spinning took 1.9 s more CPU for the same 2.7 s
@@ -110,7 +110,7 @@ def cmd_samples(args: argparse.Namespace) -> int:
     if unknown:
         _say(f"pipegauge samples: error: unknown package {unknown[0]!r}; choose from {known}")
         return EXIT_USAGE
-    last = {}
+    last: dict[str, str] = {}
 
     def progress(message: str) -> None:
         package = message.split(":")[0]
@@ -285,9 +285,10 @@ def cmd_run(args: argparse.Namespace) -> int:
         state = nightly.with_options(task_runner=runner)(
             str(args.inbox), str(args.out), args.model, str(args.certificates) if args.certificates else None,
             hold_lock=False, return_state=True)
-        rows = state.result(raise_on_failure=False)        # every package's row, also when the run failed
-    if isinstance(rows, BaseException):
-        raise rows
+        result = state.result(raise_on_failure=False)      # every package's row, also when the run failed
+    if isinstance(result, BaseException):
+        raise result
+    rows = cast("list[dict]", result)
     counts = {s: sum(r["status"] == s for r in rows) for s in ("ok", "partial", "failed")}
     new = sum(r["processed"] for r in rows)
     refused = sum(r["refused"] for r in rows)

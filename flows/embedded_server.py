@@ -64,8 +64,10 @@ def embedded_prefect_server(layout: Layout, say: Callable[[str], None]) -> Itera
 
     server = SubprocessASGIServer()     # the instance Prefect's own client then uses
     server.start()                      # and stops at exit, after its clients have flushed their logs and events
+    process = server.server_process
+    assert process is not None              # start() returned: the server runs
     try:
-        pid_file.write_text(f"{server.server_process.pid}\n")
+        pid_file.write_text(f"{process.pid}\n")
         yield
     finally:
         pid_file.unlink(missing_ok=True)

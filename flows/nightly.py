@@ -16,12 +16,13 @@ import datetime as dt
 import itertools
 import threading
 from pathlib import Path
+from typing import Any
 
 from prefect import flow, task
 from prefect.artifacts import create_table_artifact
 from prefect.cache_policies import NO_CACHE
 from prefect.futures import as_completed
-from prefect.states import Failed
+from prefect.states import Failed, State
 from prefect.task_runners import ProcessPoolTaskRunner, TaskRunner, ThreadPoolTaskRunner
 
 from flows.console import say
@@ -63,7 +64,7 @@ def measure_package_task(folder: str, out: str, model: str, certificates: str | 
     return outcome.as_row()
 
 
-def task_runner_for(workers: int = 1, dask_address: str | None = None) -> TaskRunner:
+def task_runner_for(workers: int = 1, dask_address: str | None = None) -> TaskRunner[Any]:
     """Threads for one worker, processes for several (the work is CPU-bound), or an existing Dask cluster."""
     if dask_address:
         from prefect_dask import DaskTaskRunner
@@ -88,7 +89,7 @@ def _failed_row(folder: str, exc: BaseException) -> dict:
 
 @flow(name="pipegauge-nightly", flow_run_name="nightly {inbox}")
 def nightly(inbox: str, out: str, model: str = "perspective", certificates: str | None = None,
-            hold_lock: bool = True) -> list[dict]:
+            hold_lock: bool = True) -> list[dict] | State:
     """Measure every package of ``inbox`` into ``out``; returns one summary row per package (also an artifact).
 
     hold_lock : take the dataset's lock and clean up after an interrupted run (``pipeline.app.night.writing``);

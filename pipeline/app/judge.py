@@ -30,7 +30,7 @@ LOG_VERDICTS = ("agrees", "disagrees", "undecided", "not checked")
 def _grade_fields(g: Grade) -> dict:
     probs = g.probabilities
     return {"grading_scheme": g.scheme, "grade_status": g.status, "grade_reason": g.reason, "grade": g.cls,
-            "grade_probability": probs[g.most_probable] if probs else None, "grade_worst_likely": g.worst_likely,
+            "grade_probability": probs[g.most_probable] if probs and g.most_probable else None, "grade_worst_likely": g.worst_likely,
             "logged_grade": g.logged_class, "grade_disagrees": g.disagrees,
             "grade_probabilities": [ClassProbability(grade=c, probability=p) for c, p in probs.items()] if probs else None}
 

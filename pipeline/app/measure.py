@@ -109,7 +109,8 @@ def measure_package(folder: str | os.PathLike, *, certificates: str | os.PathLik
     result = InspectionResult(record, [observation_record(o) for o in observations])
     problems: list[str] = [str(p) for o in observations for p in o.problems] + [str(p) for p in delivery.mark_problems]
     by_row = {o.row: o for o in observations}
-    contours, ideal_frames, t_contour, t_measure = {}, {}, 0.0, 0.0
+    ideal_frames: dict[int, np.ndarray] = {}
+    t_contour, t_measure = 0.0, 0.0
     by_frame: dict[int, list[Mark]] = defaultdict(list)
     for m in marks:
         by_frame[m.frame].append(m)
@@ -168,25 +169,26 @@ def measure_package(folder: str | os.PathLike, *, certificates: str | os.PathLik
     t_measure = time.perf_counter() - t0
     for row, m, marked, future in jobs:
         if future is not None:
+            assert marked is not None               # a run is queued only for a marked quantity
             try:
                 row.update(_quantity_fields(future.result()))
                 result.thumbnails.append(_thumbnail(ideal(m.frame), contours[m.frame], marked, m.row, m.frame, "marks"))
             except PipegaugeError as exc:
                 row.update(status="error", error=str(exc))
         result.measurements.append(row)
-    for r, frame in sorted(automatic.items()):
+    for r, found in sorted(automatic.items()):
         obs = by_row[r]
-        row = _automatic_base(obs, frame, ingest.track, model)
+        row = _automatic_base(obs, found, ingest.track, model)
         try:
-            if frame is None or not 0 <= frame < info.frame_count:
+            if found is None or not 0 <= found < info.frame_count:
                 raise MeasurementError(f"row {r}: no frame for its video time or chainage")
             t0 = time.perf_counter()
-            q, res = measure_automatic(obs, under(obs, contours[frame]), ideal(frame), cert, H=header.height_mm,
+            q, res = measure_automatic(obs, under(obs, contours[found]), ideal(found), cert, H=header.height_mm,
                                        tolerance=header.height_tolerance_mm, model=model, mask=mask,
                                        seed=_seed(manifest.package_id, r, "Q1 contour"))
             t_measure += time.perf_counter() - t0
             row.update(_quantity_fields(res), u_mark_px=q.u_a)
-            result.thumbnails.append(_thumbnail(ideal(frame), contours[frame], q, r, frame, "contour"))
+            result.thumbnails.append(_thumbnail(ideal(found), contours[found], q, r, found, "contour"))
         except PipegaugeError as exc:
             row.update(status="error", error=str(exc))
         result.measurements.append(row)

@@ -30,10 +30,12 @@ def _phi(z: float) -> float:
     return 0.5 * math.erfc(-z / math.sqrt(2.0))
 
 
-def result_cdf(value: float, u: float, low: float, high: float, k: float | None) -> Callable[[float], float] | None:
+def result_cdf(value: float | None, u: float | None, low: float | None, high: float | None,
+               k: float | None) -> Callable[[float], float] | None:
     """CDF of a stored result (module docstring), or None when the numbers do not define one."""
-    nums = (value, u, low, high)
-    if any(x is None or not math.isfinite(x) for x in nums) or u <= 0:
+    if value is None or u is None or low is None or high is None:
+        return None
+    if not all(math.isfinite(x) for x in (value, u, low, high)) or u <= 0:
         return None
     if k is not None and math.isfinite(k):
         return lambda x: _phi((x - value) / u)

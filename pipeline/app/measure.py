@@ -110,7 +110,6 @@ def measure_package(folder: str | os.PathLike, *, certificates: str | os.PathLik
     problems: list[str] = [str(p) for o in observations for p in o.problems] + [str(p) for p in delivery.mark_problems]
     by_row = {o.row: o for o in observations}
     ideal_frames: dict[int, np.ndarray] = {}
-    t_contour, t_measure = 0.0, 0.0
     by_frame: dict[int, list[Mark]] = defaultdict(list)
     for m in marks:
         by_frame[m.frame].append(m)

@@ -36,6 +36,10 @@ def column(type_: str, unit: str = "", doc: str = "") -> Any:
     return field(default=None, metadata={"type": type_, "unit": unit, "doc": doc})
 
 
+# A record type's declared fields, in order: asked at every item access, so worked out once per type.
+_FIELD_NAMES: dict[type, tuple[str, ...]] = {}
+
+
 class Record:
     """What every record answers: its fields by name, and updates of declared fields only."""
 
@@ -43,7 +47,10 @@ class Record:
 
     @classmethod
     def field_names(cls) -> tuple[str, ...]:
-        return tuple(f.name for f in fields(cls))      # type: ignore[arg-type]
+        names = _FIELD_NAMES.get(cls)
+        if names is None:
+            names = _FIELD_NAMES[cls] = tuple(f.name for f in fields(cls))     # type: ignore[arg-type]
+        return names
 
     def __getitem__(self, name: str) -> Any:
         if name not in self.field_names():
@@ -70,7 +77,7 @@ class Record:
     def update(self, values: dict | None = None, **more: Any) -> None:
         """Set declared fields; KeyError naming the first undeclared one (nothing is set then)."""
         values = {**(values or {}), **more}
-        known = set(self.field_names())
+        known = self.field_names()
         for name in values:
             if name not in known:
                 raise KeyError(f"{type(self).__name__} has no field {name!r} (docs/dataset.md lists the columns)")

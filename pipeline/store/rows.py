@@ -10,9 +10,8 @@ their records again.
 
 from __future__ import annotations
 
-import datetime as dt
 from dataclasses import fields
-from typing import Any, Iterable, Mapping
+from typing import Any, Mapping
 
 import numpy as np
 
@@ -20,7 +19,7 @@ from pipeline.core.errors import StoreError
 from pipeline.core.numeric import is_missing
 from pipeline.domain.results import RECORDS, BudgetLine, ClassProbability, Record
 
-__all__ = ["to_row", "from_row", "as_record", "records_from_rows"]
+__all__ = ["to_row", "from_row", "as_record"]
 
 _NESTED = {"list<budget>": BudgetLine, "list<grade>": ClassProbability}
 
@@ -63,10 +62,6 @@ def from_row(record_type: type[Record], row: Mapping[str, Any]) -> Record:
     return record
 
 
-def records_from_rows(record_type: type[Record], rows: Iterable[Mapping[str, Any]]) -> list[Record]:
-    return [from_row(record_type, r) for r in rows]
-
-
 def _nested(record_type: type[Record], value: Any) -> list[Record] | None:
     if value is None or (not isinstance(value, (list, tuple, np.ndarray)) and is_missing(value)):
         return None
@@ -82,6 +77,4 @@ def _plain(value: Any) -> Any:
         return value.to_pydatetime()
     if isinstance(value, np.generic):
         return value.item()
-    if isinstance(value, (dt.date, str, bytes, bool, int, float)):
-        return value
     return value

@@ -350,27 +350,36 @@ def cmd_export(args: argparse.Namespace) -> int:
 
 
 def cmd_log(args: argparse.Namespace) -> int:
-    from pipeline.formats import read_log_file
+    from pipeline.formats import read_log_file, validate_exchange
     from pipeline.core.text import format_table
 
-    reading = read_log_file(args.file)
+    exchange = read_log_file(args.file)
+    if args.schemas:
+        exchange.problems.extend(validate_exchange(exchange, args.schemas))
+    problems = exchange.all_problems()
     if args.json:
-        print(json.dumps(reading.as_dict(), indent=1, default=str))
-        return EXIT_OK
-    print(f"{reading.file} ({reading.format})")
-    for key, value in {**reading.header_fields, **reading.details, "video": reading.video}.items():
-        if value not in ("", None):
-            print(f"  {key}: {value}")
+        print(json.dumps(exchange.as_dict(), indent=1, default=str))
+        return EXIT_FAILED if problems else EXIT_OK
+    print(f"{exchange.file} ({exchange.format}{' ' + exchange.version if exchange.version else ''}): "
+          f"{len(exchange.sections)} section(s), {len(exchange.manholes)} manhole(s)")
+    for p in exchange.problems:
+        print(f"  problem: {p}")
     cell = lambda v: "" if v is None else v      # noqa: E731
-    rows = [(o.row, f"{o.distance_m:.2f}", o.code, o.char1, o.char2, cell(o.q1), o.q1_unit, cell(o.q2), o.q2_unit,
-             cell(o.clock_from), cell(o.clock_to), "Y" if o.at_joint else "", o.continuous,
-             "" if o.video_time_s is None else f"{o.video_time_s:.2f}", o.ref, o.grade, o.remark[:40])
-            for o in reading.observations]
-    print(format_table(("row", "distance_m", "code", "c1", "c2", "q1", "unit", "q2", "unit", "from", "to", "joint",
-                        "cont", "video_s", "ref", "grade", "remark"), rows,
-                       title=f"{len(rows)} observation(s)"))
-    problems = reading.problems()
-    print(f"{len(problems)} problem(s)" + "".join(f"\n  {p}" for p in problems))
+    for reading in [*exchange.sections, *exchange.manholes]:
+        print(f"\n{reading.kind} {reading.key}" + (f" (line {reading.line})" if reading.line else ""))
+        for key, value in {**reading.header_fields, **reading.details, "video": reading.video}.items():
+            if value not in ("", None):
+                print(f"  {key}: {value}")
+        rows = [(o.row, f"{o.distance_m:.2f}", o.code, o.char1, o.char2, cell(o.q1), o.q1_unit, cell(o.q2), o.q2_unit,
+                 cell(o.clock_from), cell(o.clock_to), "Y" if o.at_joint else "", o.continuous,
+                 "" if o.video_time_s is None else f"{o.video_time_s:.2f}", o.ref, o.grade, o.remark[:40])
+                for o in reading.observations]
+        print(format_table(("row", "distance_m", "code", "c1", "c2", "q1", "unit", "q2", "unit", "from", "to", "joint",
+                            "cont", "video_s", "ref", "grade", "remark"), rows,
+                           title=f"{len(rows)} observation(s)"))
+        section_problems = reading.problems()
+        print(f"{len(section_problems)} problem(s)" + "".join(f"\n  {p}" for p in section_problems))
+    print(f"\n{len(problems)} problem(s) in the file")
     return EXIT_FAILED if problems else EXIT_OK
 
 
@@ -496,11 +505,16 @@ def build_parser() -> argparse.ArgumentParser:
     ex.add_argument("--to", dest="end", type=_date, help="last inspection date YYYY-MM-DD")
     ex.set_defaults(func=cmd_export)
 
-    lg = verbs.add_parser("log", help="print an observation log (observations.csv or a VSA-KEK transfer) as pipegauge reads it",
-                          description="Header, observations and problems of a delivered log, validated as a package's "
-                                      "would be (docs/formats.md). Exit 1 when a record has a problem.")
-    lg.add_argument("file", type=Path, help="observations.csv (with header.json beside it) or a .xtf transfer")
-    lg.add_argument("--json", action="store_true", help="print JSON")
+    lg = verbs.add_parser("log", help="print a delivered log (observations.csv, VSA-KEK, ISYBAU, DWA-M 150, EN 13508-2 "
+                                      "text) as pipegauge reads it",
+                          description="Every section of a delivered log with its header, observations and problems, "
+                                      "validated as a night would (docs/formats.md). Exit 1 when there is a problem.")
+    lg.add_argument("file", type=Path, help="observations.csv (with header.json beside it), a VSA-KEK .xtf, an ISYBAU or "
+                                            "DWA-M 150 .xml, an EN 13508-2 .txt")
+    lg.add_argument("--json", action="store_true", help="print JSON: the file, its problems, one object per section")
+    lg.add_argument("--schemas", type=Path, metavar="DIR",
+                    help="also validate the file against its owner's XML schemas in DIR (ISYBAU: the folder of "
+                         "1302-metadaten.xsd...; docs/formats.md)")
     lg.set_defaults(func=cmd_log)
 
     c = verbs.add_parser("certificate", help="check or convert a camera calibration certificate",

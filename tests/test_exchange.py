@@ -80,7 +80,7 @@ REAL_ROWS = [
 
 
 def test_the_real_transfer_imports_every_kanalschaden_field_by_field():
-    reading = read_log_file(REAL_XTF)
+    reading = read_log_file(REAL_XTF).sections[0]
     assert reading.format == "vsa-kek"
     got = [(o.row, o.distance_m, o.code, o.char1, o.char2, o.q1, o.q1_unit, o.clock_from, o.clock_to, o.at_joint,
             o.video_time_s, o.photo, o.ref) for o in reading.observations]
@@ -107,7 +107,7 @@ def test_log_verb_prints_the_real_transfer(capsys):
     assert "ch20zzshw70lp75k" in out and "Witterung: schoen_trocken" in out
     assert main(["log", str(REAL_XTF), "--json"]) == 0
     data = json.loads(capsys.readouterr().out)
-    assert [o["code"] + o["char1"] + o["char2"] for o in data["observations"]] == [
+    assert [o["code"] + o["char1"] + o["char2"] for o in data["sections"][0]["observations"]] == [
         "AECXC", "AEDXF", "AEF", "BCD", "BDBA", "BCADA", "BAG", "BCE"]
 
 
@@ -184,7 +184,7 @@ def test_a_2020_export_reads_back_to_the_same_observations_and_passes_as_2019(tm
     path_2020 = package_transfer(sample, tmp_path / "S03-2020.xtf", "2020")
     text = path_2020.read_text()
     assert 'MODEL NAME="VSA_KEK_2020_1_LV95"' in text and "<Art>Untersuchung</Art>" not in text
-    back = read_log_file(path_2020)
+    back = read_log_file(path_2020).sections[0]
     _, log_csv = load_package_log(load_manifest(sample))
     assert [(o.row, o.distance_m, o.code, o.char1, o.char2, o.q1, o.q2, o.clock_from, o.clock_to, o.video_time_s, o.remark)
             for o in back.observations] == [
@@ -201,7 +201,7 @@ def test_a_2020_export_reads_back_to_the_same_observations_and_passes_as_2019(tm
 
 
 def test_writer_keeps_the_contractors_objects_and_grade():
-    reading = read_log_file(REAL_XTF)
+    reading = read_log_file(REAL_XTF).sections[0]
     header = reading.section_header({"direction": "downstream", "shape": "circular", "height_mm": 150, "width_mm": 150,
                                      "height_tolerance_mm": 2, "material": "vitrified clay", "pipe_unit_length_m": 2.0},
                                     "real")
@@ -209,7 +209,7 @@ def test_writer_keeps_the_contractors_objects_and_grade():
     rows = [observation_record(o) for o in reading.observations]
     measured = {(6, "Q1"): {"quantity": "Q1", "value": 30.14, "U95": 1.04, "unit": "%"}}
     text = transfer_text(inspection, rows, "2020", measured=measured, source=reading.source)
-    written = read_log_file(_write(text))
+    written = read_log_file(_write(text)).sections[0]
     assert [o.ref for o in written.observations] == [o.ref for o in reading.observations]
     assert [o.grade for o in written.observations] == ["unbekannt"] * 8
     bag = written.observations[6]
@@ -329,8 +329,8 @@ def test_a_sample_delivered_as_a_transfer_measures_bit_for_bit_as_its_csv_packag
     assert capsys.readouterr().out.split() == [str(out / f"{sample}.xtf")]
     valid, errors = validate(out / f"{sample}.xtf", ili_models)
     assert valid, errors
-    exported = read_log_file(out / f"{sample}.xtf")
-    original = read_log_file(good / "inspection.xtf")
+    exported = read_log_file(out / f"{sample}.xtf").sections[0]
+    original = read_log_file(good / "inspection.xtf").sections[0]
     assert [o.ref for o in exported.observations] == [o.ref for o in original.observations]   # the contractor's TIDs
     confident = read_table(data, "measurements").query("status == 'ok' and confident == True and source == 'marks'")
     assert len(confident) > 0
@@ -347,7 +347,7 @@ def test_a_sample_delivered_as_a_transfer_measures_bit_for_bit_as_its_csv_packag
 def test_the_real_transfer_exported_as_2019_passes_the_validator(tmp_path, ili_models):
     """The contractor's 2020.1 objects written through the 2020.1 -> 2019 mapping: every object kept, the TID the
     TEKSI sample uses twice given to its Datei alone, and the validator accepts the result."""
-    reading = read_log_file(REAL_XTF)
+    reading = read_log_file(REAL_XTF).sections[0]
     header = reading.section_header({"direction": "downstream", "shape": "circular", "height_mm": 150, "width_mm": 150,
                                      "height_tolerance_mm": 2, "material": "vitrified clay", "pipe_unit_length_m": 2.0},
                                     "real")

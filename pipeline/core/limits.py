@@ -14,13 +14,17 @@ __all__ = [
     "MAX_JSON_BYTES", "MAX_CSV_BYTES", "MAX_LOG_ROWS", "MAX_MARK_LINES", "MAX_ROW_NUMBER", "MAX_FRAME_INDEX",
     "MAX_DISTANCE_M", "MAX_REMARK_CHARS", "MAX_TEXT_FIELD_CHARS", "MAX_VIDEO_BYTES", "MAX_VIDEO_SECONDS",
     "MAX_IMAGE_PIXELS", "MAX_IMAGE_SIDE_PX", "MAX_REPORT_OBSERVATIONS", "MAX_REPORT_QUANTITIES",
-    "MAX_REPORT_WARNINGS", "MAX_TRANSFER_BYTES",
+    "MAX_REPORT_WARNINGS", "MAX_TRANSFER_BYTES", "MAX_EXCHANGE_BYTES", "MAX_EXCHANGE_ELEMENTS",
+    "MAX_SECTIONS",
 ]
 
 # Delivered text files.
 MAX_JSON_BYTES = 1 << 20            # package.json, header.json, a certificate [bytes]
 MAX_CSV_BYTES = 16 << 20            # observations.csv, marks.csv [bytes]
 MAX_TRANSFER_BYTES = 16 << 20       # an exchange file of one inspection (e.g. a VSA-KEK transfer) [bytes]
+MAX_EXCHANGE_BYTES = 64 << 20      # an exchange file of a whole job (ISYBAU, DWA-M 150, EN 13508-2 text) [bytes]
+MAX_EXCHANGE_ELEMENTS = 500_000     # XML elements of such a file (a 200-section job holds about 100,000)
+MAX_SECTIONS = 2_000                # inspected sections (pipes, laterals, manholes) of one exchange file
 MAX_LOG_ROWS = 5_000                # rows of one section's observation log
 MAX_MARK_LINES = 4_000              # lines of marks.csv (two points per measured quantity)
 MAX_ROW_NUMBER = 999_999            # a log row number (the dataset stores it as int32)

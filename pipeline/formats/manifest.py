@@ -39,6 +39,7 @@ class PackageManifest:
     marks: Path
     transfer: Path | None = None     # an exchange file holding the header and the log (docs/formats.md)
     section: dict | None = None      # what the transfer does not hold: shape, height_mm... (header.json's fields)
+    section_key: str | None = None   # which section of a transfer of several (a delivery's section; docs/formats.md)
 
 
 def manifest_document(package_id: str, certificate_id: str, **files: str) -> dict:

@@ -1,4 +1,10 @@
-"""A delivered log as pipegauge reads it, whatever its format: the header's fields, the observations, the video."""
+"""A delivered exchange file as pipegauge reads it, whatever its format: its sections, each with the header's
+fields, the observations and the video it names; its manholes; the problems of the file and of each section.
+
+Every reader of ``pipeline.formats.registry.READERS`` returns an :class:`ExchangeFile`. A one-section format
+(observations.csv) gives one section; a job's file (ISYBAU XML, DWA-M 150, the EN 13508-2 text transfer, a
+VSA-KEK transfer) gives one :class:`LogReading` per inspected pipe or lateral, in file order.
+"""
 
 from __future__ import annotations
 
@@ -8,20 +14,32 @@ from pathlib import Path
 
 from pipeline.domain.records import Observation
 
-__all__ = ["LogReading", "observation_record"]
+__all__ = ["LogReading", "ExchangeFile", "observation_record", "KINDS"]
+
+KINDS = ("pipe", "lateral", "manhole")
 
 
 @dataclass
 class LogReading:
-    """A delivered log as pipegauge reads it, whatever its format."""
+    """One inspected section of a delivered file as pipegauge reads it, whatever its format.
+
+    ``header_fields`` uses header.json's field names and vocabulary (docs/formats.md: ``direction`` downstream |
+    upstream, ``shape`` circular | egg, ``material`` in words, lengths in mm and m, ``inspection_date`` ISO), each
+    coded value mapped through its format's table; a value the table does not know is left out and said in
+    ``section_problems``, never guessed.
+    """
 
     file: Path
     format: str                    # a key of READERS
     header_fields: dict            # header.json's fields the file holds (all of them for a CSV log with its header)
     details: dict                  # what else the file says about the inspection, as delivered (device, weather...)
     observations: list             # pipeline.formats.Observation, validated, each with its problems
-    video: str = ""                # the video file the log names ("" when none)
+    video: str = ""                # the video file the log names, as the file gives it ("" when none)
     source: object = None          # the parsed file when a writer needs it again (a VSA-KEK Transfer)
+    key: str = ""                  # the section's id in its file, unique there (ISYBAU Objektbezeichnung, AAA...)
+    kind: str = "pipe"             # pipe | lateral | manhole (KINDS)
+    section_problems: list = dataclasses.field(default_factory=list)   # text: the header's or the section's own
+    line: int = 0                  # where the section starts in its file (0: not known)
 
     def section_header(self, section: dict | None, source: str):
         """The complete section header: the file's fields with ``section`` (package.json) for the rest.
@@ -41,13 +59,43 @@ class LogReading:
         return header
 
     def problems(self) -> list[str]:
-        return [str(p) for o in self.observations for p in o.problems]
+        """The section's problems as text: its own (header, video reference...), then each row's."""
+        return [str(p) for p in self.section_problems] + [str(p) for o in self.observations for p in o.problems]
 
     def as_dict(self) -> dict:
         """Plain data for JSON: header fields, details, video, observations (with their problems), problems."""
-        return {"file": str(self.file), "format": self.format, "header": self.header_fields, "details": self.details,
+        return {"file": str(self.file), "format": self.format, "section": self.key, "kind": self.kind,
+                "line": self.line, "header": self.header_fields, "details": self.details,
                 "video": self.video, "observations": [observation_record(o) for o in self.observations],
                 "problems": self.problems()}
+
+
+@dataclass
+class ExchangeFile:
+    """A delivered exchange file as pipegauge reads it: its sections and manholes, and the file's own problems."""
+
+    file: Path
+    format: str                    # a key of READERS
+    version: str = ""              # the format's version the file declares (ISYBAU "2013-02", DWA "04-2010"...)
+    sections: list[LogReading] = dataclasses.field(default_factory=list)   # pipes and laterals, in file order
+    manholes: list[LogReading] = dataclasses.field(default_factory=list)   # read and validated, not measured
+    problems: list[str] = dataclasses.field(default_factory=list)          # the file's own (schema, encoding...)
+    source: object = None          # the parsed file when a writer needs it again
+
+    def section(self, key: str) -> LogReading:
+        """The section of id ``key``; KeyError naming the ids the file holds."""
+        for s in self.sections:
+            if s.key == key:
+                return s
+        raise KeyError(f"{self.file}: no section {key!r}; the file holds {', '.join(s.key for s in self.sections) or 'none'}")
+
+    def all_problems(self) -> list[str]:
+        return [*self.problems, *(p for s in [*self.sections, *self.manholes] for p in s.problems())]
+
+    def as_dict(self) -> dict:
+        """Plain data for JSON: the file, its format and version, its problems, each section and manhole."""
+        return {"file": str(self.file), "format": self.format, "version": self.version, "problems": self.problems,
+                "sections": [s.as_dict() for s in self.sections], "manholes": [m.as_dict() for m in self.manholes]}
 
 
 def observation_record(o: Observation) -> dict:

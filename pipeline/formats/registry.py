@@ -17,6 +17,7 @@ from typing import Callable
 from pipeline.core.errors import PipegaugeError
 
 __all__ = ["FILE_FORMATS", "Reader", "Writer", "READERS", "WRITERS", "reader_for", "read_log_file", "load_package_log",
+           "package_section", "exchange_suffixes", "validate_exchange",
            "writer", "format_module"]
 
 # Every file format pipegauge reads or writes: its module, which defines FORMAT_NAME (and FORMAT_VERSION where the
@@ -39,15 +40,24 @@ def format_module(key: str):
 
 @dataclass(frozen=True)
 class Reader:
-    """A delivered log format: the file suffixes it is recognised by and its reading function.
+    """A delivered log format: the file suffixes and XML root elements it is recognised by, its reading function.
 
-    ``read(path) -> LogReading``: the header's fields, the validated log and the files the log names.
+    ``read(path) -> ExchangeFile``: the file's sections, each with the header's fields, the validated log and
+    the files it names (``pipeline.formats.reading``).
     """
 
     name: str
     suffixes: tuple[str, ...]
     target: str                       # "module:function"
     description: str
+    roots: tuple[str, ...] = ()       # an XML format's root element (local name): tells .xml files apart
+    validator: str = ""               # "module:function" (path, schema folder) -> problems, against the owner's schema
+
+    def load_validator(self) -> Callable | None:
+        if not self.validator:
+            return None
+        module, function = self.validator.split(":")
+        return getattr(importlib.import_module(module), function)
 
     def load(self) -> Callable:
         module, function = self.target.split(":")
@@ -85,7 +95,7 @@ READERS = {r.name: r for r in (
     Reader("pipegauge-csv", (".csv",), "pipeline.formats.tabular:read_csv_log",
            "observations.csv with header.json beside it (docs/formats.md)"),
     Reader("vsa-kek", (".xtf", ".xml"), "pipeline.formats.vsa_kek:read_log",
-           "Swiss VSA-KEK INTERLIS 2 transfer, model VSA_KEK_2019_LV95 or VSA_KEK_2020_1_LV95"),
+           "Swiss VSA-KEK INTERLIS 2 transfer, model VSA_KEK_2019_LV95 or VSA_KEK_2020_1_LV95", ("TRANSFER",)),
 )}
 
 WRITERS = {w.name: w for w in (
@@ -99,32 +109,77 @@ WRITERS = {w.name: w for w in (
 
 
 def reader_for(path: str | os.PathLike) -> Reader:
-    """The reader of a delivered log file, by its suffix."""
-    suffix = Path(path).suffix.lower()
-    for reader in READERS.values():
-        if suffix in reader.suffixes:
-            return reader
-    known = ", ".join(f"{s} ({r.name})" for r in READERS.values() for s in r.suffixes)
+    """The reader of a delivered log file, by its suffix and, for XML, by its root element."""
+    from pipeline.formats.xmlfile import xml_root_name
+
+    path = Path(path)
+    suffix = path.suffix.lower()
+    candidates = [r for r in READERS.values() if suffix in r.suffixes]
+    if len(candidates) > 1 or any(r.roots for r in candidates):
+        try:
+            root = xml_root_name(path) if path.is_file() else None
+        except OSError as exc:
+            raise PipegaugeError(f"{path}: cannot be read ({exc.strerror or exc})") from None
+        matching = [r for r in candidates if root in r.roots]
+        if not matching:
+            known = "; ".join(f"{', '.join(r.roots)} ({r.name})" for r in candidates if r.roots)
+            raise PipegaugeError(f"{path}: root element {root or 'not found'}; pipegauge reads {suffix} files whose "
+                                 f"root is {known}")
+        candidates = matching
+    if candidates:
+        return candidates[0]
+    known = ", ".join(sorted({f"{s} ({r.name})" for r in READERS.values() for s in r.suffixes}))
     raise PipegaugeError(f"{path}: no reader for files ending {suffix or 'without a suffix'!r}; pipegauge reads {known}")
 
 
+def exchange_suffixes() -> frozenset[str]:
+    """The suffixes of the job formats a delivery folder may hold (every reader's but the package's CSV)."""
+    return frozenset(s for r in READERS.values() if r.name != "pipegauge-csv" for s in r.suffixes)
+
+
+def validate_exchange(exchange, schemas: str | os.PathLike) -> list[str]:
+    """The problems the format owner's schemas (in folder ``schemas``) find in a read file, as text."""
+    check = READERS[exchange.format].load_validator()
+    if check is None:
+        return [f"{exchange.file}: pipegauge has no schema validation for {exchange.format} files; --schemas ignored"]
+    return check(exchange.file, schemas)
+
+
 def read_log_file(path: str | os.PathLike):
-    """A log file (observations.csv, a transfer...) as pipegauge reads it: a ``LogReading``."""
+    """A log file (observations.csv, a transfer, a job's exchange file) as pipegauge reads it: an ``ExchangeFile``."""
     return reader_for(path).load()(path)
 
 
 def load_package_log(manifest):
     """A package's section header and validated log, from header.json + observations.csv or from its transfer.
 
-    manifest : a ``pipeline.formats.PackageManifest``; returns (SectionHeader, list of Observation)
+    manifest : a ``pipeline.formats.PackageManifest``; returns (SectionHeader, list of Observation).
+    A transfer of several sections needs package.json's ``section_key`` to say which one is the package's.
     """
     if manifest.transfer is None:
         from pipeline.formats.observation_log import read_log_with_header
 
         return read_log_with_header(manifest.observations, manifest.header)
-    reading = read_log_file(manifest.transfer)
+    reading = package_section(read_log_file(manifest.transfer), manifest)
     return reading.section_header(manifest.section, f"{manifest.transfer} with {manifest.folder / 'package.json'}"), \
         reading.observations
+
+
+def package_section(exchange, manifest):
+    """The section of an exchange file a package (or a delivery's section) stands for: ``manifest.section_key``,
+    or the file's only section."""
+    from pipeline.core.errors import TransferError
+
+    key = getattr(manifest, "section_key", None)
+    if key:
+        try:
+            return exchange.section(key)
+        except KeyError as exc:
+            raise TransferError(str(exc.args[0])) from None
+    if len(exchange.sections) != 1:
+        raise TransferError(f"{exchange.file}: {len(exchange.sections)} inspected sections; a package holds one: "
+                            "deliver the file as a delivery folder (docs/formats.md), which takes every section")
+    return exchange.sections[0]
 
 
 def writer(name: str) -> Callable:

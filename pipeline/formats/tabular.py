@@ -43,8 +43,9 @@ _FORMULA_START = ("=", "+", "-", "@", "\t", "\r")
 
 
 def read_csv_log(path: str | os.PathLike):
-    """observations.csv as a ``LogReading``; with header.json beside it the distances are checked against its length."""
-    from pipeline.formats import LogReading
+    """observations.csv as an ``ExchangeFile`` of one section; with header.json beside it the distances are checked
+    against its length."""
+    from pipeline.formats.reading import ExchangeFile, LogReading
 
     path = Path(path)
     header_path = path.with_name("header.json")
@@ -54,7 +55,9 @@ def read_csv_log(path: str | os.PathLike):
     else:
         header, observations, fields = None, read_log(path, math.inf), {}
     details = {} if header else {"note": "no header.json beside the log: distances not checked against a length"}
-    return LogReading(path, "pipegauge-csv", fields, details, observations)
+    key = header.section_id if header else path.parent.name
+    return ExchangeFile(path, "pipegauge-csv", "", [LogReading(path, "pipegauge-csv", fields, details, observations,
+                                                               key=key)])
 
 
 # -- the exports ---------------------------------------------------------------

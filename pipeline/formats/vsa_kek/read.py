@@ -238,9 +238,12 @@ def _clock(text: str) -> str:
 
 
 def read_log(path: str | os.PathLike):
-    """The ``pipeline.formats`` reader: a transfer as a ``LogReading`` (its Transfer kept as ``source``)."""
-    from pipeline.formats import LogReading
+    """The ``pipeline.formats`` reader: a transfer as an ``ExchangeFile`` of its one inspection (its Transfer kept
+    as ``source``)."""
+    from pipeline.formats.reading import ExchangeFile, LogReading
 
     t = read_transfer_log(path)
-    return LogReading(t.transfer.path, "vsa-kek", t.header_fields, {"model": t.transfer.model, "TID": t.inspection.tid,
-                      **t.details}, t.observations, t.video, t.transfer)
+    section = LogReading(t.transfer.path, "vsa-kek", t.header_fields, {"model": t.transfer.model,
+                         "TID": t.inspection.tid, **t.details}, t.observations, t.video, t.transfer,
+                         key=str(t.header_fields.get("section_id") or t.inspection.tid), line=t.inspection.line)
+    return ExchangeFile(t.transfer.path, "vsa-kek", t.transfer.model, [section], source=t.transfer)

@@ -1,0 +1,145 @@
+"""Delivered XML files read safely: no DTD or entity ever read, size and element count bounded, a tree kept small.
+
+The exchange formats that come as XML (ISYBAU, DWA-M 150) are parsed here into a plain ElementTree with
+namespaces stripped from the tags. defusedxml refuses any DTD (so no entity expansion, no external entity);
+the file's size is checked before parsing and the element count while parsing, so a hostile file is refused
+within bounded time and memory. Every message names the file and the line.
+
+The VSA-KEK reader streams its objects itself (``pipeline.formats.vsa_kek.read``) and only uses
+:func:`xml_root_name` here, to tell the XML formats apart.
+"""
+
+from __future__ import annotations
+
+import os
+import re
+from pathlib import Path
+from xml.etree.ElementTree import Element, ParseError
+
+from defusedxml import DefusedXmlException
+from defusedxml.ElementTree import DefusedXMLParser
+
+from pipeline.core.errors import TransferError
+from pipeline.core.limits import MAX_EXCHANGE_BYTES, MAX_EXCHANGE_ELEMENTS
+
+__all__ = ["parse_xml", "xml_root_name", "local_name", "child_text", "MAX_TEXT"]
+
+MAX_TEXT = 10_000            # characters kept of one element's text (the formats' longest fields are far shorter)
+_ROOT = re.compile(rb"<\s*(?:[A-Za-z_][\w.-]*:)?([A-Za-z_][\w.-]*)[\s/>]")
+
+
+def local_name(tag: str) -> str:
+    """A tag without its namespace: '{http://www.bfr-abwasser.de}Station' -> 'Station'."""
+    return tag.rsplit("}", 1)[-1]
+
+
+def xml_root_name(path: str | os.PathLike, head_bytes: int = 1 << 16) -> str | None:
+    """The local name of an XML file's root element, from its first bytes; None when none is found there.
+
+    Skips the XML declaration, comments and processing instructions; a DOCTYPE is not skipped over (the
+    parser refuses it later), and a file with none of these is not XML.
+    """
+    with Path(path).open("rb") as fh:
+        head = fh.read(head_bytes)
+    head = head.lstrip(b"\xef\xbb\xbf")
+    head = re.sub(rb"<\?.*?\?>|<!--.*?-->", b"", head, flags=re.S)
+    if head.lstrip().startswith(b"<!"):
+        return None
+    m = _ROOT.search(head)
+    return m.group(1).decode("ascii", "replace") if m else None
+
+
+class _Builder:
+    """The parser's target: an ElementTree built with local tags, each element's line, and counted."""
+
+    def __init__(self, path: Path, max_elements: int):
+        self.path, self.max_elements = path, max_elements
+        self.parser: DefusedXMLParser | None = None
+        self.stack: list[Element] = []
+        self.root: Element | None = None
+        self.n = 0
+        self.text: list[str] = []
+
+    def line(self) -> int:
+        return self.parser.parser.CurrentLineNumber if self.parser else 0
+
+    def start(self, tag: str, attrib: dict) -> None:
+        self.n += 1
+        if self.n > self.max_elements:
+            raise TransferError(f"{self.path} line {self.line()}: more than {self.max_elements:,} XML elements (at "
+                                f"{local_name(tag)}); split the delivery into several files")
+        self._flush()
+        e = Element(local_name(tag), {local_name(k): v for k, v in attrib.items()})
+        e.set("_line", str(self.line()))
+        if self.stack:
+            self.stack[-1].append(e)
+        else:
+            self.root = e
+        self.stack.append(e)
+
+    def data(self, text: str) -> None:
+        if sum(map(len, self.text)) < MAX_TEXT:
+            self.text.append(text)
+
+    def _flush(self) -> None:
+        if self.stack and self.text:
+            e = self.stack[-1]
+            joined = "".join(self.text)
+            if len(e) == 0:
+                e.text = (e.text or "") + joined
+        self.text = []
+
+    def end(self, tag: str) -> None:
+        self._flush()
+        e = self.stack.pop()
+        if len(e) == 0:
+            del e.attrib["_line"]        # a leaf's line is its parent's for messages: keeps a big tree small
+
+    def close(self) -> Element | None:
+        return self.root
+
+
+def parse_xml(path: str | os.PathLike, *, what: str, max_bytes: int = MAX_EXCHANGE_BYTES,
+              max_elements: int = MAX_EXCHANGE_ELEMENTS, encoding: str | None = None) -> Element:
+    """Parse a delivered XML file into a tree of local tags; each element carries its line as ``_line``.
+
+    what : the format's name for messages ("ISYBAU XML file")
+    encoding : override the file's declared encoding (real files declare UTF-8 and hold ISO-8859-1)
+    Raises TransferError naming the file, the line and the fix.
+    """
+    path = Path(path)
+    try:
+        if not path.is_file():
+            raise TransferError(f"{path}: no such {what} (or not a regular file)")
+        size = path.stat().st_size
+    except OSError as exc:
+        raise TransferError(f"{path}: the {what} cannot be read ({exc.strerror or exc})") from None
+    if size > max_bytes:
+        raise TransferError(f"{path}: {size:,} bytes; a {what} is read up to {max_bytes:,} bytes; split the delivery")
+    builder = _Builder(path, max_elements)
+    parser = DefusedXMLParser(target=builder, forbid_dtd=True, encoding=encoding)
+    builder.parser = parser
+    try:
+        with path.open("rb") as fh:
+            for chunk in iter(lambda: fh.read(1 << 16), b""):
+                parser.feed(chunk)
+        root = parser.close()
+    except DefusedXmlException as exc:
+        raise TransferError(f"{path}: refused: the file declares a DTD or entities ({type(exc).__name__}, line "
+                            f"{builder.line()}); a {what} has none (entities are never read)") from None
+    except ParseError as exc:
+        raise TransferError(f"{path}: not well-formed XML ({exc}); check that the {what} is complete") from None
+    except (UnicodeDecodeError, LookupError) as exc:
+        raise TransferError(f"{path}: the {what} cannot be decoded ({exc}); save it in the encoding it declares") from None
+    if root is None:
+        raise TransferError(f"{path}: an empty {what}")
+    return root
+
+
+def child_text(e: Element | None, *path: str) -> str:
+    """The stripped text of the descendant at ``path`` (local tag names), "" when it is absent."""
+    for name in path:
+        if e is None:
+            return ""
+        e = e.find(name)
+    return (e.text or "").strip() if e is not None else ""

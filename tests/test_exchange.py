@@ -385,7 +385,7 @@ def test_export_verb_writes_csv_through_the_registry_and_one_transfer_per_inspec
     assert "1 quantities written to" in capsys.readouterr().err
     assert main(["export", "--data", str(data), "--format", "vsa-kek-2020", "--out", str(tmp_path / "x")]) == 0
     assert capsys.readouterr().out.split() == [str(tmp_path / "x" / "P1.xtf")]      # not the failed one
-    crack = read_log_file(tmp_path / "x" / "P1.xtf").observations[1]
+    crack = read_log_file(tmp_path / "x" / "P1.xtf").sections[0].observations[1]
     assert (crack.code, crack.char1, crack.char2, crack.q1, crack.clock_from, crack.clock_to, crack.video_time_s) == (
         "BAB", "B", "B", 5.0, 9, 3, 12.4)
     assert crack.remark == f"measured Q1 5.3 mm U95 0.8 mm (pipegauge {__version__}, perspective); =1+1 second line"
@@ -430,6 +430,6 @@ def test_objects_of_other_classes_are_said_not_read(tmp_path):
         "</VSA_KEK_2020_1_LV95.KEK>")
     path = tmp_path / "with-manhole.xtf"
     path.write_text(text, encoding="utf-8")
-    reading = read_log_file(path)
+    reading = read_log_file(path).sections[0]
     assert reading.details["not read"] == "1 Normschachtschaden"
     assert len(reading.observations) == 8

@@ -36,15 +36,13 @@ def local_name(tag: str) -> str:
 def xml_root_name(path: str | os.PathLike, head_bytes: int = 1 << 16) -> str | None:
     """The local name of an XML file's root element, from its first bytes; None when none is found there.
 
-    Skips the XML declaration, comments and processing instructions; a DOCTYPE is not skipped over (the
-    parser refuses it later), and a file with none of these is not XML.
+    Skips the XML declaration, comments, processing instructions and a DOCTYPE (only to name the root: the
+    format's reader refuses the DOCTYPE itself).
     """
     with Path(path).open("rb") as fh:
         head = fh.read(head_bytes)
     head = head.lstrip(b"\xef\xbb\xbf")
-    head = re.sub(rb"<\?.*?\?>|<!--.*?-->", b"", head, flags=re.S)
-    if head.lstrip().startswith(b"<!"):
-        return None
+    head = re.sub(rb"<\?.*?\?>|<!--.*?-->|<!DOCTYPE[^\[>]*(?:\[.*?\])?\s*>", b"", head, flags=re.S)
     m = _ROOT.search(head)
     return m.group(1).decode("ascii", "replace") if m else None
 

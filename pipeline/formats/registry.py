@@ -30,6 +30,7 @@ FILE_FORMATS = {
     "certificate": "pipeline.formats.certificate",       # the camera's calibration certificate (JSON)
     "tabular": "pipeline.formats.tabular",               # CSV / Parquet exports of the measurements
     "vsa-kek": "pipeline.formats.vsa_kek",               # Swiss VSA-KEK INTERLIS 2 transfers
+    "isybau": "pipeline.formats.isybau.codes",           # German ISYBAU XML 2006/2013/2017 (pipeline.formats.isybau)
 }
 
 
@@ -96,6 +97,9 @@ READERS = {r.name: r for r in (
            "observations.csv with header.json beside it (docs/formats.md)"),
     Reader("vsa-kek", (".xtf", ".xml"), "pipeline.formats.vsa_kek:read_log",
            "Swiss VSA-KEK INTERLIS 2 transfer, model VSA_KEK_2019_LV95 or VSA_KEK_2020_1_LV95", ("TRANSFER",)),
+    Reader("isybau-xml", (".xml",), "pipeline.formats.isybau.read:read_log",
+           "German ISYBAU XML 2006, 2013 or 2017 condition data: every pipe, lateral and manhole of a job",
+           ("Identifikation",), "pipeline.formats.isybau.schema:validate_isybau"),
 )}
 
 WRITERS = {w.name: w for w in (

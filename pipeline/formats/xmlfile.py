@@ -73,6 +73,7 @@ class _Builder:
             self.stack[-1].append(e)
         else:
             self.root = e
+            e.set("_namespace", tag[1:].split("}", 1)[0] if tag.startswith("{") else "")
         self.stack.append(e)
 
     def data(self, text: str) -> None:
@@ -99,7 +100,8 @@ class _Builder:
 
 def parse_xml(path: str | os.PathLike, *, what: str, max_bytes: int = MAX_EXCHANGE_BYTES,
               max_elements: int = MAX_EXCHANGE_ELEMENTS, encoding: str | None = None) -> Element:
-    """Parse a delivered XML file into a tree of local tags; each element carries its line as ``_line``.
+    """Parse a delivered XML file into a tree of local tags; each element with children carries its line as
+    ``_line``, the root its namespace as ``_namespace``.
 
     what : the format's name for messages ("ISYBAU XML file")
     encoding : override the file's declared encoding (real files declare UTF-8 and hold ISO-8859-1)

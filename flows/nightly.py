@@ -56,11 +56,12 @@ def _transient(task, task_run, state) -> bool:
 
 @task(name="measure-package", task_run_name="measure {folder}", retries=2, retry_delay_seconds=10,
       retry_condition_fn=_transient, cache_policy=NO_CACHE, persist_result=False)
-def measure_package_task(folder: str, out: str, model: str, certificates: str | None) -> dict:
-    """Measure one package into OUT's dataset; returns its summary row."""
+def measure_package_task(folder: str, out: str, model: str, certificates: str | None,
+                         section: str | None = None) -> dict:
+    """Measure one package (or one section of a delivery folder) into OUT's dataset; returns its summary row."""
     layout = Layout(Path(out))
     outcome = process_package(folder, layout.dataset, model=model, certificates=certificates, reader=_reader(),
-                              reports=layout.reports)
+                              reports=layout.reports, section=section)
     return outcome.as_row()
 
 
@@ -78,13 +79,14 @@ def task_runner_for(workers: int = 1, dask_address: str | None = None) -> TaskRu
 def _row(future, futures: dict) -> dict:
     """A finished task's summary row; a task that raised (after its retries) becomes a failed row."""
     result = future.result(raise_on_failure=False)
-    return _failed_row(futures[future], result) if isinstance(result, BaseException) else result
+    return _failed_row(*futures[future], result) if isinstance(result, BaseException) else result
 
 
-def _failed_row(folder: str, exc: BaseException) -> dict:
+def _failed_row(folder: str, section: str | None, exc: BaseException) -> dict:
     hint = ("after retries; check the disk and rerun" if isinstance(exc, TRANSIENT)
             else "an unexpected error in pipegauge: please report it with this message")
-    return PackageOutcome(folder, Path(folder).name, "failed", f"{type(exc).__name__}: {exc} ({hint})").as_row()
+    return PackageOutcome(folder, Path(folder).name, "failed", f"{type(exc).__name__}: {exc} ({hint})",
+                          section=section).as_row()
 
 
 @flow(name="pipegauge-nightly", flow_run_name="nightly {inbox}")
@@ -99,13 +101,13 @@ def nightly(inbox: str, out: str, model: str = "perspective", certificates: str 
     rows: list[dict] = []
     with writing(layout, say) if hold_lock else contextlib.nullcontext(layout):
         plan = plan_night(inbox, certificates)
-        say(f"{len(plan.packages)} package(s) in {inbox}")
-        futures = {measure_package_task.submit(str(p), str(out), model, plan.certificates): str(p)
-                   for p in plan.to_process}
+        say(f"{len(plan.packages)} package(s) or delivery folder(s) in {inbox}: {plan.n_units} inspection(s)")
+        futures = {measure_package_task.submit(str(u.folder), str(out), model, plan.certificates, u.section):
+                   (str(u.folder), u.section) for u in plan.to_process}
         finished = (_row(future, futures) for future in as_completed(list(futures)))
         for k, row in enumerate(itertools.chain(plan.refused, finished), 1):
             rows.append(row)
-            say(progress_line(k, len(plan.packages), row))
+            say(progress_line(k, plan.n_units, row))
         rows.sort(key=lambda r: r["package"])
         finish_night(rows, layout, dt.date.today(), say)
     create_table_artifact(rows, key="pipegauge-nightly-summary",

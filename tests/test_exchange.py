@@ -25,6 +25,7 @@ from flows.cli import main
 from pipeline import __version__
 from pipeline.formats.manifest import load_manifest
 from pipeline.core.errors import PackageError, TransferError
+from pipeline.formats.isybau import FORMAT_NAME as ISYBAU
 from pipeline.formats import READERS, WRITERS, load_package_log, observation_record, read_log_file
 from pipeline.formats.vsa_kek import (MAX_ELEMENTS, MAX_OBJECTS, MAX_TRANSFER_BYTES, SECTION_FIELDS, package_transfer, read_transfer,
                                        transfer_text, write_transfer)
@@ -126,7 +127,7 @@ def test_measure_on_a_transfer_file_says_how_to_package_it():
 
 
 def test_the_registry_names_each_format_once():
-    assert set(READERS) == {"pipegauge-csv", "vsa-kek"}
+    assert {"pipegauge-csv", "vsa-kek", ISYBAU} <= set(READERS)
     assert set(WRITERS) == {"csv", "parquet", "vsa-kek-2019", "vsa-kek-2020"}
     for entry in [*READERS.values(), *WRITERS.values()]:
         assert callable(entry.load()), entry.name
@@ -413,7 +414,7 @@ def test_a_transfer_package_takes_the_rest_of_its_header_from_package_json(tmp_p
         "1.045-1.040", 150, 11.5, "2021-01-20")
     assert len(log) == 8
     manifest(section={k: v for k, v in section.items() if k != "shape"})
-    with pytest.raises(HeaderError, match="section.xtf with .*package.json: field 'shape': expected non-empty text"):
+    with pytest.raises(HeaderError, match="section.xtf section .* with .*package.json: field 'shape': expected non-empty text"):
         load_package_log(load_manifest(pkg))
     manifest(section={**section, "section_length_m": 12.0})
     with pytest.raises(HeaderError, match="'section' gives section_length_m with another value than section.xtf"):

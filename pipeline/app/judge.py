@@ -20,9 +20,9 @@ from pipeline.judgement.grading import Grade, grade, scheme
 from pipeline.judgement.grading.probability import result_cdf
 from pipeline.judgement.verdicts.log_check import check_logged
 from pipeline.core.numeric import finite_number as _f
-from pipeline.judgement.verdicts.survey import survey_verdict
+from pipeline.judgement.verdicts.survey import logged_survey_statement, survey_verdict
 
-__all__ = ["add_verdicts", "LOG_VERDICTS"]
+__all__ = ["add_verdicts", "logged_survey", "LOG_VERDICTS"]
 
 LOG_VERDICTS = ("agrees", "disagrees", "undecided", "not checked")
 
@@ -88,6 +88,11 @@ def add_verdicts(result, header, observations, track, scheme_key: str | None = N
         rec.update(survey_start_m=v.start_m, survey_end_m=v.end_m, survey_complete=v.complete,
                    finish_node_logged_m=v.finish_node_m, abandoned_at_m=v.abandoned_m,
                    survey_rows_outside=v.rows_outside, survey_statement=v.statement)
+
+
+def logged_survey(header, observations) -> str:
+    """The surveyed length as the log alone tells it, for a section without a video (``logged_survey_statement``)."""
+    return logged_survey_statement(header.section_length_m, [(o.row, o.code, o.distance_m) for o in observations])
 
 
 def _survey(track, header, observations):

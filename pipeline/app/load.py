@@ -8,19 +8,30 @@ holds what was learnt before it.
 from __future__ import annotations
 
 import os
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
 from pipeline.camera import Certificate
 from pipeline.domain.records import Mark, Observation, RowProblem, SectionHeader
 from pipeline.domain.results import InspectionRecord
-from pipeline.formats import load_package_log
+from pipeline.core.errors import PipegaugeError
+from pipeline.formats import reader_for
+from pipeline.formats.registry import load_package_reading
 from pipeline.formats.certificate import load_certificate
 from pipeline.formats.manifest import PackageManifest, certificate_path, load_manifest
 from pipeline.formats.marks import read_marks
 from pipeline.app.identity import file_digests, package_digest
 
-__all__ = ["Delivery", "load_delivery"]
+__all__ = ["Delivery", "load_delivery", "LogOnly"]
+
+
+class LogOnly(PipegaugeError):
+    """A section whose header and log are read but which cannot be measured (no video, no certificate): it is
+    stored log-only, graded from its logged values, with this reason for every quantity not measured."""
+
+    def __init__(self, reason: str, header: SectionHeader, observations: list[Observation], problems: list[str]):
+        super().__init__(reason)
+        self.header, self.observations, self.problems = header, observations, problems
 
 
 @dataclass(frozen=True)
@@ -35,6 +46,7 @@ class Delivery:
     marks: list[Mark]
     mark_problems: list[RowProblem]
     certificate: Certificate
+    log_problems: list[str] = field(default_factory=list)   # the section's and its file's, not a row's
 
     @property
     def video_sha256(self) -> str | None:
@@ -43,23 +55,43 @@ class Delivery:
 
 def load_delivery(folder: str | os.PathLike, record: InspectionRecord, *,
                   certificates: str | os.PathLike | None = None, digests: dict[str, str] | None = None,
-                  manifest: PackageManifest | None = None) -> Delivery:
+                  manifest: PackageManifest | None = None, unmeasurable: str | None = None) -> Delivery:
     """Read and validate a package, filling the inspection's record as it goes (id, header, certificate).
 
     certificates : folder of certificate files (default: ``certificates/`` beside the package)
     digests, manifest : the package's ``file_digests`` and manifest when the caller has them already
-    Raises PipegaugeError (the record keeps what was read before).
+    unmeasurable : why a delivery's section cannot be measured, known before (its video missing...)
+    Raises PipegaugeError (the record keeps what was read before); LogOnly for a delivery's section whose log is
+    read but that cannot be measured (``unmeasurable``, or its certificate missing).
     """
     folder = Path(folder)
     manifest = manifest or load_manifest(folder)
     record.inspection_id = manifest.package_id
     digests = digests or file_digests(folder)          # the video is read once for both hashes
     record.package_sha256 = package_digest(digests)
-    header, observations = load_package_log(manifest)      # header.json + observations.csv, or a transfer
+    if manifest.transfer is not None:
+        record.update(log_file=str(manifest.transfer), log_format=reader_for(manifest.transfer).name)
+    elif manifest.observations is not None:
+        record.update(log_file=str(manifest.observations), log_format=reader_for(manifest.observations).name)
+    if manifest.section_key is not None:
+        record.update(delivery_id=manifest.delivery_id, section_key=manifest.section_key)
+    # header.json + observations.csv, or a transfer (with its section's and file's own problems)
+    header, observations, log_problems = load_package_reading(manifest)
     record.update(asdict(header))
-    marks, mark_problems = read_marks(manifest.marks, observations)
+    if manifest.section_key is not None:
+        if unmeasurable is None:
+            try:
+                certificate_path(manifest, certificates)
+            except PipegaugeError as exc:
+                unmeasurable = str(exc)
+        if unmeasurable is not None:
+            raise LogOnly(unmeasurable, header, observations, log_problems)
+    if manifest.section_key is not None and not manifest.marks.is_file():
+        marks, mark_problems = [], []               # a delivery's section without marks: measured from the image
+    else:
+        marks, mark_problems = read_marks(manifest.marks, observations)
     cert = load_certificate(certificate_path(manifest, certificates))
     record.update(certificate_id=cert.certificate_id, certificate_valid_until=cert.valid_until,
                   camera=" ".join(str(cert.camera.get(k, "")) for k in ("make", "model", "serial")).strip() or None)
     cert.check_valid_on(header.inspection_date)
-    return Delivery(folder, manifest, digests, header, observations, marks, mark_problems, cert)
+    return Delivery(folder, manifest, digests, header, observations, marks, mark_problems, cert, log_problems)

@@ -35,8 +35,8 @@ from pipeline.measurement.automatic import measurable_automatically, measure_aut
 from pipeline.measurement.marked import marked_quantity
 from pipeline.measurement.quantity import MODELS, MarkedQuantity, QuantityResult, measure_quantity
 from pipeline.measurement.wall import contour_under
-from pipeline.app.judge import add_verdicts
-from pipeline.app.load import load_delivery
+from pipeline.app.judge import add_verdicts, logged_survey
+from pipeline.app.load import LogOnly, load_delivery
 from pipeline.app.locate import locate
 from pipeline.domain.results import (InspectionRecord, MeasurementRecord, ObservationRecord, ThumbnailRecord,
                                      observation_record)
@@ -78,7 +78,8 @@ def _failed(record: InspectionRecord, error: str) -> InspectionResult:
 def measure_package(folder: str | os.PathLike, *, certificates: str | os.PathLike | None = None,
                     model: str = "perspective", reader: OverlayReader | None = None, every: int = 4,
                     progress: Callable[[str], None] | None = None, today: dt.date | None = None,
-                    digests: dict[str, str] | None = None, manifest: PackageManifest | None = None) -> InspectionResult:
+                    digests: dict[str, str] | None = None, manifest: PackageManifest | None = None,
+                    unmeasurable: str | None = None) -> InspectionResult:
     """Measure every logged quantity of a package; never raises for a bad package (the record says why).
 
     The way: load the delivery (``load``), locate the video along the pipe (``locate``), fit the contours at
@@ -88,6 +89,7 @@ def measure_package(folder: str | os.PathLike, *, certificates: str | os.PathLik
     certificates : folder of certificate files (default: ``certificates/`` beside the package)
     model : "perspective" (default) or "orthographic"; every : overlay sampling interval [frames]
     digests, manifest : the package's ``file_digests`` and manifest when the caller has them already
+    unmeasurable : why a delivery's section cannot be measured (no video...): it is then stored log-only
     """
     say = progress or (lambda message: None)
     if model not in MODELS:
@@ -98,8 +100,11 @@ def measure_package(folder: str | os.PathLike, *, certificates: str | os.PathLik
                               model=model, processed_at=dt.datetime.now(dt.timezone.utc), status="failed",
                               n_observations=0, n_measurements=0, n_problems=0)
     try:
-        delivery = load_delivery(folder, record, certificates=certificates, digests=digests, manifest=manifest)
+        delivery = load_delivery(folder, record, certificates=certificates, digests=digests, manifest=manifest,
+                                 unmeasurable=unmeasurable)
         where = locate(delivery, record, reader, every=every, say=say)
+    except LogOnly as exc:
+        return _log_only(record, exc, t_start)
     except PipegaugeError as exc:
         record.time_total_s = time.perf_counter() - t_start
         return _failed(record, str(exc))
@@ -107,7 +112,8 @@ def measure_package(folder: str | os.PathLike, *, certificates: str | os.PathLik
     marks, ingest, info, und, mask = delivery.marks, where.ingest, where.info, where.undistorter, where.mask
 
     result = InspectionResult(record, [observation_record(o) for o in observations])
-    problems: list[str] = [str(p) for o in observations for p in o.problems] + [str(p) for p in delivery.mark_problems]
+    problems: list[str] = [*delivery.log_problems, *(str(p) for o in observations for p in o.problems),
+                           *(str(p) for p in delivery.mark_problems)]
     by_row = {o.row: o for o in observations}
     ideal_frames: dict[int, np.ndarray] = {}
     by_frame: dict[int, list[Mark]] = defaultdict(list)
@@ -198,6 +204,19 @@ def measure_package(folder: str | os.PathLike, *, certificates: str | os.PathLik
                   error=None if not problems and not n_bad else f"{len(problems)} input problem(s), {n_bad} quantity(ies) not measured",
                   n_observations=len(observations), n_measurements=sum(r.status == "ok" for r in result.measurements),
                   n_problems=len(problems), problems=problems, time_contour_s=t_contour, time_measure_s=t_measure,
+                  time_total_s=time.perf_counter() - t_start)
+    return result
+
+
+def _log_only(record: InspectionRecord, why: LogOnly, t_start: float) -> InspectionResult:
+    """A section read and validated but not measured: its log graded from the logged values, its surveyed
+    length as far as the log tells it, and the reason for every quantity not measured."""
+    observations = why.observations
+    result = InspectionResult(record, [observation_record(o) for o in observations])
+    add_verdicts(result, why.header, observations, None)
+    problems = [*why.problems, *(str(p) for o in observations for p in o.problems)]
+    record.update(status="log-only", error=f"not measured: {why}", n_observations=len(observations), n_measurements=0,
+                  n_problems=len(problems), problems=problems, survey_statement=logged_survey(why.header, observations),
                   time_total_s=time.perf_counter() - t_start)
     return result
 

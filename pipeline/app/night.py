@@ -15,7 +15,9 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable, Iterator, Sequence
 
+from pipeline.app.delivery import Unit, is_delivery_folder, units_of
 from pipeline.app.inbox import discover_packages, duplicate_claims
+from pipeline.core.errors import PipegaugeError
 from pipeline.app.layout import Layout
 from pipeline.app.process import PackageOutcome, process_package, refused_outcome
 from pipeline.formats.manifest import CERTIFICATES_FOLDER
@@ -47,22 +49,36 @@ def writing(layout: Layout, say: Say = _quiet) -> Iterator[Layout]:
 
 @dataclass(frozen=True)
 class NightPlan:
-    """What a night will do with an inbox: the packages to process, and those refused unread with their rows."""
+    """What a night will do with an inbox: the units to process (packages, and each section of a delivery
+    folder, ``pipeline.app.delivery``), and those refused unread with their rows."""
 
     inbox: Path
     certificates: str
-    packages: list[Path]
-    to_process: list[Path]
+    packages: list[Path]                 # the inbox's entries: package and delivery folders
+    to_process: list[Unit]
     refused: list[dict] = field(default_factory=list)
+
+    @property
+    def n_units(self) -> int:
+        return len(self.to_process) + len(self.refused)
 
 
 def plan_night(inbox: str | os.PathLike, certificates: str | os.PathLike | None = None) -> NightPlan:
-    """The inbox's packages; a package id claimed by two folders refuses both (``pipeline.app.inbox``)."""
+    """The inbox's units; a package id claimed by two folders refuses both (``pipeline.app.inbox``); a delivery
+    whose file cannot be read is one refused row naming the file and the fix."""
     packages = discover_packages(inbox)
-    duplicates = duplicate_claims(packages)
-    return NightPlan(Path(inbox), str(certificates or Path(inbox) / CERTIFICATES_FOLDER), packages,
-                     [p for p in packages if p not in duplicates],
-                     [refused_outcome(p, error).as_row() for p, error in duplicates.items()])
+    deliveries = [p for p in packages if is_delivery_folder(p)]
+    duplicates = duplicate_claims([p for p in packages if p not in deliveries])
+    units: list[Unit] = []
+    refused = [refused_outcome(p, error).as_row() for p, error in duplicates.items()]
+    for p in packages:
+        if p in duplicates:
+            continue
+        try:
+            units += units_of(p)
+        except PipegaugeError as exc:
+            refused.append(refused_outcome(p, str(exc)).as_row())
+    return NightPlan(Path(inbox), str(certificates or Path(inbox) / CERTIFICATES_FOLDER), packages, units, refused)
 
 
 def progress_line(k: int, n: int, row: dict) -> str:
@@ -94,12 +110,19 @@ def measure_packages(folders: Sequence[str | os.PathLike], layout: Layout, *, mo
     from pipeline.vision.video.overlay_ocr import OverlayReader
 
     paths = [Path(p) for p in folders]
-    duplicates = duplicate_claims(paths)
+    duplicates = duplicate_claims([p for p in paths if not is_delivery_folder(p)])
     for path, error in duplicates.items():
         yield refused_outcome(path, error)
     with writing(layout, say):
         reader = reader or OverlayReader()
         for folder in (p for p in paths if p not in duplicates):
-            # the same path as a run's, input key included: a later run skips what measure stored
-            yield process_package(folder, layout.dataset, model=model, certificates=certificates, reader=reader,
-                                  skip_known=False, keep_result=True, progress=progress, reports=layout.reports)
+            try:
+                units = units_of(folder)
+            except PipegaugeError as exc:
+                yield refused_outcome(folder, str(exc))
+                continue
+            for unit in units:
+                # the same path as a run's, input key included: a later run skips what measure stored
+                yield process_package(unit.folder, layout.dataset, model=model, certificates=certificates,
+                                      reader=reader, skip_known=False, keep_result=True, progress=progress,
+                                      reports=layout.reports, section=unit.section)

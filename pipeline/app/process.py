@@ -15,6 +15,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable
 
+from pipeline.app.delivery import section_digests, section_manifest
 from pipeline.app.identity import file_digests, input_key
 from pipeline.app.inbox import link_out, package_id_of
 from pipeline.app.measure import InspectionResult, measure_package
@@ -39,26 +40,36 @@ class PackageOutcome:
     seconds: float = 0.0
     processed: bool = True  # False: unchanged since the run that stored it (status and error are that run's)
     refused: bool = False   # True: not read nor stored (a duplicate id, a link out of the inbox); status failed
+    section: str | None = None   # the section of a delivery folder (None: a package folder)
     worker: str = field(default_factory=lambda: f"{socket.gethostname()}:{os.getpid()}")
     # the records as measured, when the caller asked to keep them (never across process boundaries)
     result: InspectionResult | None = field(default=None, repr=False, compare=False)
 
     def as_row(self) -> dict:
-        return {"package": Path(self.folder).name, "inspection_id": self.inspection_id, "status": self.status,
+        name = Path(self.folder).name
+        return {"package": name if self.section is None else f"{name}/{self.section}",
+                "delivery": name if self.section is not None else None,
+                "inspection_id": self.inspection_id, "status": self.status,
                 "quantities": self.n_measurements, "seconds": round(self.seconds, 1), "error": self.error or "",
                 "processed": self.processed and not self.refused, "refused": self.refused, "worker": self.worker}
 
 
-def refused_outcome(folder: str | os.PathLike, error: str, package_id: str | None = None) -> PackageOutcome:
-    """The outcome of a package that is neither read nor stored."""
-    return PackageOutcome(str(folder), package_id or Path(folder).name, "failed", error, processed=False, refused=True)
+def refused_outcome(folder: str | os.PathLike, error: str, package_id: str | None = None,
+                    section: str | None = None) -> PackageOutcome:
+    """The outcome of a package (or a delivery's section) that is neither read nor stored."""
+    return PackageOutcome(str(folder), package_id or Path(folder).name, "failed", error, processed=False, refused=True,
+                          section=section)
 
 
 def process_package(folder: str | os.PathLike, dataset: str | os.PathLike, *, model: str = "perspective",
                     certificates: str | os.PathLike | None = None, reader: OverlayReader | None = None,
                     skip_known: bool = True, reports: str | os.PathLike | None = None,
-                    progress: Callable[[str], None] | None = None, keep_result: bool = False) -> PackageOutcome:
+                    progress: Callable[[str], None] | None = None, keep_result: bool = False,
+                    section: str | None = None) -> PackageOutcome:
     """Measure one package and store its records in the dataset folder ``dataset``; never raises for a bad package.
+
+    section : a section of the delivery folder ``folder`` (``pipeline.app.delivery``), processed as a package of
+    its own; None for a package folder.
 
     reports : folder for the package's PDF condition report, rendered from the
     dataset (also for a skipped package whose report is missing).
@@ -71,14 +82,22 @@ def process_package(folder: str | os.PathLike, dataset: str | os.PathLike, *, mo
     folder = Path(folder)
     if (why := link_out(folder)) is not None:
         return refused_outcome(folder, why)
-    try:
-        digests = file_digests(folder)
-    except PackageError as exc:
-        return refused_outcome(folder, str(exc))
-    try:
-        manifest = load_manifest(folder)
-    except PipegaugeError:
-        manifest = None             # measure_package records why
+    unmeasurable = None
+    if section is not None:
+        try:
+            manifest, unmeasurable = section_manifest(folder, section)
+            digests = section_digests(manifest)
+        except PipegaugeError as exc:
+            return refused_outcome(folder, str(exc), section=section)
+    else:
+        try:
+            digests = file_digests(folder)
+        except PackageError as exc:
+            return refused_outcome(folder, str(exc))
+        try:
+            manifest = load_manifest(folder)
+        except PipegaugeError:
+            manifest = None             # measure_package records why
     key = input_key(manifest, digests, certificates, model)
     package_id = manifest.package_id if manifest else folder.name
     stored = stored_input_key(dataset, package_id) if skip_known else None
@@ -89,9 +108,10 @@ def process_package(folder: str | os.PathLike, dataset: str | os.PathLike, *, mo
     if stored and stored["input_sha256"] == key:
         error = _render(dataset, package_id, reports, missing_only=True)
         return PackageOutcome(str(folder), package_id, stored["status"], _joined(stored["error"], error),
-                              stored["n_measurements"] or 0, time.perf_counter() - t0, processed=False)
+                              stored["n_measurements"] or 0, time.perf_counter() - t0, processed=False,
+                              section=section)
     result = measure_package(folder, certificates=certificates, model=model, reader=reader, progress=progress,
-                             digests=digests, manifest=manifest)
+                             digests=digests, manifest=manifest, unmeasurable=unmeasurable)
     result.inspection["input_sha256"] = key
     rec = result.inspection
     try:
@@ -102,7 +122,8 @@ def process_package(folder: str | os.PathLike, dataset: str | os.PathLike, *, mo
         result.measurements = []
     error = _render(dataset, rec["inspection_id"], reports)
     return PackageOutcome(str(folder), rec["inspection_id"], rec["status"], _joined(rec["error"], error),
-                          len(result.measurements), time.perf_counter() - t0, result=result if keep_result else None)
+                          len(result.measurements), time.perf_counter() - t0, result=result if keep_result else None,
+                          section=section)
 
 
 # What a failed inspection's record keeps when its full record cannot be stored.

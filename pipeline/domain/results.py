@@ -130,6 +130,10 @@ class InspectionRecord(Record):
     site: str | None = column("string")
     longitudinal_reference: str | None = column("string")
     package_folder: str | None = column("string")
+    delivery_id: str | None = column("string", doc="the delivery folder's id when the section came in one")
+    section_key: str | None = column("string", doc="the section's id in its exchange file")
+    log_format: str | None = column("string", doc="the format the log came in (a key of the readers' registry)")
+    log_file: str | None = column("string", doc="the delivered file the log was read from")
     package_sha256: str | None = column("string")
     input_sha256: str | None = column(
         "string", doc="package, certificate, pipeline version and model: a run skips a package whose key is already stored")
@@ -145,7 +149,7 @@ class InspectionRecord(Record):
     chainage_read_rate: float | None = column("float64", "1")
     pipeline_version: str | None = column("string")
     model: str | None = column("string", doc="orthographic | perspective")
-    status: str | None = column("string", doc="ok | partial | failed")
+    status: str | None = column("string", doc="ok | partial | log-only | failed")
     error: str | None = column("string")
     problems: list[str] | None = column("list<string>")
     warnings: list[str] | None = column(

@@ -40,6 +40,7 @@ class PackageManifest:
     transfer: Path | None = None     # an exchange file holding the header and the log (docs/formats.md)
     section: dict | None = None      # what the transfer does not hold: shape, height_mm... (header.json's fields)
     section_key: str | None = None   # which section of a transfer of several (a delivery's section; docs/formats.md)
+    delivery_id: str | None = None   # the delivery folder's id, for a delivery's section
 
 
 def manifest_document(package_id: str, certificate_id: str, **files: str) -> dict:

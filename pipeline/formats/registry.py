@@ -8,6 +8,7 @@ module, one line here).
 
 from __future__ import annotations
 
+import functools
 import importlib
 import os
 from dataclasses import dataclass
@@ -15,9 +16,10 @@ from pathlib import Path
 from typing import Callable
 
 from pipeline.core.errors import PipegaugeError
+from pipeline.formats.isybau.codes import FORMAT_NAME as ISYBAU      # a small table: no reader is loaded
 
 __all__ = ["FILE_FORMATS", "Reader", "Writer", "READERS", "WRITERS", "reader_for", "read_log_file", "load_package_log",
-           "package_section", "exchange_suffixes", "validate_exchange",
+           "package_section", "exchange_suffixes", "validate_exchange", "load_package_reading", "read_cached",
            "writer", "format_module"]
 
 # Every file format pipegauge reads or writes: its module, which defines FORMAT_NAME (and FORMAT_VERSION where the
@@ -31,6 +33,7 @@ FILE_FORMATS = {
     "tabular": "pipeline.formats.tabular",               # CSV / Parquet exports of the measurements
     "vsa-kek": "pipeline.formats.vsa_kek",               # Swiss VSA-KEK INTERLIS 2 transfers
     "isybau": "pipeline.formats.isybau.codes",           # German ISYBAU XML 2006/2013/2017 (pipeline.formats.isybau)
+    "delivery": "pipeline.formats.delivery",             # delivery.json beside a job's exchange file
 }
 
 
@@ -97,7 +100,7 @@ READERS = {r.name: r for r in (
            "observations.csv with header.json beside it (docs/formats.md)"),
     Reader("vsa-kek", (".xtf", ".xml"), "pipeline.formats.vsa_kek:read_log",
            "Swiss VSA-KEK INTERLIS 2 transfer, model VSA_KEK_2019_LV95 or VSA_KEK_2020_1_LV95", ("TRANSFER",)),
-    Reader("isybau-xml", (".xml",), "pipeline.formats.isybau.read:read_log",
+    Reader(ISYBAU, (".xml",), "pipeline.formats.isybau.read:read_log",
            "German ISYBAU XML 2006, 2013 or 2017 condition data: every pipe, lateral and manhole of a job",
            ("Identifikation",), "pipeline.formats.isybau.schema:validate_isybau"),
 )}
@@ -160,13 +163,40 @@ def load_package_log(manifest):
     manifest : a ``pipeline.formats.PackageManifest``; returns (SectionHeader, list of Observation).
     A transfer of several sections needs package.json's ``section_key`` to say which one is the package's.
     """
+    header, observations, _ = load_package_reading(manifest)
+    return header, observations
+
+
+def load_package_reading(manifest):
+    """(SectionHeader, observations, problems): ``load_package_log`` with the problems of the section and of its
+    file that are no row's (an unknown material code, a file read in another encoding...), as text."""
     if manifest.transfer is None:
         from pipeline.formats.observation_log import read_log_with_header
 
-        return read_log_with_header(manifest.observations, manifest.header)
-    reading = package_section(read_log_file(manifest.transfer), manifest)
-    return reading.section_header(manifest.section, f"{manifest.transfer} with {manifest.folder / 'package.json'}"), \
-        reading.observations
+        return (*read_log_with_header(manifest.observations, manifest.header), [])
+    from pipeline.core.errors import HeaderError
+
+    exchange = read_cached(manifest.transfer)
+    reading = package_section(exchange, manifest)
+    named_by = "delivery.json" if getattr(manifest, "section_key", None) else "package.json"
+    problems = [*exchange.problems, *map(str, reading.section_problems)]
+    try:
+        header = reading.section_header(manifest.section, f"{manifest.transfer} section {reading.key} with "
+                                                          f"{manifest.folder / named_by}")
+    except HeaderError as exc:
+        raise HeaderError("; ".join([str(exc), *problems])) from None
+    return header, reading.observations, problems
+
+
+def read_cached(path):
+    """An exchange file read once while unchanged (a night's sections of one job share it)."""
+    st = Path(path).stat()
+    return _read_file(str(path), st.st_mtime_ns, st.st_size)
+
+
+@functools.lru_cache(maxsize=8)
+def _read_file(path: str, mtime_ns: int, size: int):
+    return read_log_file(path)
 
 
 def package_section(exchange, manifest):

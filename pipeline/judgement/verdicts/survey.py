@@ -72,3 +72,23 @@ def survey_verdict(start_m: float, u_start_m: float, end_m: float, u_end_m: floa
         parts.append(f"{len(outside)} observation(s) logged outside the surveyed range (rows "
                      + ", ".join(str(r) for r in outside) + ")")
     return SurveyVerdict(start_m, end_m, section_length_m, complete, finish, abandoned, outside, "; ".join(parts))
+
+
+def logged_survey_statement(section_length_m: float, rows: list[tuple[int, str, float]]) -> str:
+    """The surveyed length as the log alone states it (no video to measure it): its finish node (BCE) or
+    abandoned survey (BDC) row against the header's section length [m]; rows are (row, code, distance [m])."""
+    finish = next((d for _, c, d in rows if c == "BCE" and math.isfinite(d)), None)
+    abandoned = next((d for _, c, d in rows if c == "BDC" and math.isfinite(d)), None)
+    last = max((d for _, _, d in rows if math.isfinite(d)), default=None)
+    parts = ["no video: the surveyed length is the log's, not measured"]
+    if finish is not None:
+        gap = section_length_m - finish
+        agree = abs(gap) <= DISTANCE_SLACK_M
+        parts.append(f"the log reaches the finish node at {_m(finish)} m of the header's {_m(section_length_m)} m"
+                     + ("" if agree else f" ({_m(abs(gap))} m {'short' if gap > 0 else 'beyond'}: check the length)"))
+    elif abandoned is not None:
+        parts.append(f"the survey is logged as abandoned at {_m(abandoned)} m of {_m(section_length_m)} m")
+    elif last is not None:
+        parts.append(f"the log's last row is at {_m(last)} m of {_m(section_length_m)} m and no finish node (BCE) or "
+                     "abandoned-survey (BDC) row says where the survey ended")
+    return "; ".join(parts)

@@ -115,25 +115,51 @@ def parse_xml(path: str | os.PathLike, *, what: str, max_bytes: int = MAX_EXCHAN
     except OSError as exc:
         raise TransferError(f"{path}: the {what} cannot be read ({exc.strerror or exc})") from None
     if size > max_bytes:
-        raise TransferError(f"{path}: {size:,} bytes; a {what} is read up to {max_bytes:,} bytes; split the delivery")
-    builder = _Builder(path, max_elements)
-    parser = DefusedXMLParser(target=builder, forbid_dtd=True, encoding=encoding)
-    builder.parser = parser
+        raise TransferError(f"{path}: {size:,} bytes; the limit for this {what} is {max_bytes:,} bytes "
+                            "(pipeline/core/limits.py); split the delivery")
+    # two passes: the first only counts (a hostile file is refused before any tree is built), the second builds
+    _feed(path, _Counter(path, max_elements), encoding, what)
+    root = _feed(path, _Builder(path, max_elements), encoding, what)
+    if root is None:
+        raise TransferError(f"{path}: an empty {what}")
+    return root
+
+
+class _Counter:
+    """The first pass's target: elements counted, nothing kept."""
+
+    def __init__(self, path: Path, max_elements: int):
+        self.path, self.max_elements, self.n = path, max_elements, 0
+        self.parser: DefusedXMLParser | None = None
+
+    def line(self) -> int:
+        return self.parser.parser.CurrentLineNumber if self.parser else 0
+
+    def start(self, tag: str, attrib: dict) -> None:
+        self.n += 1
+        if self.n > self.max_elements:
+            raise TransferError(f"{self.path} line {self.line()}: more than {self.max_elements:,} XML elements (at "
+                                f"{local_name(tag)}); split the delivery into several files")
+
+    def close(self) -> None:
+        return None
+
+
+def _feed(path: Path, target, encoding: str | None, what: str):
+    parser = DefusedXMLParser(target=target, forbid_dtd=True, encoding=encoding)
+    target.parser = parser
     try:
         with path.open("rb") as fh:
             for chunk in iter(lambda: fh.read(1 << 16), b""):
                 parser.feed(chunk)
-        root = parser.close()
+        return parser.close()
     except DefusedXmlException as exc:
         raise TransferError(f"{path}: refused: the file declares a DTD or entities ({type(exc).__name__}, line "
-                            f"{builder.line()}); a {what} has none (entities are never read)") from None
+                            f"{target.line()}); a {what} has none (entities are never read)") from None
     except ParseError as exc:
         raise TransferError(f"{path}: not well-formed XML ({exc}); check that the {what} is complete") from None
     except (UnicodeDecodeError, LookupError) as exc:
         raise TransferError(f"{path}: the {what} cannot be decoded ({exc}); save it in the encoding it declares") from None
-    if root is None:
-        raise TransferError(f"{path}: an empty {what}")
-    return root
 
 
 def child_text(e: Element | None, *path: str) -> str:

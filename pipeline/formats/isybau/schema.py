@@ -14,6 +14,7 @@ from pathlib import Path
 
 from pipeline.core.errors import TransferError
 from pipeline.formats.isybau.codes import NAMESPACES
+from pipeline.formats.xmlfile import parse_xml
 
 __all__ = ["ENTRY_POINTS", "load_schema", "validate_isybau", "MAX_ERRORS"]
 
@@ -58,12 +59,44 @@ def validate_isybau(path: str | os.PathLike, schemas: str | os.PathLike) -> list
         return [f"{path}: in namespace {namespace!r}; the schemas in {schemas} are for {schema.target_namespace!r} "
                 "(another ISYBAU version): not validated; pass that version's schemas"]
     problems = []
+    tree = None
     for n, error in enumerate(schema.iter_errors(resource)):
         if n == MAX_ERRORS:
             problems.append(f"{path}: more schema errors not shown")
             break
-        line = getattr(error, "sourceline", None)
+        if tree is None:
+            tree = parse_xml(path, what="ISYBAU XML file", encoding=_declared_or_latin1(path))
         element = error.elem.tag.rsplit("}", 1)[-1] if error.elem is not None else "?"
-        where = f" line {line}" if line else (f" at {error.path}" if getattr(error, "path", None) else "")
-        problems.append(f"{path}{where}, element {element}: schema: {error.reason}")
+        xpath = getattr(error, "path", None) or ""
+        line = getattr(error, "sourceline", None) or _line_of(tree, xpath)
+        where = f" line {line}" if line else ""
+        problems.append(f"{path}{where}, element {element}{f' ({xpath})' if xpath else ''}: schema: {error.reason}")
     return problems
+
+
+def _declared_or_latin1(path: Path) -> str | None:
+    """None (the file's declared encoding) when it decodes so, else ISO-8859-1, as the reader does."""
+    head = path.read_bytes()[:200]
+    if b"UTF-8" in head.upper():
+        try:
+            path.read_bytes().decode("utf-8")
+        except UnicodeDecodeError:
+            return "ISO-8859-1"
+    return None
+
+
+def _line_of(tree, xpath: str) -> int | None:
+    """The line where the element at an error's path (/A/B[2]/C) starts, or its nearest parent with a line."""
+    parts = [p for p in xpath.split("/") if p]
+    if not parts or tree is None or parts[0].rsplit(":", 1)[-1].split("[")[0] != tree.tag:
+        return None
+    here, line = tree, tree.get("_line")
+    for part in parts[1:]:
+        name, _, index = part.rsplit(":", 1)[-1].partition("[")
+        matches = [c for c in here if c.tag == name]
+        k = int(index.rstrip("]")) - 1 if index else 0
+        if not 0 <= k < len(matches):
+            break
+        here = matches[k]
+        line = here.get("_line") or line
+    return int(line) if line else None

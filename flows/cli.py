@@ -345,7 +345,23 @@ def cmd_export(args: argparse.Namespace) -> int:
     else:
         for path, n in written:
             print(path)
-        _say(f"pipegauge export: {len(written)} transfer(s) ({fmt}, {sum(n for _, n in written)} observations) in {args.out}")
+        what = "observations" if WRITERS[fmt].out == "folder" else "rows annotated"
+        _say(f"pipegauge export: {len(written)} file(s) ({fmt}, {sum(n for _, n in written)} {what}) in {args.out}")
+    if args.schemas:
+        from pipeline.formats import READERS, reader_for
+
+        problems = []
+        for path, _ in written:
+            check = READERS[reader_for(path).name].load_validator() if path.suffix.lower() == ".xml" else None
+            if check is None:
+                _say(f"pipegauge export: {path}: no schema validation for {fmt}; --schemas ignored")
+                continue
+            problems += check(path, args.schemas)
+        for problem in problems:
+            print(problem, file=sys.stderr)
+        _say(f"pipegauge export: {len(written)} file(s) checked against the schemas in {args.schemas}: "
+             f"{len(problems)} problem(s)")
+        return EXIT_FAILED if problems else EXIT_OK
     return EXIT_OK
 
 
@@ -500,7 +516,10 @@ def build_parser() -> argparse.ArgumentParser:
     ex.add_argument("--out", type=Path, required=True,
                     help="file to write (.csv or .parquet); for a transfer format, the folder for one file per inspection")
     ex.add_argument("--format", choices=tuple(WRITERS),
-                    help="default: from the file's extension; vsa-kek-*: VSA-KEK INTERLIS transfers (docs/formats.md)")
+                    help="default: from the file's extension; vsa-kek-*: VSA-KEK INTERLIS transfers; isybau-2013: per "
+                         "ISYBAU delivery, the contractor's file with pipegauge's values added (docs/formats.md)")
+    ex.add_argument("--schemas", type=Path, metavar="DIR",
+                    help="validate the files written against their owner's XML schemas in DIR (ISYBAU 2013)")
     ex.add_argument("--from", dest="start", type=_date, help="first inspection date YYYY-MM-DD")
     ex.add_argument("--to", dest="end", type=_date, help="last inspection date YYYY-MM-DD")
     ex.set_defaults(func=cmd_export)

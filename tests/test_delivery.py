@@ -20,7 +20,12 @@ from pipeline.formats.header import load_header
 from pipeline.formats.isybau import FORMAT_NAME as ISYBAU, write_isybau
 from pipeline.formats.observation_log import read_log
 from pipeline.formats.reading import observation_record
+from pipeline.app.export import export
+from pipeline.domain.value_text import format_record
+from pipeline.formats.isybau import read_isybau, validate_isybau
+from pipeline.formats.isybau.write import PIPEGAUGE_MARK
 from pipeline.store import read_records
+from test_isybau import REQUIRED as REQUIRE_SCHEMAS, SCHEMAS
 
 TWO = ["S01-circular-clean", "S02-circular-water-offset"]
 
@@ -86,6 +91,16 @@ def test_sections_without_video_or_certificate_are_stored_log_only_with_their_re
     # the rerun skips every section; a changed section alone is measured again
     again = [process_package(u.folder, dataset, section=u.section) for u in units_of(d)]
     assert [o.processed for o in again] == [False, False]
+
+
+def test_the_isybau_export_of_log_only_sections_is_the_contractors_file(tmp_path):
+    d = write_delivery(_inbox(tmp_path) / "JOB1", TWO, videos=False)
+    for u in units_of(d):
+        process_package(u.folder, tmp_path / "ds", section=u.section)
+    [(path, annotated)] = export("isybau-2013", tmp_path / "ds", tmp_path / "export")
+    assert path.name == "JOB1.xml" and annotated == 0
+    same = lambda x: [s.as_dict()["observations"] for s in x.sections]       # noqa: E731
+    assert same(read_isybau(path)) == same(read_isybau(d / "job.xml"))
 
 
 def test_a_changed_section_is_processed_again_and_the_others_skipped(tmp_path):
@@ -187,3 +202,22 @@ def test_a_delivery_measures_as_its_sections_as_packages_bit_for_bit(tmp_path, r
     assert ins["JOB1-S01"].section_grade == {r.inspection_id: r for r in
                                              read_records(tmp_path / "b", "inspections")}["JOB1-S01"].section_grade
     assert inspection_id("JOB1", "S01") == "JOB1-S01"
+
+    # the ISYBAU export: the contractor's file with every value as delivered, ours in the measured rows' Kommentar
+    written = export("isybau-2013", tmp_path / "a", tmp_path / "export")
+    assert [p.name for p, _ in written] == ["JOB1.xml"]
+    path, annotated = written[0]
+    back, original = read_isybau(path), read_isybau(d / "job.xml")
+    delivered = lambda x: [[(o.distance_m, o.code, o.char1, o.q1, o.q2, o.clock_from, o.video_time_s) for o in s.observations]  # noqa: E731
+                           for s in x.sections]
+    assert delivered(back) == delivered(original)
+    notes = [o.remark for s in back.sections for o in s.observations if PIPEGAUGE_MARK in o.remark]
+    assert len(notes) == annotated >= 8
+    measured = next(m for m in read_records(tmp_path / "a", "measurements")
+                    if m.inspection_id == "JOB1-S01" and m.row == 1 and m.status == "ok")
+    crack = back.section("S01").observations[1]
+    assert crack.q1 == 5.0 and f"Q1 {format_record(measured)}" in crack.remark
+    fresh = export("isybau-2013", tmp_path / "b", tmp_path / "export-b")        # packages: one new file
+    assert [p.name for p, _ in fresh] == ["pipegauge-export.xml"]
+    if REQUIRE_SCHEMAS or SCHEMAS.is_dir():
+        assert validate_isybau(path, SCHEMAS) == [] and validate_isybau(fresh[0][0], SCHEMAS) == []

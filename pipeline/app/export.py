@@ -22,10 +22,14 @@ from pipeline.core.errors import PipegaugeError
 from pipeline.formats import WRITERS, writer
 from pipeline.formats.manifest import load_manifest
 from pipeline.formats.tabular import export_table, write_csv, write_parquet
+from pipeline.formats.isybau.codes import FORMAT_NAME as ISYBAU
 from pipeline.formats.vsa_kek import Transfer, read_transfer_log
 from pipeline.store import file_stem, read_records, read_table, require_dataset, to_row
 
-__all__ = ["export", "export_frame", "export_csv", "export_parquet", "inspection_exports"]
+__all__ = ["export", "export_frame", "export_csv", "export_parquet", "inspection_exports", "delivery_exports"]
+
+# the delivered format whose files a "delivery" writer annotates (the others' inspections are written anew)
+READERS_OF = {"isybau-2013": ISYBAU}
 
 
 def export(name: str, root: str | os.PathLike, out: str | os.PathLike, start: dt.date | None = None,
@@ -51,6 +55,9 @@ def export(name: str, root: str | os.PathLike, out: str | os.PathLike, start: dt
     write = writer(name)
     if WRITERS[name].out == "file":
         return [(Path(out), write(export_frame(root, start, end), out))]
+    if WRITERS[name].out == "delivery":
+        return [write(Path(out), stem, source, sections)
+                for stem, source, sections in delivery_exports(root, READERS_OF[name], start, end)]
     return [write(Path(out), stem, inspection, observations, measurements, source)
             for stem, inspection, observations, measurements, source in inspection_exports(root, start, end)]
 
@@ -142,6 +149,48 @@ def inspection_exports(root: str | os.PathLike, start: dt.date | None = None, en
         for r in rows:
             r["ref"] = refs.get(r["row"], "")
         yield file_stem(iid), ins, rows, measurements.get(iid, []), source
+
+
+def delivery_exports(root: str | os.PathLike, log_format: str, start: dt.date | None = None,
+                     end: dt.date | None = None):
+    """What a ``delivery`` writer gets, one delivery at a time (the failed inspections are not exported).
+
+    Yields ``(stem, source, sections)``: per delivered file of ``log_format`` still readable, the stem of its
+    delivery id, the file re-read (its tree: every object and value as delivered) and its stored sections'
+    (inspection, observations, measurements) rows; then the inspections that came otherwise, or whose file has
+    moved or changed since, as ``("pipegauge-export", None, sections)``.
+    """
+    from pipeline.formats import read_log_file
+
+    require_dataset(root)
+    observations = _by_inspection(_rows(root, "observations", start, end))
+    measurements = _by_inspection(_rows(root, "measurements", start, end))
+    by_file: dict[str, list] = {}
+    others = []
+    for ins in _rows(root, "inspections", start, end):
+        if ins["status"] == "failed":
+            continue
+        iid = ins["inspection_id"]
+        ins["inspection_date"] = pd.Timestamp(ins["inspection_date"]).date()
+        item = (ins, observations.get(iid, []), measurements.get(iid, []))
+        if ins.get("log_format") == log_format and ins.get("log_file"):
+            by_file.setdefault(ins["log_file"], []).append(item)
+        else:
+            others.append(item)
+    for log_file, sections in sorted(by_file.items()):
+        try:
+            exchange = read_log_file(log_file)
+        except (PipegaugeError, OSError):      # moved or changed since: its sections are written anew
+            others += sections
+            continue
+        keys = {s.key for s in exchange.sections}
+        if any(i.get("section_key") not in keys for i, _, _ in sections):
+            others += sections
+            continue
+        stem = file_stem(sections[0][0].get("delivery_id") or Path(log_file).stem)
+        yield stem, exchange.source, sections
+    if others:
+        yield "pipegauge-export", None, others
 
 
 def _source_of(package_folder) -> tuple[Transfer | None, dict[int, str]]:

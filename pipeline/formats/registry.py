@@ -82,11 +82,16 @@ class Writer:
     (lists of dicts, each observation with ``ref``, the contractor's id of the row), ``source`` the parsed
     transfer the package was delivered as, or None.
 
+    ``out == "delivery"``: ``write(folder, stem, source, sections) -> (path, records written)``, called once per
+    delivery: ``source`` the contractor's parsed file when the delivery came in the writer's format (None for the
+    inspections that came otherwise, written together as one new file), ``sections`` its (inspection,
+    observations, measurements) rows.
+
     ``pipeline.app.export.export`` reads these from the dataset and calls the writer.
     """
 
     name: str
-    out: str                          # "file" (one file) or "folder" (one file per inspection)
+    out: str                          # "file" (one file), "folder" (one file per inspection) or "delivery" (per delivery)
     target: str                       # "module:function"
     description: str
 
@@ -112,6 +117,9 @@ WRITERS = {w.name: w for w in (
            "one VSA_KEK_2019_LV95 transfer per inspection"),
     Writer("vsa-kek-2020", "folder", "pipeline.formats.vsa_kek:write_2020",
            "one VSA_KEK_2020_1_LV95 transfer per inspection"),
+    Writer("isybau-2013", "delivery", "pipeline.formats.isybau.write:write_delivery_export",
+           "per ISYBAU delivery, the contractor's file with pipegauge's values in each measured row's Kommentar; "
+           "the other inspections as one new ISYBAU 2013 file"),
 )}
 
 

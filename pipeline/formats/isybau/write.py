@@ -16,10 +16,12 @@ import os
 from pathlib import Path
 from xml.etree.ElementTree import Element, SubElement, tostring
 
+from pipeline import __version__
 from pipeline.core.atomic import atomic_path
 from pipeline.formats.isybau.codes import DIRECTIONS, MATERIALS, NAMESPACES, PROFILES
 
-__all__ = ["isybau_document", "write_isybau", "annotated_document", "PIPEGAUGE_MARK"]
+__all__ = ["isybau_document", "isybau_tree", "write_isybau", "annotated_document", "PIPEGAUGE_MARK", "measured_notes",
+           "write_delivery_export"]
 
 VERSION = "2013-02"
 PIPEGAUGE_MARK = "[pipegauge]"      # starts what pipegauge adds to a Kommentar; what precedes it is the contractor's
@@ -49,9 +51,18 @@ def _timecode(seconds: float, fps: int) -> str:
     return f"{h:02d}{m:02d}{s:02d}{f:02d}"
 
 
-def isybau_document(sections: list[dict], *, job: str = "pipegauge", contractor: str = "", site: str = "",
-                    created: dt.date | None = None, fps: int = 25) -> bytes:
-    """An ISYBAU 2013 condition-data file of ``sections``, as bytes (UTF-8).
+def isybau_document(sections: list[dict], **kwargs) -> bytes:
+    """An ISYBAU 2013 condition-data file of ``sections``, as bytes (UTF-8): ``isybau_tree`` serialised."""
+    return _bytes(isybau_tree(sections, **kwargs))
+
+
+def _bytes(root: Element) -> bytes:
+    return b'<?xml version="1.0" encoding="UTF-8"?>\n' + tostring(root, encoding="utf-8", xml_declaration=False) + b"\n"
+
+
+def isybau_tree(sections: list[dict], *, job: str = "pipegauge", contractor: str = "", site: str = "",
+                created: dt.date | None = None, fps: int = 25) -> Element:
+    """An ISYBAU 2013 condition-data file of ``sections``, as a tree of local tags (the root names its namespace).
 
     sections : each {"key": Objektbezeichnung, "header": header.json's fields (``SectionHeader.as_record``),
     "observations": observation records (``pipeline.formats.observation_log`` fields: row, distance_m, code...),
@@ -118,6 +129,7 @@ def isybau_document(sections: list[dict], *, job: str = "pipegauge", contractor:
             _observation(rows, o, fps)
         if s.get("video"):
             films.append((s, direction))
+
     if films:
         filme = _add(data, "Filme")
         for s, direction in films:
@@ -138,7 +150,8 @@ def isybau_document(sections: list[dict], *, job: str = "pipegauge", contractor:
             _add(objekt, "Objektbezeichnung", s["key"])
             _add(objekt, "Typ", 1)
             _add(objekt, "Inspektionsrichtung", direction)
-    return b'<?xml version="1.0" encoding="UTF-8"?>\n' + tostring(root, encoding="utf-8", xml_declaration=False) + b"\n"
+    root.set("_namespace", NAMESPACES["2013"])
+    return root
 
 
 def _observation(parent: Element, o: dict, fps: int) -> None:
@@ -182,7 +195,8 @@ def annotated_document(root: Element, notes: dict[tuple[str, int], str]) -> byte
     RZustand's number in file order, as the reader numbers them.
     """
     out = _copy(root)
-    out.set("xmlns", root.get("_namespace") or NAMESPACES["2013"])
+    out.attrib.pop("xmlns", None)
+    out.attrib = {"xmlns": root.get("_namespace") or NAMESPACES["2013"], **out.attrib}
     seen: dict[str, int] = {}
     for anlage in out.iter("InspizierteAbwassertechnischeAnlage"):
         name = (anlage.findtext("Objektbezeichnung") or "").strip()
@@ -191,7 +205,7 @@ def annotated_document(root: Element, notes: dict[tuple[str, int], str]) -> byte
         for n, z in enumerate(anlage.iterfind("OptischeInspektion/Rohrleitung/Inspektionsdaten/RZustand")):
             if (key, n) in notes:
                 _annotate(z, notes[(key, n)])
-    return b'<?xml version="1.0" encoding="UTF-8"?>\n' + tostring(out, encoding="utf-8", xml_declaration=False) + b"\n"
+    return _bytes(out)
 
 
 def _copy(e: Element) -> Element:
@@ -210,3 +224,56 @@ def _annotate(z: Element, note: str) -> None:
         z.insert(later[0] if later else len(z), kommentar)
     own = (kommentar.text or "").strip()
     kommentar.text = f"{own} {PIPEGAUGE_MARK} {note}".strip()
+
+
+# -- the export of stored records --------------------------------------------------------------------------------
+
+def measured_notes(observations: list[dict], measurements: list[dict], *, version: str, model: str) -> dict[int, str]:
+    """What pipegauge adds to each measured row's Kommentar: every quantity's value with U95 (or why it was not
+    measured), the log check and the grade; row -> text. The contractor's values are never replaced."""
+    from pipeline.domain.value_text import format_record
+
+    by_row: dict[int, list[str]] = {}
+    for m in sorted(measurements, key=lambda m: (m["row"], m["quantity"], m.get("source") != "marks")):
+        source = "image" if m.get("source") == "contour" else "marks"
+        if m.get("status") == "ok":
+            text = f"{m['quantity']} {format_record(m)} ({source})"
+            if m.get("log_check"):
+                text += f", log {m['log_check']}"
+            if m.get("grade") and m.get("grade_status") == "graded":
+                text += f", grade {m['grade']}"
+        else:
+            text = f"{m['quantity']} not measured ({source}): {m.get('error') or 'no reason stored'}"
+        by_row.setdefault(m["row"], []).append(text)
+    for o in observations:
+        if o["row"] in by_row and o.get("grade") and o.get("grading_scheme"):
+            by_row[o["row"]].append(f"{o['grading_scheme']} {o['grade']} ({o.get('grade_status')})")
+    return {row: "; ".join(parts) + f" (pipegauge {version}, {model} model)" for row, parts in by_row.items()}
+
+
+def write_delivery_export(folder: str | os.PathLike, stem: str, source: Element | None,
+                          sections: list[tuple[dict, list[dict], list[dict]]]) -> tuple[Path, int]:
+    """One delivery as ``folder/<stem>.xml``: the contractor's ISYBAU file (``source``, as read) with every object
+    and value kept and our notes in the measured rows' Kommentar; or, for sections that came in another format
+    (``source`` None), a new ISYBAU 2013 file of them with the same notes. Returns (path, rows annotated).
+
+    sections : (inspection, observations, measurements) rows as the dataset stores them, per inspection; the
+    inspection's ``section_key`` names its section in ``source``.
+    """
+    notes: dict[tuple[str, int], str] = {}
+    for inspection, observations, measurements in sections:
+        key = inspection.get("section_key") or inspection.get("section_id") or inspection["inspection_id"]
+        for row, note in measured_notes(observations, measurements, version=__version__,
+                                        model=inspection.get("model") or "perspective").items():
+            notes[(key, row)] = note
+    if source is None:
+        records = [{"key": (i.get("section_key") or i.get("section_id") or i["inspection_id"])[:30],
+                    "header": i, "observations": obs, "video": i.get("video_file") or ""}
+                   for i, obs, _ in sections]
+        source = isybau_tree(records, job=stem[:60], contractor=sections[0][0].get("contractor") or "",
+                             site=sections[0][0].get("site") or "")
+    path = Path(folder) / f"{stem}.xml"
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with atomic_path(path) as tmp:
+        Path(tmp).write_bytes(annotated_document(source, notes))
+    return path, len(notes)

@@ -28,6 +28,7 @@ from pipeline.core.errors import PackageError, TransferError
 from pipeline.formats.isybau import FORMAT_NAME as ISYBAU
 from pipeline.formats import READERS, WRITERS, load_package_log, observation_record, read_log_file
 from pipeline.formats.vsa_kek import (MAX_ELEMENTS, MAX_OBJECTS, MAX_TRANSFER_BYTES, SECTION_FIELDS, package_transfer, read_transfer,
+                                       read_transfer_log,
                                        transfer_text, write_transfer)
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -128,7 +129,7 @@ def test_measure_on_a_transfer_file_says_how_to_package_it():
 
 def test_the_registry_names_each_format_once():
     assert {"pipegauge-csv", "vsa-kek", ISYBAU} <= set(READERS)
-    assert set(WRITERS) == {"csv", "parquet", "vsa-kek-2019", "vsa-kek-2020"}
+    assert set(WRITERS) == {"csv", "parquet", "vsa-kek-2019", "vsa-kek-2020", "isybau-2013"}
     for entry in [*READERS.values(), *WRITERS.values()]:
         assert callable(entry.load()), entry.name
 
@@ -252,10 +253,20 @@ HOSTILE = {
                     "basket of model 'DM01AVCH24LV95D'; pipegauge reads VSA-KEK transfers of VSA_KEK_2019_LV95 or VSA_KEK_2020_1_LV95"),
     "malformed": (lambda: _HEAD + '<VSA_KEK_2019_LV95.KEK.Untersuchung TID="u1"><Bezeichnung>S1</Untersuchung>',
                   "not well-formed XML (mismatched tag: line 2"),
-    "dangling-ref": (lambda: REAL_XTF.read_text(encoding="utf-8").replace('<UntersuchungRef REF="ch20zzshw70lohup"/>',
-                                                                           '<UntersuchungRef REF="nowhere"/>', 1),
-                     "Kanalschaden TID ch20zzshw70lrfne: UntersuchungRef 'nowhere' names no Untersuchung"),
 }
+
+
+def test_a_dangling_reference_is_a_problem_of_the_file_and_its_record_is_not_read(tmp_path):
+    path = tmp_path / "dangling.xtf"
+    path.write_text(REAL_XTF.read_text(encoding="utf-8").replace('<UntersuchungRef REF="ch20zzshw70lohup"/>',
+                                                                 '<UntersuchungRef REF="nowhere"/>', 1), encoding="utf-8")
+    exchange = read_log_file(path)
+    assert len(exchange.sections) == 1 and len(exchange.sections[0].observations) == 7
+    assert exchange.problems == [f"{path} line 60, Kanalschaden TID ch20zzshw70lrfne: UntersuchungRef 'nowhere' names "
+                                 "no Untersuchung of the transfer (it holds ch20zzshw70lohup); correct the reference "
+                                 "(the record is not read)"]
+    with pytest.raises(TransferError, match="UntersuchungRef 'nowhere' names no Untersuchung"):
+        read_transfer_log(path)
 
 
 @pytest.mark.parametrize("kind", [pytest.param(k, marks=pytest.mark.slow) if k == "million-elements" else k
@@ -434,3 +445,27 @@ def test_objects_of_other_classes_are_said_not_read(tmp_path):
     reading = read_log_file(path).sections[0]
     assert reading.details["not read"] == "1 Normschachtschaden"
     assert len(reading.observations) == 8
+
+
+def test_a_transfer_of_several_inspections_is_one_section_each_and_a_delivery(tmp_path):
+    text = REAL_XTF.read_text(encoding="utf-8")
+    lines = text.splitlines(keepends=True)
+    start = next(i for i, line in enumerate(lines) if 'KEK.Untersuchung TID="ch20zzshw70lohup"' in line)
+    end = next(i for i, line in enumerate(lines) if "</VSA_KEK_2020_1_LV95.KEK.Untersuchung>" in line)
+    second = "".join(lines[start:end + 1]).replace('TID="ch20zzshw70lohup"', 'TID="ch20zzshw70second"').replace(
+        "<Bezeichnung>1.045-1.040</Bezeichnung>", "<Bezeichnung>1.040-1.035</Bezeichnung>")
+    k0 = next(i for i, line in enumerate(lines) if 'KEK.Kanalschaden TID="ch20zzshw70lrfne"' in line)
+    k1 = next(i for i, line in enumerate(lines[k0:], k0) if "</VSA_KEK_2020_1_LV95.KEK.Kanalschaden>" in line)
+    damage = "".join(lines[k0:k1 + 1]).replace('TID="ch20zzshw70lrfne"', 'TID="ch20zzshw70second1"').replace(
+        'REF="ch20zzshw70lohup"', 'REF="ch20zzshw70second"')
+    lines.insert(end + 1, second + damage)
+    folder = tmp_path / "JOB"
+    folder.mkdir()
+    (folder / "job.xtf").write_text("".join(lines), encoding="utf-8")
+    exchange = read_log_file(folder / "job.xtf")
+    assert exchange.problems == []
+    assert [(s.key, len(s.observations)) for s in exchange.sections] == [("1.045-1.040", 8), ("1.040-1.035", 1)]
+    assert exchange.sections[1].observations[0].ref == "ch20zzshw70second1"
+    from pipeline.app.delivery import units_of
+
+    assert [u.section for u in units_of(folder)] == ["1.045-1.040", "1.040-1.035"]

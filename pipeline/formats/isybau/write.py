@@ -132,10 +132,17 @@ def isybau_tree(sections: list[dict], *, job: str = "pipegauge", contractor: str
 
     if films:
         filme = _add(data, "Filme")
+        names: set[str] = set()
         for s, direction in films:
             film = _add(filme, "Film")
             video = str(s["video"]).replace("\\", "/")
             folder, _, name = video.rpartition("/")
+            if name.lower() in names and folder:
+                # Filmname is unique in a file (the schema's FObjektKey): packages' videos are all video.mp4, so a
+                # repeated name keeps its folder's name with it
+                parent, _, last = folder.rpartition("/")
+                folder, name = parent, f"{last}/{name}"
+            names.add(name.lower())
             _add(film, "Filmname", name)
             _add(film, "Auftragskennung", 1)
             if folder:
@@ -251,6 +258,13 @@ def measured_notes(observations: list[dict], measurements: list[dict], *, versio
     return {row: "; ".join(parts) + f" (pipegauge {version}, {model} model)" for row, parts in by_row.items()}
 
 
+def _video_path(inspection: dict) -> str:
+    """A stored inspection's video as a path relative to its inbox: <package folder name>/<video file name>."""
+    video = Path(inspection.get("video_file") or "").name
+    folder = Path(inspection.get("package_folder") or "").name
+    return f"{folder}/{video}" if video and folder else video
+
+
 def write_delivery_export(folder: str | os.PathLike, stem: str, source: Element | None,
                           sections: list[tuple[dict, list[dict], list[dict]]]) -> tuple[Path, int]:
     """One delivery as ``folder/<stem>.xml``: the contractor's ISYBAU file (``source``, as read) with every object
@@ -268,7 +282,7 @@ def write_delivery_export(folder: str | os.PathLike, stem: str, source: Element 
             notes[(key, row)] = note
     if source is None:
         records = [{"key": (i.get("section_key") or i.get("section_id") or i["inspection_id"])[:30],
-                    "header": i, "observations": obs, "video": i.get("video_file") or ""}
+                    "header": i, "observations": obs, "video": _video_path(i)}
                    for i, obs, _ in sections]
         source = isybau_tree(records, job=stem[:60], contractor=sections[0][0].get("contractor") or "",
                              site=sections[0][0].get("site") or "")

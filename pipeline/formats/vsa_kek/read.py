@@ -28,7 +28,7 @@ from pipeline.domain.records import Observation
 from pipeline.formats.observation_log import finite_number, parse_log_rows
 from pipeline.formats.vsa_kek.model import FIELD_NAMES, FPS, MODELS, VERSION_OF, Transfer, TransferObject, split_code
 
-__all__ = ["TransferLog", "read_transfer", "read_transfer_log", "read_log", "MAX_TRANSFER_BYTES", "MAX_OBJECTS",
+__all__ = ["TransferLog", "read_transfer", "read_transfer_log", "read_transfer_logs", "read_log", "MAX_TRANSFER_BYTES", "MAX_OBJECTS",
            "MAX_ELEMENTS", "MAX_TEXT"]
 
 MAX_OBJECTS = 20_000                # objects (Untersuchung, Kanalschaden, Datei...) in one transfer
@@ -167,16 +167,43 @@ def _counter_to_time(text: str) -> str:
 
 
 def read_transfer_log(path: str | os.PathLike) -> TransferLog:
-    """The inspection of a transfer as pipegauge reads it: header fields, log (validated) and files.
+    """The inspection of a one-inspection transfer as pipegauge reads it: header fields, log (validated) and files.
 
     Kanalschaden become log rows numbered 0, 1, ... in file order (marks.csv refers to these numbers).
+    A transfer of several inspections raises TransferError: read it with ``read_transfer_logs``.
     """
     t = read_transfer(path)
     inspections = t.of("Untersuchung")
     if len(inspections) != 1:
         raise TransferError(f"{t.path}: {len(inspections)} Untersuchung objects; a package holds one inspection: "
-                            "deliver one transfer per inspected section")
-    u = inspections[0]
+                            "deliver the transfer as a delivery folder (docs/formats.md), which takes every one")
+    if dangling := _dangling(t):
+        raise TransferError(dangling[0])
+    return _inspection_log(t, inspections[0])
+
+
+def _dangling(t: Transfer) -> list[str]:
+    """The Kanalschaden whose UntersuchungRef names no Untersuchung of the transfer, as problems."""
+    tids = {o.tid for o in t.of("Untersuchung")}
+    return [f"{k.where(t.path)}: UntersuchungRef {ref!r} names no Untersuchung of the transfer (it holds "
+            f"{', '.join(sorted(tids)) or 'none'}); correct the reference (the record is not read)"
+            for k in t.of("Kanalschaden") if (ref := k.refs.get("UntersuchungRef", ("", None))[0]) not in tids]
+
+
+def read_transfer_logs(path: str | os.PathLike) -> tuple[Transfer, list[TransferLog | TransferError]]:
+    """Every inspection (Untersuchung) of a transfer, in file order: its log, or why it cannot be read."""
+    t = read_transfer(path)
+    logs: list[TransferLog | TransferError] = []
+    for u in t.of("Untersuchung"):
+        try:
+            logs.append(_inspection_log(t, u))
+        except TransferError as exc:
+            logs.append(exc)
+    return t, logs
+
+
+def _inspection_log(t: Transfer, u: TransferObject) -> TransferLog:
+    """One Untersuchung of a transfer with its Kanalschaden (those whose UntersuchungRef names it), in file order."""
     a = u.attrs
     fields: dict[str, object] = {"section_id": a.get("Bezeichnung", ""), "start_node": a.get("vonPunktBezeichnung", ""),
               "finish_node": a.get("bisPunktBezeichnung", ""), "contractor": a.get("Ausfuehrender", "")}
@@ -209,12 +236,11 @@ def read_transfer_log(path: str | os.PathLike) -> TransferLog:
     video = next((d.attrs.get("Bezeichnung", "") for d in files if d.attrs.get("Klasse") == "Untersuchung"
                   and d.attrs.get("Objekt") == u.tid and d.attrs.get("Art") in ("digitales_Video", "Video")), "")
     rows = []
-    for n, k in enumerate(t.of("Kanalschaden")):
-        ref = k.refs.get("UntersuchungRef", ("", None))[0]
-        if ref != u.tid:
-            raise TransferError(f"{k.where(t.path)}: UntersuchungRef {ref!r} names no Untersuchung of the transfer "
-                                f"(its Untersuchung is {u.tid}); correct the reference")
+    for k in t.of("Kanalschaden"):
+        if k.refs.get("UntersuchungRef", ("", None))[0] != u.tid:
+            continue                               # another inspection's damage (or none's: _dangling says it)
         ka = k.attrs
+        n = len(rows)
         code, char1, char2 = split_code(ka.get("KanalSchadencode", ""))
         raw = {"row": str(n), "distance_m": ka.get("Distanz", ""), "code": code, "char1": char1, "char2": char2,
                "clock_from": _clock(ka.get("SchadenlageAnfang", "")), "clock_to": _clock(ka.get("SchadenlageEnde", "")),
@@ -238,12 +264,22 @@ def _clock(text: str) -> str:
 
 
 def read_log(path: str | os.PathLike):
-    """The ``pipeline.formats`` reader: a transfer as an ``ExchangeFile`` of its one inspection (its Transfer kept
-    as ``source``)."""
+    """The ``pipeline.formats`` reader: a transfer as an ``ExchangeFile`` of its inspections, each a section (its
+    Transfer kept as ``source``); an inspection that cannot be read is a problem of the file, the others are read."""
     from pipeline.formats.reading import ExchangeFile, LogReading
 
-    t = read_transfer_log(path)
-    section = LogReading(t.transfer.path, "vsa-kek", t.header_fields, {"model": t.transfer.model,
-                         "TID": t.inspection.tid, **t.details}, t.observations, t.video, t.transfer,
-                         key=str(t.header_fields.get("section_id") or t.inspection.tid), line=t.inspection.line)
-    return ExchangeFile(t.transfer.path, "vsa-kek", t.transfer.model, [section], source=t.transfer)
+    t, logs = read_transfer_logs(path)
+    sections, problems = [], _dangling(t)
+    keys: dict[str, int] = {}
+    for log in logs:
+        if isinstance(log, TransferError):
+            problems.append(str(log))
+            continue
+        name = str(log.header_fields.get("section_id") or log.inspection.tid)
+        keys[name] = keys.get(name, 0) + 1
+        key = name if keys[name] == 1 else f"{name}~{keys[name]}"
+        sections.append(LogReading(t.path, "vsa-kek", log.header_fields, {"model": t.model, "TID": log.inspection.tid,
+                                   **log.details}, log.observations, log.video, t, key=key, line=log.inspection.line))
+    if not t.of("Untersuchung"):
+        problems.append(f"{t.path}: no Untersuchung (inspection) in the transfer")
+    return ExchangeFile(t.path, "vsa-kek", t.model, sections, problems=problems, source=t)

@@ -220,7 +220,7 @@ def _pipe(path: Path, hg: Element, hi: Element, keys: dict[str, int]) -> LogRead
     length = fields.get("section_length_m")
     observations = parse_log_rows(((f"HZ line {_line(z)}", _row(z, n_row, "HZ")) for n_row, z in enumerate(rows)),
                                   path.name, length if isinstance(length, float) else math.inf, FIELD_NAMES)
-    if coding and coding != EN_CODING:
+    if coding in CODING_SYSTEMS and coding != EN_CODING:      # an unknown coding: said above, rows checked as EN
         _say_coding(path.name, observations, coding, "HI005")
     key = _key(section_id or f"HG line {_line(hg)}", keys)
     return LogReading(path, FORMAT_NAME, fields, details, observations, child_text(hi, "HI116"), key=key, kind=kind,

@@ -20,7 +20,7 @@ from pipeline.core.numeric import finite_number
 from pipeline.domain.records import DISTANCE_SLACK_M, Observation, RowProblem
 from pipeline.formats.csvfile import clip, too_many
 
-__all__ = ["decimal_text", "number", "continuous_marker", "clock_text", "parse_manhole_rows"]
+__all__ = ["decimal_text", "decimal_mark", "number", "continuous_marker", "clock_text", "parse_manhole_rows"]
 
 _NUMBER = re.compile(r"^([+-]?\d+)(?:([.,])(\d+))?$")
 _MARKER = re.compile(r"^([ABSF])(\d{1,2})$")
@@ -43,10 +43,18 @@ def decimal_text(text: str, marks: str = ",.") -> str:
 
 
 def number(text: str, marks: str = ",.") -> float | None:
-    """A delivered number [as delivered] with one of ``marks`` as its decimal mark, or None (empty, not a number:
-    digit groups, exponents, 'nan' and 'inf' are refused)."""
-    t = decimal_text(text, marks)
-    return finite_number(t) if _NUMBER.match(t) else None
+    """A delivered number [as delivered] with one of ``marks`` as its decimal mark, or None (empty, not a number,
+    another decimal mark: digit groups, exponents, 'nan' and 'inf' are refused)."""
+    m = _NUMBER.match(text.strip())
+    if m is None or (m[2] and m[2] not in marks):
+        return None
+    return finite_number(decimal_text(text, marks))
+
+
+def decimal_mark(text: str) -> str:
+    """The decimal mark a delivered number is written with ("," or "."), "" when it has none or is no number."""
+    m = _NUMBER.match(text.strip())
+    return (m[2] or "") if m else ""
 
 
 def continuous_marker(text: str) -> str:

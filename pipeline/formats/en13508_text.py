@@ -45,7 +45,8 @@ from pipeline.core.errors import TransferError
 from pipeline.core.limits import MAX_EXCHANGE_BYTES, MAX_LOG_ROWS, MAX_SECTIONS
 from pipeline.domain.codes import quantification
 from pipeline.domain.records import RowProblem
-from pipeline.formats.coded_rows import clock_text, continuous_marker, decimal_text, number, parse_manhole_rows
+from pipeline.formats.coded_rows import (clock_text, continuous_marker, decimal_mark, decimal_text, number,
+                                        parse_manhole_rows)
 from pipeline.formats.reading import ExchangeFile, LogReading
 
 __all__ = ["FORMAT_NAME", "TextSection", "read_log", "write_text", "COLUMNS", "DIRECTIONS", "SHAPES", "MATERIALS",
@@ -147,7 +148,7 @@ def read_log(path: str | os.PathLike) -> ExchangeFile:
     except OSError as exc:
         raise TransferError(f"{path}: the {WHAT} cannot be read ({exc.strerror or exc})") from None
     if size > MAX_EXCHANGE_BYTES:
-        raise TransferError(f"{path}: {size:,} bytes; a {WHAT} is read up to {MAX_EXCHANGE_BYTES:,} bytes; split the "
+        raise TransferError(f"{path}: {size:,} bytes; an {WHAT} is read up to {MAX_EXCHANGE_BYTES:,} bytes; split the "
                             "delivery")
     exchange = ExchangeFile(path, FORMAT_NAME)
     inspections, settings = _scan(path, exchange)
@@ -379,9 +380,8 @@ def _reading(path: Path, inspection: _Inspection, settings: _Settings, keys: dic
         length = fields.get("section_length_m")
         observations = parse_log_rows(((f"line {line}", r) for line, r in rows), path.name,
                                       length if isinstance(length, float) else math.inf, FIELD_NAMES)
-    for o in observations:
-        o.problems.extend(RowProblem(path.name, f"row {o.row}", column, message)
-                          for column, message in extra.get(o.row, []))
+    for o in observations:         # the text's own problems first: a row that cannot be split explains the rest
+        o.problems[:0] = [RowProblem(path.name, f"row {o.row}", column, message) for column, message in extra.get(o.row, [])]
     what = "manhole" if manhole else "section"
     return LogReading(path, FORMAT_NAME, fields, details, observations, "", key=key,
                       kind="manhole" if manhole else "pipe",
@@ -449,7 +449,7 @@ def _rows(inspection: _Inspection, settings: _Settings) -> tuple[list[tuple[int,
             raw[column] = by_letter.get(letter, "")
         for column in ("distance_m", "q1", "q2"):
             text = raw[column]
-            if other_mark in text and decimal_text(text, other_mark) != text:
+            if decimal_mark(text) == other_mark:
                 said.append((FIELD_NAMES[column], f"{text!r} has the decimal mark {other_mark!r}; #A4 declares "
                                                   f"{settings.decimal!r}"))
             else:

@@ -116,7 +116,8 @@ def _same(a, b) -> None:
 
 @pytest.mark.parametrize("settings", [dict(separator=";", decimal=",", quote="'", language="DE"),
                                       dict(separator=",", decimal=",", quote='"', language="DE"),
-                                      dict(separator="\t", decimal=".", quote='"', language="DE", charset="UTF-8")])
+                                      dict(separator="\t", decimal=".", quote='"', language="DE", charset="UTF-8"),
+                                      dict(separator="|", decimal=".", quote="", language="DE")])
 def test_write_text_writes_what_the_reader_reads_back(tmp_path, settings):
     path = write_text(tmp_path / "written.txt", _sections(), **settings)
     _same(read_log(path), read_log(write(tmp_path)))
@@ -186,6 +187,22 @@ def test_a_utf8_file_without_settings_is_read_with_the_defaults_and_said(tmp_pat
     job = read_log(write(tmp_path, plain, "plain.txt", "utf-8"))
     assert job.sections[0].details == {"ABH": "Jürgen"} and job.sections[0].observations[0].code == "BCD"
     assert job.problems == [f"{tmp_path / 'plain.txt'}: no #A1 (character set); read as UTF-8"]
+
+
+def test_a_manhole_inspection_is_read_and_its_rows_checked_by_their_form(tmp_path):
+    text = JOB.replace("#Z\n", "#B01=CAA;ABF\n'1001';2026-11-04\n#B02=ABH\nJürgen\n#C=I;A;B;D;G;H\n"
+                                "1,20;DAB;B;1;2;4\n2,70;BAB;A;5;;\n#Z\n")
+    job = read_log(write(tmp_path, text, "manhole.txt"))
+    assert [s.key for s in job.sections] == ["12-3", "12-4"]
+    (manhole,) = job.manholes
+    assert (manhole.key, manhole.kind, manhole.line, manhole.details) == ("1001", "manhole", 21, {
+        "ABH": "Jürgen", "language (#A2)": "DE"})
+    assert manhole.header_fields == {"section_id": "1001", "inspection_date": "2026-11-04"}
+    assert [(o.distance_m, o.code, o.char1, o.q1, o.clock_from, o.clock_to) for o in manhole.observations] == [
+        (1.2, "DAB", "B", 1.0, 2, 4), (2.7, "BAB", "A", 5.0, None, None)]
+    assert [str(p) for p in manhole.problems()] == [
+        "manhole.txt row 1 (line 27), field 'column A': 'BAB' is not a manhole observation code (D and two letters, "
+        "EN 13508-2)"]
 
 
 def test_log_verb_prints_both_inspections(tmp_path, capsys):

@@ -84,7 +84,7 @@ MATERIALS = {"AC": "asbestos cement", "BR": "brick", "CI": "cast iron", "CO": "c
              "RC": "reinforced concrete", "ST": "steel", "VC": "vitrified clay"}
 NO_MATERIAL = {"X": "not identified", "Z": "other material"}
 _TEXT_FIELDS = {"AAA": "section_id", "AAB": "site", "AAD": "start_node", "AAF": "finish_node"}
-_READ = {*_TEXT_FIELDS, "AAK", "ABF", "ACA", "ACB", "ACC", "ACD", "ACG"}
+_READ = {*_TEXT_FIELDS, "AAK", "ABF", "ACA", "ACB", "ACC", "ACD", "ACG", "CAA"}
 
 
 @dataclass

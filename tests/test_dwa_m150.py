@@ -183,6 +183,14 @@ def test_a_circular_profile_with_one_dimension_and_names_of_no_material(tmp_path
                                           "give the material in delivery.json")
 
 
+def test_a_utf8_file_declared_iso_8859_1_is_read_and_said(tmp_path):
+    job = read_log(write(tmp_path, JOB, "utf8.xml", "utf-8"))
+    assert job.sections[0].header_fields["site"] == "MÃ¼hlenweg"          # what ISO-8859-1 makes of it
+    assert job.problems == [f"{tmp_path / 'utf8.xml'}: declared ISO-8859-1 but its text is UTF-8 (umlauts read as "
+                            "two letters); if the file is UTF-8, declare encoding=\"UTF-8\""]
+    assert read_log(write(tmp_path)).problems == []
+
+
 def test_a_section_inspected_twice_gets_a_key_of_its_own(tmp_path):
     again = JOB.replace("</HI>\n  </HG>\n  <HG>\n    <HG001>1002-1003",
                         "</HI>\n    <HI><HI101>G</HI101><HI104>04.11.2026</HI104></HI>\n  </HG>\n  <HG>\n"

@@ -205,6 +205,15 @@ def test_a_manhole_inspection_is_read_and_its_rows_checked_by_their_form(tmp_pat
         "EN 13508-2)"]
 
 
+def test_a_utf8_file_declared_iso_8859_1_is_read_and_said_once(tmp_path):
+    job = read_log(write(tmp_path, JOB, "utf8.txt", "utf-8"))
+    assert job.sections[0].header_fields["site"] == "StraÃ\x9fe; Nord"      # what ISO-8859-1 makes of it
+    (said,) = job.problems
+    assert said.startswith(f"{tmp_path / 'utf8.txt'} line 8: \"'12-3';'StraÃ\\x9fe; Nord") and said.endswith(
+        "looks like UTF-8 read as iso8859-1 (#A1); if the file is UTF-8, declare #A1=UTF-8"), said
+    assert read_log(write(tmp_path)).problems == []             # umlauts in ISO-8859-1 are not taken for UTF-8
+
+
 def test_log_verb_prints_both_inspections(tmp_path, capsys):
     path = write(tmp_path)
     assert main(["log", str(path)]) == 0

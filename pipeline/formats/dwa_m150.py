@@ -17,9 +17,11 @@ a problem in one section never stops the others, only a file that cannot be read
 
 from __future__ import annotations
 
+import codecs
 import datetime as dt
 import math
 import os
+import re
 from pathlib import Path
 from xml.etree.ElementTree import Element
 
@@ -95,6 +97,7 @@ def read_log(path: str | os.PathLike) -> ExchangeFile:
         raise TransferError(f"{path}: root element {root.tag}; a {WHAT} has the root DATA")
     version, kind = child_text(root, "FD", "FD001"), child_text(root, "FD", "FD002")
     exchange = ExchangeFile(path, FORMAT_NAME, version)
+    exchange.problems.extend(_mis_declared(path))
     if root.find("FD") is None:
         exchange.problems.append(f"{path}: no FD (format version and type); read as DWA-M 150")
     keys: dict[str, int] = {}
@@ -112,6 +115,34 @@ def read_log(path: str | os.PathLike) -> ExchangeFile:
         exchange.problems.append(f"{path}: no inspection (HI in HG, KI in KG); FD002 {kind or 'not given'!r}: "
                                  "pipegauge reads the inspections of format type B (or D)")
     return exchange
+
+
+_DECLARED = re.compile(rb"""^\s*<\?xml[^>]*encoding\s*=\s*["']([A-Za-z0-9._-]+)["']""")
+_SINGLE_BYTE = {"iso8859-1", "cp1252", "iso8859-15"}            # codecs.lookup's names
+
+
+def _mis_declared(path: Path, head_bytes: int = 1 << 20) -> list[str]:
+    """A file declared ISO-8859-1 (or windows-1252) whose bytes read as UTF-8: every byte is ISO-8859-1, so the
+    parser takes it, and only the look of the text (Mühlenweg as MÃ¼hlenweg) tells; said, not refused."""
+    with path.open("rb") as fh:
+        head = fh.read(head_bytes)
+    m = _DECLARED.match(head)
+    if m is None:
+        return []
+    name = m[1].decode("ascii")
+    try:
+        declared = codecs.lookup(name).name
+    except LookupError:
+        return []
+    head = head[:head.rfind(b"\n") + 1]           # whole lines: no UTF-8 sequence cut at the end
+    if declared not in _SINGLE_BYTE or head.isascii():
+        return []
+    try:
+        head.decode("utf-8")
+    except UnicodeDecodeError:
+        return []
+    return [f"{path}: declared {name} but its text is UTF-8 (umlauts read as two letters); if the "
+            "file is UTF-8, declare encoding=\"UTF-8\""]
 
 
 def _count(path: Path, exchange: ExchangeFile) -> None:

@@ -184,6 +184,7 @@ def _scan(path: Path, exchange: ExchangeFile) -> tuple[list[_Inspection], _Setti
     current: _Inspection | None = None
     ended_at = 0
     n_rows = 0
+    mojibake_said = False
     lost = 0
 
     def problem(text: str, line: int | None = None) -> None:
@@ -215,6 +216,10 @@ def _scan(path: Path, exchange: ExchangeFile) -> tuple[list[_Inspection], _Setti
                 problem(f"longer than {MAX_LINE_BYTES:,} bytes; not read", number)
                 continue
             text = _decode(path, data, number, settings.charset)
+            if not mojibake_said and settings.charset in _SINGLE_BYTE and _utf8(data):
+                mojibake_said = True     # every byte is ISO-8859-1, so only the look of the text can tell
+                problem(f"{text[:40]!r} looks like UTF-8 read as {settings.charset} (#A1); if the file is UTF-8, "
+                        "declare #A1=UTF-8", number)
             upper = text.upper()
             if upper.startswith("#A"):
                 problem(f"setting {text[:3]} after the first inspection line is ignored; the settings "
@@ -324,6 +329,20 @@ def _settings(path: Path, raw: dict[str, str], problem) -> _Settings:
     return _Settings(codec.name, separator, decimal, quote, values["language"].strip(), values["edition"].strip())
 
 
+_SINGLE_BYTE = {"iso8859-1", "cp1252", "iso8859-15", "latin-1"}     # codecs.lookup's names
+
+
+def _utf8(data: bytes) -> bool:
+    """Whether a line with bytes over 127 is valid UTF-8: in ISO-8859-1 text such sequences are all but unknown."""
+    if data.isascii():
+        return False
+    try:
+        data.decode("utf-8")
+    except UnicodeDecodeError:
+        return False
+    return True
+
+
 def _decode(path: Path, data: bytes, number: int, charset: str) -> str:
     try:
         return data.decode(charset)
@@ -374,7 +393,8 @@ def _reading(path: Path, inspection: _Inspection, settings: _Settings, keys: dic
         observations = parse_manhole_rows(((f"row {r['row']} (line {line})", r) for line, r in rows), path.name,
                                           None, FIELD_NAMES)
     else:
-        ends = [number(r["distance_m"], ".") for _, r in rows if r["code"] == "BCE"]
+        ends = [number(r["distance_m"], ".") for n, (_, r) in enumerate(rows) if r["code"] == "BCE"
+                and not any(column == FIELD_NAMES["distance_m"] for column, _ in extra.get(n, []))]
         if ends and ends[-1] is not None and "section_length_m" not in fields:
             fields["section_length_m"] = ends[-1]       # no header code gives the length: the finish node's distance
         length = fields.get("section_length_m")

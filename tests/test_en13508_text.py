@@ -20,7 +20,8 @@ from flows.cli import main
 from pipeline.core.errors import TransferError
 from pipeline.core.limits import MAX_EXCHANGE_BYTES
 from pipeline.formats import observation_record, read_log_file, reader_for
-from pipeline.formats.en13508_text import FORMAT_NAME, MAX_FILE_ROWS, MAX_LINE_BYTES, TextSection, read_log, write_text
+from pipeline.formats.en13508_text import (FORMAT_NAME, MAX_FILE_ROWS, MAX_LINE_BYTES, TextSection, read_log,
+                                          text_section, write_text)
 
 JOB = """#A1=ISO-8859-1
 #A2=DE
@@ -125,6 +126,20 @@ def test_write_text_writes_what_the_reader_reads_back(tmp_path, settings):
     assert read_log(path).all_problems() == []
     if settings["separator"] == settings["decimal"]:
         assert '"4,25",BAB' in path.read_text(encoding="latin-1")       # a decimal comma quoted among commas
+
+
+def test_read_sections_written_again_read_the_same(tmp_path):
+    job = read_log(write(tmp_path))
+    again = write_text(tmp_path / "again.txt", [text_section(s.header_fields, s.observations) for s in job.sections],
+                       separator="\t", decimal=",", quote='"')
+    back = read_log(again)
+    assert [(s.header_fields, s.details) for s in back.sections] == [
+        (s.header_fields, {k: v for k, v in s.details.items() if k[:1] != "A"} | {"language (#A2)": "EN"})
+        for s in job.sections]                         # ABG, ABH have no header field: not written
+    assert [[observation_record(o) | {"fields": None} for o in s.observations] for s in back.sections] == \
+           [[observation_record(o) | {"fields": None} for o in s.observations] for s in job.sections]
+    with pytest.raises(TransferError, match="material 'plastic' has no ACD code"):
+        text_section({"material": "plastic"}, [])
 
 
 def test_the_writer_refuses_what_its_character_set_or_quoting_cannot_hold(tmp_path):

@@ -49,7 +49,7 @@ from pipeline.formats.coded_rows import (clock_text, continuous_marker, decimal_
                                         parse_manhole_rows)
 from pipeline.formats.reading import ExchangeFile, LogReading
 
-__all__ = ["FORMAT_NAME", "TextSection", "read_log", "write_text", "COLUMNS", "DIRECTIONS", "SHAPES", "MATERIALS",
+__all__ = ["FORMAT_NAME", "TextSection", "read_log", "write_text", "text_section", "COLUMNS", "DIRECTIONS", "SHAPES", "MATERIALS",
            "MAX_LINE_BYTES", "MAX_FILE_ROWS"]
 
 FORMAT_NAME = "en13508-2-text"
@@ -487,6 +487,41 @@ def _rows(inspection: _Inspection, settings: _Settings) -> tuple[list[tuple[int,
 
 
 # -- writing -------------------------------------------------------------------
+
+def text_section(header_fields: dict, observations: Iterable) -> TextSection:
+    """A section as the text transfer writes it: header.json's fields (``LogReading.header_fields``) as A-codes
+    through this module's tables, each Observation as a row by column letter.
+
+    ``section_length_m`` and ``contractor`` have no header code here (the length is the BCE row's distance).
+    Raises TransferError for a value the tables cannot code (a material the EN table lacks, a shape...).
+    """
+    coded = {"direction": ("AAK", DIRECTIONS), "shape": ("ACA", SHAPES), "material": ("ACD", MATERIALS)}
+    header: dict[str, object] = {code: header_fields[name] for code, name in _TEXT_FIELDS.items()
+                                 if header_fields.get(name)}
+    for name, (code, table) in coded.items():
+        if name in header_fields:
+            letters = [k for k, v in table.items() if v == header_fields[name]]
+            if not letters:
+                raise TransferError(f"{name} {header_fields[name]!r} has no {code} code in "
+                                    "pipeline/formats/en13508_text.py; it cannot be written")
+            header[code] = letters[0]
+    if header_fields.get("inspection_date"):
+        header["ABF"] = str(header_fields["inspection_date"])
+    for name, code in (("height_mm", "ACB"), ("width_mm", "ACC"), ("pipe_unit_length_m", "ACG")):
+        if header_fields.get(name) is not None:
+            header[code] = float(header_fields[name])
+    letter_of = {log: letter for letter, log in COLUMNS.items()}
+    rows = []
+    for o in observations:
+        video = o.video_time_s
+        row = {"distance_m": o.distance_m, "code": o.code, "char1": o.char1, "char2": o.char2, "q1": o.q1, "q2": o.q2,
+               "remark": o.remark, "clock_from": o.clock_from, "clock_to": o.clock_to, "continuous": o.continuous,
+               "at_joint": "A" if o.at_joint else "", "photo": o.photo,
+               "video_time": "" if video is None else
+               f"{int(video // 3600):02d}:{int(video % 3600 // 60):02d}:{video % 60:05.2f}"}
+        rows.append({letter_of[k]: v for k, v in row.items() if v not in (None, "")})
+    return TextSection(header, rows, tuple(sorted(letter_of.values())))
+
 
 def write_text(path: str | os.PathLike, sections: Iterable[TextSection], *, charset: str = "ISO-8859-1",
                separator: str = ",", decimal: str = ".", quote: str = '"', language: str = "EN",

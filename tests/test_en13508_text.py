@@ -289,3 +289,13 @@ def test_a_file_over_the_size_cap_is_refused_before_reading(tmp_path):
     with pytest.raises(TransferError, match=f"{MAX_EXCHANGE_BYTES + 1:,} bytes; an EN 13508-2 text transfer is read"):
         read_log_file(path)
     assert resource.getrusage(resource.RUSAGE_SELF).ru_maxrss - before < 16 * 1024    # [KiB]: nothing was read
+
+
+def test_many_bad_control_lines_keep_a_bounded_list_of_problems(tmp_path):
+    path = tmp_path / "noise.txt"
+    path.write_bytes(("#A1=UTF-8\n#B01=AAA\nS1\n" + "#B02=ABH\n" * 10 ** 4 + "#Q\n" * 10 ** 4 + "#Z\n").encode())
+    job = read_log(path)
+    (section,) = job.sections
+    assert len(section.section_problems) == 202 and section.section_problems[200].endswith(
+        f"{10 ** 4 - 200:,} more problems of its lines not listed")         # and then: no #C= line
+    assert len(job.problems) == 201 and job.problems[-1] == f"{path}: {10 ** 4 - 200:,} more problems of the file not listed"

@@ -111,6 +111,13 @@ class _Inspection:
     problems: list[str] = field(default_factory=list)
     pending: tuple[int, list[str]] | None = None        # a #Bnn line whose values line is awaited
     dropped: int = 0
+    lost: int = 0                                       # problems beyond MAX_FILE_PROBLEMS, counted only
+
+    def say(self, text: str) -> None:
+        if len(self.problems) < MAX_FILE_PROBLEMS:
+            self.problems.append(text)
+        else:
+            self.lost += 1
 
 
 @dataclass
@@ -244,7 +251,7 @@ def _scan(path: Path, exchange: ExchangeFile) -> tuple[list[_Inspection], _Setti
                 letters = [c.strip().upper() for c in _fields(settings, text[3:])]
                 repeated = sorted({c for c in letters if letters.count(c) > 1})
                 if repeated:
-                    current.problems.append(f"#C= (line {number}) names column {', '.join(repeated)} twice; the "
+                    current.say(f"#C= (line {number}) names column {', '.join(repeated)} twice; the "
                                             "last is read")
                 current.columns = letters
             elif upper.startswith("#Z"):
@@ -258,7 +265,7 @@ def _scan(path: Path, exchange: ExchangeFile) -> tuple[list[_Inspection], _Setti
                 current.pending = None
                 values = _fields(settings, text)
                 if len(values) != len(codes):
-                    current.problems.append(f"line {number}: {len(values)} header values for the {len(codes)} codes of "
+                    current.say(f"line {number}: {len(values)} header values for the {len(codes)} codes of "
                                             f"line {at}; they are read in order")
                 current.header.update({c.strip().upper(): v.strip() for c, v in zip(codes, values) if c.strip()})
             elif current is not None and current.columns is not None:
@@ -289,7 +296,7 @@ def _scan(path: Path, exchange: ExchangeFile) -> tuple[list[_Inspection], _Setti
 
 def _awaited(inspection: _Inspection) -> None:
     if inspection.pending is not None:
-        inspection.problems.append(f"#B line {inspection.pending[0]} has no values line after it; its codes are not "
+        inspection.say(f"#B line {inspection.pending[0]} has no values line after it; its codes are not "
                                    "read")
         inspection.pending = None
 
@@ -358,6 +365,8 @@ def _reading(path: Path, inspection: _Inspection, settings: _Settings, keys: dic
 
     h = inspection.header
     problems = list(inspection.problems)
+    if inspection.lost:
+        problems.append(f"{inspection.lost:,} more problems of its lines not listed")
     manhole = "AAA" not in h and any(code.startswith("C") for code in h)
     fields: dict[str, object] = {}
     if manhole:

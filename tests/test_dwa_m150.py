@@ -264,7 +264,7 @@ def test_a_file_over_the_size_cap_is_refused_before_parsing(tmp_path):
         fh.write(b'<?xml version="1.0"?>\n<DATA>')
         fh.truncate(MAX_EXCHANGE_BYTES + 1)         # sparse: nothing to parse would ever be read
     before = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
-    with pytest.raises(TransferError, match=f"{MAX_EXCHANGE_BYTES + 1:,} bytes; a DWA-M 150 file is read up to"):
+    with pytest.raises(TransferError, match=f"{MAX_EXCHANGE_BYTES + 1:,} bytes; the limit for this DWA-M 150 file is"):
         read_log_file(path)
     assert resource.getrusage(resource.RUSAGE_SELF).ru_maxrss - before < 16 * 1024    # [KiB]: nothing was read
 

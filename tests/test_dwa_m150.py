@@ -196,8 +196,12 @@ def test_a_section_inspected_twice_gets_a_key_of_its_own(tmp_path):
                         "</HI>\n    <HI><HI101>G</HI101><HI104>04.11.2026</HI104></HI>\n  </HG>\n  <HG>\n"
                         "    <HG001>1002-1003", 1)
     job = read_log(write(tmp_path, again, "again.xml"))
-    assert [s.key for s in job.sections] == ["1001-1002", "1001-1002#2", "1002-1003"]
-    assert job.sections[1].header_fields["start_node"] == "1002"
+    assert [s.key for s in job.sections] == ["1001-1002", "1001-1002~2", "1002-1003"]
+    assert job.sections[1].header_fields["start_node"] == "1002" and job.sections[1].section_problems == []
+    twice = read_log(write(tmp_path, JOB.replace("<HG001>1002-1003</HG001>", "<HG001>1001-1002</HG001>"), "twice.xml"))
+    assert [s.key for s in twice.sections] == ["1001-1002", "1001-1002~2"]
+    assert twice.sections[1].section_problems == ["twice.xml section 1001-1002~2: HG001 '1001-1002' is also the id "
+                                                  "of the HG at line 5; give each section its own id"]
 
 
 def test_a_read_section_makes_a_complete_header_with_the_delivery_s_fields(tmp_path):

@@ -191,7 +191,7 @@ def test_a_decimal_mark_other_than_the_declared_one_is_a_problem_of_its_field(tm
 def test_the_same_section_twice_gets_a_key_of_its_own_and_a_missing_end_is_said(tmp_path):
     twice = JOB.replace("'12-4'", "'12-3'").replace("#Z\n", "")
     job = read_log(write(tmp_path, twice, "twice.txt"))
-    assert [s.key for s in job.sections] == ["12-3", "12-3#2"]
+    assert [s.key for s in job.sections] == ["12-3", "12-3~2"]
     assert job.problems == [f"{tmp_path / 'twice.txt'}: no #Z end line; the file may be cut short (its last inspection "
                             "is read as far as it goes)"]
     after = read_log(write(tmp_path, JOB + "0,0;BCD\n", "after.txt"))

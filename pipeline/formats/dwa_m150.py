@@ -102,11 +102,18 @@ def read_log(path: str | os.PathLike) -> ExchangeFile:
         exchange.problems.append(f"{path}: no FD (format version and type); read as DWA-M 150")
     keys: dict[str, int] = {}
     manhole_keys: dict[str, int] = {}
+    first_line: dict[str, int] = {}            # an HG001 -> the line of the first HG with it
     for record in root:            # HG without HI is master data only: not an inspection, not read
         if record.tag == "HG":
             for hi in record.findall("HI"):
                 _count(path, exchange)
-                exchange.sections.append(_pipe(path, record, hi, keys))
+                reading = _pipe(path, record, hi, keys)
+                exchange.sections.append(reading)
+                section_id = child_text(record, "HG001")
+                if section_id and first_line.setdefault(section_id, _line(record)) != _line(record):
+                    reading.section_problems.append(
+                        f"{path.name} section {reading.key}: HG001 {section_id!r} is also the id of the HG at line "
+                        f"{first_line[section_id]}; give each section its own id")
         elif record.tag == "KG":
             for ki in record.findall("KI"):
                 _count(path, exchange)
@@ -161,9 +168,10 @@ def _leaves(e: Element, read: set[str]) -> dict[str, str]:
 
 
 def _key(base: str, keys: dict[str, int]) -> str:
-    """A section id unique in the file: the second inspection of a section (or a repeated id) gets #2, #3..."""
+    """A section id unique in the file: the second inspection of a section (or a repeated id) gets ~2, ~3...
+    (as ISYBAU's reader names a repeated Objektbezeichnung)."""
     keys[base] = keys.get(base, 0) + 1
-    return base if keys[base] == 1 else f"{base}#{keys[base]}"
+    return base if keys[base] == 1 else f"{base}~{keys[base]}"
 
 
 def _date(text: str) -> str | None:

@@ -397,7 +397,7 @@ def _reading(path: Path, inspection: _Inspection, settings: _Settings, keys: dic
     rows, extra = _rows(inspection, settings)
     base = str(fields.get("section_id") or f"line {inspection.line}")
     keys[base] = keys.get(base, 0) + 1
-    key = base if keys[base] == 1 else f"{base}#{keys[base]}"
+    key = base if keys[base] == 1 else f"{base}~{keys[base]}"      # a second inspection of it (as ISYBAU's reader)
     if manhole:
         observations = parse_manhole_rows(((f"row {r['row']} (line {line})", r) for line, r in rows), path.name,
                                           None, FIELD_NAMES)

@@ -282,3 +282,26 @@ def test_a_file_of_another_root_or_without_inspections(tmp_path):
     assert empty.problems == [f"{tmp_path / 'master.xml'}: no inspection (HI in HG, KI in KG); FD002 'A': pipegauge "
                               "reads the inspections of format type B (or D)"]
     assert math.isclose(read_log(write(tmp_path)).sections[0].header_fields["section_length_m"], 42.35)
+
+
+def test_the_job_file_as_a_delivery_stores_each_section_log_only_with_its_reason(tmp_path):
+    from pipeline.app.delivery import units_of
+    from pipeline.app.process import process_package
+    from pipeline.store import read_records
+
+    folder = tmp_path / "inbox" / "JOB7"
+    folder.mkdir(parents=True)
+    write(folder, JOB.replace("<HZ014>XP</HZ014>", ""))
+    (folder / "delivery.json").write_text(json.dumps({
+        "certificate_id": "SYN-720x576", "section": {"height_tolerance_mm": 3.0},
+        "sections": {"1002-1003": {"pipe_unit_length_m": 2.5}}}), encoding="utf-8")
+    dataset = tmp_path / "dataset"
+    outcomes = [process_package(u.folder, dataset, section=u.section) for u in units_of(folder)]
+    assert [(o.section, o.status) for o in outcomes] == [("1001-1002", "log-only"), ("1002-1003", "log-only")]
+    records = {r.inspection_id: r for r in read_records(dataset, "inspections")}
+    first, second = records["JOB7-1001-1002"], records["JOB7-1002-1003"]
+    assert first.error == f"not measured: no video delivered for section 1001-1002: MPEG/1001-1002.mpg is not in {folder}"
+    assert (first.log_format, first.n_observations, first.material, first.section_length_m) == (
+        FORMAT_NAME, 5, "vitrified clay", 42.35)
+    assert (second.shape, second.height_mm, second.width_mm, second.start_node) == ("egg", 600.0, 400.0, "1003")
+    assert second.error.startswith("not measured: no video named for section 1002-1003")

@@ -299,3 +299,26 @@ def test_many_bad_control_lines_keep_a_bounded_list_of_problems(tmp_path):
     assert len(section.section_problems) == 202 and section.section_problems[200].endswith(
         f"{10 ** 4 - 200:,} more problems of its lines not listed")         # and then: no #C= line
     assert len(job.problems) == 201 and job.problems[-1] == f"{path}: {10 ** 4 - 200:,} more problems of the file not listed"
+
+
+def test_the_job_file_as_a_delivery_stores_each_section_log_only_with_its_reason(tmp_path):
+    from pipeline.app.delivery import units_of
+    from pipeline.app.process import process_package
+    from pipeline.store import read_records
+
+    folder = tmp_path / "inbox" / "JOB8"
+    folder.mkdir(parents=True)
+    write(folder)
+    (folder / "delivery.json").write_text(json.dumps({
+        "certificate_id": "SYN-720x576", "section": {"height_tolerance_mm": 3.0},
+        "sections": {"12-4": {"pipe_unit_length_m": 2.5, "video": "MPEG/12-4.mp4"}}}), encoding="utf-8")
+    dataset = tmp_path / "dataset"
+    outcomes = [process_package(u.folder, dataset, section=u.section) for u in units_of(folder)]
+    assert [(o.section, o.status) for o in outcomes] == [("12-3", "log-only"), ("12-4", "log-only")]
+    records = {r.inspection_id: r for r in read_records(dataset, "inspections")}
+    first, second = records["JOB8-12-3"], records["JOB8-12-4"]
+    assert first.error.startswith("not measured: no video named for section 12-3")
+    assert second.error == f"not measured: no video delivered for section 12-4: MPEG/12-4.mp4 is not in {folder}"
+    assert (first.log_format, first.n_observations, first.site, first.section_length_m) == (
+        FORMAT_NAME, 5, "Straße; Nord", 45.1)
+    assert (second.shape, second.height_mm, second.material, second.pipe_unit_length_m) == ("egg", 600.0, "concrete", 2.5)

@@ -17,6 +17,9 @@ from typing import Callable
 
 from pipeline.core.errors import PipegaugeError
 from pipeline.formats.isybau.codes import FORMAT_NAME as ISYBAU      # a small table: no reader is loaded
+# light modules (their readers load the log check on first use): each FORMAT_NAME is written there only
+from pipeline.formats.dwa_m150 import FORMAT_NAME as DWA_M150
+from pipeline.formats.en13508_text import FORMAT_NAME as EN13508_TEXT
 
 __all__ = ["FILE_FORMATS", "Reader", "Writer", "READERS", "WRITERS", "reader_for", "read_log_file", "load_package_log",
            "package_section", "exchange_suffixes", "validate_exchange", "load_package_reading", "read_cached",
@@ -34,6 +37,8 @@ FILE_FORMATS = {
     "vsa-kek": "pipeline.formats.vsa_kek",               # Swiss VSA-KEK INTERLIS 2 transfers
     "isybau": "pipeline.formats.isybau.codes",           # German ISYBAU XML 2006/2013/2017 (pipeline.formats.isybau)
     "delivery": "pipeline.formats.delivery",             # delivery.json beside a job's exchange file
+    DWA_M150: "pipeline.formats.dwa_m150",               # German DWA-M 150 XML (pipes, laterals, manholes)
+    EN13508_TEXT: "pipeline.formats.en13508_text",       # the EN 13508-2 text transfer (Annex B)
 }
 
 
@@ -108,6 +113,10 @@ READERS = {r.name: r for r in (
     Reader(ISYBAU, (".xml",), "pipeline.formats.isybau.read:read_log",
            "German ISYBAU XML 2006, 2013 or 2017 condition data: every pipe, lateral and manhole of a job",
            ("Identifikation",), "pipeline.formats.isybau.schema:validate_isybau"),
+    Reader(DWA_M150, (".xml",), "pipeline.formats.dwa_m150:read_log",
+           "German DWA-M 150 XML: a job's pipes, laterals (HG/HI/HZ) and manholes (KG/KI/KZ)", ("DATA",)),
+    Reader(EN13508_TEXT, (".txt",), "pipeline.formats.en13508_text:read_log",
+           "EN 13508-2 text transfer (Annex B): #A settings, #B header, #C columns, rows, #Z"),
 )}
 
 WRITERS = {w.name: w for w in (

@@ -76,7 +76,7 @@ def task_runner_for(workers: int = 1, dask_address: str | None = None) -> TaskRu
     return ProcessPoolTaskRunner(max_workers=workers)
 
 
-def _row(future, futures: dict) -> dict:
+def _row(future, futures: dict[Any, tuple[str, str | None]]) -> dict:
     """A finished task's summary row; a task that raised (after its retries) becomes a failed row."""
     result = future.result(raise_on_failure=False)
     return _failed_row(*futures[future], result) if isinstance(result, BaseException) else result

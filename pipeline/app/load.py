@@ -87,7 +87,8 @@ def load_delivery(folder: str | os.PathLike, record: InspectionRecord, *,
         if unmeasurable is not None:
             raise LogOnly(unmeasurable, header, observations, log_problems)
     if manifest.section_key is not None and not manifest.marks.is_file():
-        marks, mark_problems = [], []               # a delivery's section without marks: measured from the image
+        marks: list[Mark] = []                      # a delivery's section without marks: measured from the image
+        mark_problems: list[RowProblem] = []
     else:
         marks, mark_problems = read_marks(manifest.marks, observations)
     cert = load_certificate(certificate_path(manifest, certificates))

@@ -174,8 +174,8 @@ def _section(path: Path, anlage: Element, key: str, kind: str, orders: dict, fil
             details[element] = child_text(insp, element)
     if kind == "manhole":
         knoten = insp.find("Knoten")
-        rows = knoten.findall("Inspektionsdaten/KZustand") if knoten is not None else []
-        observations = [_manhole_row(path, n, z) for n, z in enumerate(rows)]
+        kz = knoten.findall("Inspektionsdaten/KZustand") if knoten is not None else []
+        observations = [_manhole_row(path, n, z) for n, z in enumerate(kz)]
         return LogReading(path, FORMAT_NAME, fields, details, observations, key=key, kind=kind,
                           section_problems=problems, line=line)
     pipe = insp.find("Rohrleitung")
@@ -225,14 +225,14 @@ def _section(path: Path, anlage: Element, key: str, kind: str, orders: dict, fil
         problems.append(f"{where}: Inspektionslaenge {length_text!r} is not a length in m")
     if length is not None:
         fields["section_length_m"] = length
-    film = _film_of(films, fields["section_id"], child_text(anlage, "Anlagentyp"))
+    film = _film_of(films, str(fields["section_id"]), child_text(anlage, "Anlagentyp"))
     video = film.file if film else ""
     if film is not None:
         details["Film"] = film.name
         if film.fps is None or not FPS_RANGE[0] <= film.fps <= FPS_RANGE[1]:
             problems.append(f"{path} line {film.line}: Film {film.name!r} Frame/fps {film.fps!r} is not a frame rate "
                             f"{FPS_RANGE[0]}-{FPS_RANGE[1]}/s: timecodes not turned into video times")
-    rows = []
+    rows: list[tuple[str, dict]] = []
     for n, z in enumerate(pipe.findall("Inspektionsdaten/RZustand")):
         rows.append(_pipe_row(n, z, film, coding))
     observations = parse_log_rows(rows, path.name, length if length is not None else _UNBOUNDED, FIELD_NAMES)
@@ -273,9 +273,9 @@ def _video_time(z: Element, film: Film | None) -> str:
             return frame
         frames = int(frame)
     seconds = frames / fps
-    h, rest = divmod(seconds, 3600)
-    m, s = divmod(rest, 60)
-    return f"{int(h):02d}:{int(m):02d}:{s:07.4f}"
+    hours, rest = divmod(seconds, 3600)
+    minutes, secs = divmod(rest, 60)
+    return f"{int(hours):02d}:{int(minutes):02d}:{secs:07.4f}"
 
 
 def _pipe_row(n: int, z: Element, film: Film | None, coding: str) -> tuple[str, dict]:

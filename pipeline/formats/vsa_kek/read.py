@@ -235,7 +235,7 @@ def _inspection_log(t: Transfer, u: TransferObject) -> TransferLog:
             photos.setdefault(d.attrs.get("Objekt", ""), []).append(d.attrs.get("Bezeichnung", ""))
     video = next((d.attrs.get("Bezeichnung", "") for d in files if d.attrs.get("Klasse") == "Untersuchung"
                   and d.attrs.get("Objekt") == u.tid and d.attrs.get("Art") in ("digitales_Video", "Video")), "")
-    rows = []
+    rows: list[tuple[str, dict]] = []
     for k in t.of("Kanalschaden"):
         if k.refs.get("UntersuchungRef", ("", None))[0] != u.tid:
             continue                               # another inspection's damage (or none's: _dangling says it)

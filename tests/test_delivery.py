@@ -221,3 +221,10 @@ def test_a_delivery_measures_as_its_sections_as_packages_bit_for_bit(tmp_path, r
     assert [p.name for p, _ in fresh] == ["pipegauge-export.xml"]
     if REQUIRE_SCHEMAS or SCHEMAS.is_dir():
         assert validate_isybau(path, SCHEMAS) == [] and validate_isybau(fresh[0][0], SCHEMAS) == []
+
+
+def test_a_readme_beside_the_exchange_file_is_not_taken_for_one(tmp_path):
+    d = write_delivery(_inbox(tmp_path) / "JOB1", TWO[:1], videos=False)
+    (d / "readme.txt").write_text("Videos on the USB stick, ask Mr Weber.\n")
+    (d / "notes.xml").write_text("<notes>not a job</notes>")
+    assert load_delivery_manifest(d).exchange == d / "job.xml"

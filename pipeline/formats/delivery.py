@@ -62,12 +62,12 @@ class DeliveryManifest:
 
 
 def exchange_files(folder: Path) -> list[Path]:
-    """The exchange files at a folder's top (by the readers' suffixes), sorted."""
-    from pipeline.formats.registry import exchange_suffixes
+    """The exchange files at a folder's top (by the readers' suffixes and content: a readme.txt is none), sorted."""
+    from pipeline.formats.registry import exchange_suffixes, is_exchange_file
 
     suffixes = exchange_suffixes()
     return sorted(p for p in folder.iterdir() if p.is_file() and not p.name.startswith(".")
-                  and p.suffix.lower() in suffixes)
+                  and p.suffix.lower() in suffixes and is_exchange_file(p))
 
 
 def is_delivery_folder(folder: str | os.PathLike) -> bool:

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import functools
 import importlib
+import re
 import os
 from dataclasses import dataclass
 from pathlib import Path
@@ -61,6 +62,21 @@ class Reader:
     description: str
     roots: tuple[str, ...] = ()       # an XML format's root element (local name): tells .xml files apart
     validator: str = ""               # "module:function" (path, schema folder) -> problems, against the owner's schema
+    head: str = ""                    # a text format's first bytes (a regular expression): tells a stray .txt apart
+
+    def recognises(self, path: Path) -> bool:
+        """Whether a file of one of this reader's suffixes is of its format, by its root element or first bytes."""
+        from pipeline.formats.xmlfile import xml_root_name
+
+        try:
+            if self.roots:
+                return xml_root_name(path) in self.roots
+            if self.head:
+                with path.open("rb") as fh:
+                    return re.match(self.head.encode(), fh.read(1024).lstrip(b"\xef\xbb\xbf")) is not None
+        except OSError:
+            return False
+        return True
 
     def load_validator(self) -> Callable | None:
         if not self.validator:
@@ -116,7 +132,7 @@ READERS = {r.name: r for r in (
     Reader(DWA_M150, (".xml",), "pipeline.formats.dwa_m150:read_log",
            "German DWA-M 150 XML: a job's pipes, laterals (HG/HI/HZ) and manholes (KG/KI/KZ)", ("DATA",)),
     Reader(EN13508_TEXT, (".txt",), "pipeline.formats.en13508_text:read_log",
-           "EN 13508-2 text transfer (Annex B): #A settings, #B header, #C columns, rows, #Z"),
+           "EN 13508-2 text transfer (Annex B): #A settings, #B header, #C columns, rows, #Z", head=r"\s*#A"),
 )}
 
 WRITERS = {w.name: w for w in (
@@ -154,6 +170,12 @@ def reader_for(path: str | os.PathLike) -> Reader:
         return candidates[0]
     known = ", ".join(sorted({f"{s} ({r.name})" for r in READERS.values() for s in r.suffixes}))
     raise PipegaugeError(f"{path}: no reader for files ending {suffix or 'without a suffix'!r}; pipegauge reads {known}")
+
+
+def is_exchange_file(path: Path) -> bool:
+    """A job's exchange file (any reader's but the package's CSV), by its suffix and its content."""
+    suffix = path.suffix.lower()
+    return any(suffix in r.suffixes and r.recognises(path) for r in READERS.values() if r.name != "pipegauge-csv")
 
 
 def exchange_suffixes() -> frozenset[str]:

@@ -43,8 +43,12 @@ MATERIALS = {
     "PCC": "polymer-modified cement concrete", "PE": "pe", "PEHD": "pe-hd", "PH": "polyester resin",
     "PHB": "polyester resin concrete", "PP": "pp", "PVC": "pvc", "PVCU": "pvc-u", "SFB": "steel fibre concrete",
     "SPB": "prestressed concrete", "SB": "reinforced concrete", "ST": "steel", "STZ": "vitrified clay",
-    "SZB": "sprayed concrete", "W": "unidentified material", "ZG": "brickwork", "MIX": "mixed materials",
+    "SZB": "sprayed concrete", "ZG": "brickwork",
 }
+# Codes that name no one material: the grading cannot tell rigid from flexible, so they are a problem of the
+# section (the material then comes from delivery.json), as DWA-M 150's W, Z and MIX are.
+NO_MATERIAL = {"W": "nicht identifizierter Werkstoff", "MIX": "unterschiedliche Werkstoffe",
+               "BOD": "unbefestigt, anstehender Boden", "RAS": "Rasen", "PFL": "Pflaster"}
 
 # Kodiersystem of an Auftrag: which codes its RZustand use. EN 13508-2 (2003 or 2011, with or without national
 # rules) is what pipegauge's code table holds; ISYBAU 1996/2001 and "other" codings are refused row by row.

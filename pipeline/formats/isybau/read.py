@@ -25,7 +25,7 @@ from pipeline.core.numeric import finite_number
 from pipeline.domain.codes import quantification
 from pipeline.domain.records import Observation, RowProblem
 from pipeline.formats.isybau.codes import (ANLAGENTYP, CODING_NAMES, CONTINUOUS, DIRECTIONS, EN13508_CODING, FORMAT_NAME,
-                                           FPS_RANGE, KIND_OF, MATERIALS, NAMESPACES, PROFILE_NAMES, PROFILES)
+                                           FPS_RANGE, KIND_OF, MATERIALS, NAMESPACES, NO_MATERIAL, PROFILE_NAMES, PROFILES)
 from pipeline.formats.observation_log import parse_log_rows
 from pipeline.formats.reading import ExchangeFile, LogReading
 from pipeline.formats.xmlfile import child_text, parse_xml
@@ -214,6 +214,9 @@ def _section(path: Path, anlage: Element, key: str, kind: str, orders: dict, fil
         material = child_text(base, "Material")
         if material in MATERIALS:
             fields["material"] = MATERIALS[material]
+        elif material in NO_MATERIAL:
+            problems.append(f"{where}: Material {material} ({NO_MATERIAL[material]}) names no one material, so the "
+                            "grading cannot tell a rigid pipe from a flexible one; give the material in delivery.json")
         elif material:
             problems.append(f"{where}: Material {material!r} is not an ISYBAU material code "
                             "(1302-referenzlisten.xsd MaterialType); correct it or give the material in delivery.json")

@@ -270,6 +270,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     _quiet_prefect()
     from flows.embedded_server import embedded_prefect_server
     from flows.nightly import nightly, task_runner_for
+    from pipeline.reports.summary_report import delivery_counts
     from pipeline.app import Layout, writing
 
     if args.dask and (problem := _dask_unreachable(args.dask)):
@@ -289,10 +290,13 @@ def cmd_run(args: argparse.Namespace) -> int:
     if isinstance(result, BaseException):
         raise result
     rows = cast("list[dict]", result)
-    counts = {s: sum(r["status"] == s for r in rows) for s in ("ok", "partial", "failed")}
+    counts = {s: sum(r["status"] == s for r in rows) for s in ("ok", "partial", "log-only", "failed")}
     new = sum(r["processed"] for r in rows)
     refused = sum(r["refused"] for r in rows)
-    _say(f"pipegauge run: {len(rows)} package(s): " + ", ".join(f"{n} {s}" for s, n in counts.items())
+    for name, c in sorted(delivery_counts(rows).items()):
+        _say(f"pipegauge run: delivery {name}: {sum(c.values())} section(s): "
+             + ", ".join(f"{n} {s}" for s, n in c.items()))
+    _say(f"pipegauge run: {len(rows)} inspection(s): " + ", ".join(f"{n} {s}" for s, n in counts.items())
          + f"; {new} processed, {len(rows) - new - refused} unchanged since the last run"
          + (f", {refused} refused unread" if refused else "") + f"; dataset in {layout.dataset}")
     return EXIT_FAILED if counts["failed"] else EXIT_OK

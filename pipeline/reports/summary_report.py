@@ -72,6 +72,28 @@ def log_disagreements(measurements: Sequence[MeasurementRecord], n: int = 30) ->
     return sorted(wrong, key=lambda m: -(finite_number(m.E_n) or -math.inf))[:n]
 
 
+def delivery_counts(rows: list[dict]) -> dict[str, dict[str, int]]:
+    """Per delivery folder, its sections measured (ok or partial), log-only and failed."""
+    out: dict[str, dict[str, int]] = {}
+    for r in rows:
+        if r.get("delivery"):
+            c = out.setdefault(r["delivery"], {"measured": 0, "log-only": 0, "failed": 0})
+            c["measured" if r["status"] in ("ok", "partial") else r["status"] if r["status"] in c else "failed"] += 1
+    return out
+
+
+def _deliveries(rows: list[dict], st) -> list:
+    counts = delivery_counts(rows)
+    if not counts:
+        return []
+    table = [[Paragraph(h, st["cell"]) for h in ("Delivery", "Sections", "Measured", "Log-only", "Failed")]]
+    for name, c in sorted(counts.items()):
+        table.append([Paragraph(safe_text(name, 80), st["cell"]), Paragraph(str(sum(c.values())), st["cell"]),
+                      *(Paragraph(str(c[k]), st["cell"]) for k in ("measured", "log-only", "failed"))])
+    return [Paragraph("Deliveries", st["h2"]), Table(table, colWidths=[60 * mm, 25 * mm, 25 * mm, 25 * mm, 25 * mm],
+                                                     repeatRows=1)]
+
+
 def render_night_summary(rows: Sequence[dict], data: str | os.PathLike, path: str | os.PathLike, *,
                          night: dt.date | None = None) -> Path:
     """The summary of one run: ``rows`` are the run's package rows (package, inspection_id, status, error, ...)."""
@@ -80,15 +102,17 @@ def render_night_summary(rows: Sequence[dict], data: str | os.PathLike, path: st
     ids = [r["inspection_id"] for r in rows]
     inspections = read_records(data, "inspections", inspection_ids=ids) if ids else []
     measurements = read_records(data, "measurements", inspection_ids=ids) if ids else []
-    counts = {s: sum(r["status"] == s for r in rows) for s in ("ok", "partial", "failed")}
+    counts = {s: sum(r["status"] == s for r in rows) for s in ("ok", "partial", "log-only", "failed")}
     processed = sum(bool(r.get("processed", True)) for r in rows)
     refused = sum(bool(r.get("refused")) for r in rows)
     n_quantities = sum(m.status == "ok" for m in measurements)
     story = [Paragraph(f"Nightly summary {night.isoformat()}", st["title"]),
-             Paragraph(f"{len(rows)} package(s): {counts['ok']} ok, {counts['partial']} partial, {counts['failed']} "
+             Paragraph(f"{len(rows)} inspection(s): {counts['ok']} ok, {counts['partial']} partial, "
+                       f"{counts['log-only']} log-only (read and graded from the log, not measured), {counts['failed']} "
                        f"failed; {processed} processed in this run, {len(rows) - processed - refused} unchanged since an "
                        f"earlier run" + (f", {refused} refused unread" if refused else "")
                        + f". {n_quantities} quantities measured, each with its U95.", st["body"]),
+             *_deliveries(rows, st),
              Paragraph("Packages", st["h2"])]
     table = [[Paragraph(h, st["cell"]) for h in ("Package", "Inspection", "Status", "Quantities", "Processed", "Reason")]]
     for r in sorted(rows, key=lambda r: (r["status"] != "failed", r["package"])):

@@ -228,3 +228,16 @@ def test_a_readme_beside_the_exchange_file_is_not_taken_for_one(tmp_path):
     (d / "readme.txt").write_text("Videos on the USB stick, ask Mr Weber.\n")
     (d / "notes.xml").write_text("<notes>not a job</notes>")
     assert load_delivery_manifest(d).exchange == d / "job.xml"
+
+
+def test_a_zipped_package_is_refused_with_its_fix_and_a_hostile_manifest_does_not_stop_the_plan(tmp_path):
+    inbox = _inbox(tmp_path)
+    write_delivery(inbox / "JOB1", TWO[:1], videos=False)
+    (inbox / "S09.zip").write_bytes(b"PK\x03\x04")
+    deep = inbox / "DEEP"
+    deep.mkdir()
+    (deep / "package.json").write_text("[" * 50_000 + "]" * 50_000)
+    plan = plan_night(inbox)
+    assert [u.label for u in plan.to_process] == ["DEEP", "JOB1/S01"]
+    assert [(r["package"], r["status"]) for r in plan.refused] == [("S09.zip", "failed")]
+    assert "an archive in the inbox; nothing of it was read: unpack it" in plan.refused[0]["error"]

@@ -20,7 +20,7 @@ from pathlib import Path
 from pipeline.core.errors import PipegaugeError
 from pipeline.formats.manifest import CERTIFICATES_FOLDER, load_manifest
 
-__all__ = ["discover_packages", "duplicate_claims", "package_id_of", "link_out", "CERTIFICATES_FOLDER"]
+__all__ = ["discover_packages", "duplicate_claims", "package_id_of", "link_out", "archives", "CERTIFICATES_FOLDER"]
 
 
 def discover_packages(inbox: str | os.PathLike) -> list[Path]:
@@ -37,11 +37,27 @@ def discover_packages(inbox: str | os.PathLike) -> list[Path]:
 
 
 def package_id_of(folder: Path) -> str:
-    """The id a folder claims: its manifest's package_id, or the folder's name when the manifest is unreadable."""
+    """The id a folder claims: its manifest's package_id, or the folder's name when the manifest is unreadable.
+
+    Any failure to read it counts as unreadable (a hostile package.json must not stop the night's plan);
+    processing the folder later says why.
+    """
     try:
         return load_manifest(folder).package_id
-    except PipegaugeError:
+    except (PipegaugeError, OSError, ValueError, RecursionError, MemoryError):
         return folder.name
+
+
+ARCHIVES = (".zip", ".7z", ".rar", ".tar", ".tgz", ".gz")
+
+
+def archives(inbox: str | os.PathLike) -> dict[Path, str]:
+    """The archives at an inbox's top (a zipped package or delivery), each with the error to report: pipegauge
+    never unpacks a contractor's archive itself (its content is not bounded until unpacked)."""
+    return {p: (f"{p}: an archive in the inbox; nothing of it was read: unpack it into a folder of the inbox "
+                "(a package or a delivery folder, docs/formats.md)")
+            for p in sorted(Path(inbox).iterdir())
+            if p.is_file() and not p.name.startswith((".", "_")) and p.suffix.lower() in ARCHIVES}
 
 
 def duplicate_claims(folders: list[Path]) -> dict[Path, str]:

@@ -16,7 +16,7 @@ from pathlib import Path
 from typing import Callable, Iterator, Sequence
 
 from pipeline.app.delivery import Unit, is_delivery_folder, units_of
-from pipeline.app.inbox import discover_packages, duplicate_claims
+from pipeline.app.inbox import archives, discover_packages, duplicate_claims
 from pipeline.core.errors import PipegaugeError
 from pipeline.app.layout import Layout
 from pipeline.app.process import PackageOutcome, process_package, refused_outcome
@@ -70,7 +70,7 @@ def plan_night(inbox: str | os.PathLike, certificates: str | os.PathLike | None 
     deliveries = [p for p in packages if is_delivery_folder(p)]
     duplicates = duplicate_claims([p for p in packages if p not in deliveries])
     units: list[Unit] = []
-    refused = [refused_outcome(p, error).as_row() for p, error in duplicates.items()]
+    refused = [refused_outcome(p, error).as_row() for p, error in [*duplicates.items(), *archives(inbox).items()]]
     for p in packages:
         if p in duplicates:
             continue

@@ -428,7 +428,7 @@ def test_a_transfer_package_takes_the_rest_of_its_header_from_package_json(tmp_p
     with pytest.raises(HeaderError, match="section.xtf section .* with .*package.json: field 'shape': expected non-empty text"):
         load_package_log(load_manifest(pkg))
     manifest(section={**section, "section_length_m": 12.0})
-    with pytest.raises(HeaderError, match="'section' gives section_length_m with another value than section.xtf"):
+    with pytest.raises(HeaderError, match="'section' fields give section_length_m with another value than section.xtf"):
         load_package_log(load_manifest(pkg))
     manifest(observations="observations.csv")
     with pytest.raises(PackageError, match="field 'observations': a package with a 'transfer' takes its observations from it"):

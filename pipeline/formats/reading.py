@@ -54,8 +54,9 @@ class LogReading:
         header = header_from_dict(header_document({**section, **self.header_fields}),
                                   source=source)
         if clash:
-            raise HeaderError(f"{source}: package.json 'section' gives {', '.join(clash)} with another value than "
-                              f"{self.file.name}; leave them to {self.file.name}")
+            raise HeaderError(f"{source}: its 'section' fields give {', '.join(clash)} with another value than "
+                              f"{self.file.name} ({'; '.join(f'{k}: {section[k]!r} against {self.header_fields[k]!r}' for k in clash)}); "
+                              f"leave them to {self.file.name}")
         return header
 
     def problems(self) -> list[str]:

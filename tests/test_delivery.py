@@ -241,3 +241,15 @@ def test_a_zipped_package_is_refused_with_its_fix_and_a_hostile_manifest_does_no
     assert [u.label for u in plan.to_process] == ["DEEP", "JOB1/S01"]
     assert [(r["package"], r["status"]) for r in plan.refused] == [("S09.zip", "failed")]
     assert "an archive in the inbox; nothing of it was read: unpack it" in plan.refused[0]["error"]
+
+
+def test_the_csv_export_names_the_delivery_the_section_and_the_log_format(tmp_path):
+    d = write_delivery(_inbox(tmp_path) / "JOB1", TWO[:1], videos=False)
+    for u in units_of(d):
+        process_package(u.folder, tmp_path / "ds", section=u.section)
+    from pipeline.app.export import export_frame
+    from pipeline.formats.tabular import EXPORT_COLUMNS
+
+    assert {"delivery_id", "section_key", "log_format"} <= set(EXPORT_COLUMNS)
+    frame = export_frame(tmp_path / "ds")
+    assert list(frame.columns) == EXPORT_COLUMNS      # log-only: no quantity, the columns still declared

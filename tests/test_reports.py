@@ -153,7 +153,7 @@ def test_night_summary_lists_failures_and_worst_observations(tmp_path):
              "error": "video.mp4: OpenCV cannot open this video", "processed": False}]
     out = render_night_summary(rows, tmp_path / "dataset", tmp_path / "summary.pdf", night=dt.date(2026, 11, 21))
     text = _text(out)
-    assert "Nightly summary 2026-11-21" in text and "1 ok, 0 partial, 1 failed" in text
+    assert "Nightly summary 2026-11-21" in text and "1 ok, 0 partial, 0 log-only (read and graded from the log, not measured), 1 failed" in text
     assert "OpenCV cannot open this video" in text and "Worst observations" in text
     m = read_table(tmp_path / "dataset", "measurements")
     worst = m[m.unit == "%"].sort_values("high").iloc[-1]

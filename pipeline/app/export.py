@@ -87,7 +87,7 @@ def export_frame(root: str | os.PathLike, start: dt.date | None = None, end: dt.
     o = o.drop_duplicates(["inspection_id", "row"], keep="first")
     i = read_table(root, "inspections", start=start, end=end)[
         ["inspection_id", "section_id", "start_node", "finish_node", "section_grade", "certificate_id",
-         "pipeline_version", "processed_at"]]
+         "pipeline_version", "processed_at", "delivery_id", "section_key", "log_format"]]
     joined = (m.merge(o, on=["inspection_id", "row"], how="left", validate="many_to_one")
               .merge(i, on="inspection_id", how="left", validate="many_to_one"))
     return export_table(joined)

@@ -37,6 +37,8 @@ EXPORT_COLUMNS = [
     "grade_probabilities", "grade_status", "grade_reason", "outside_survey", "section_grade",
     "value_display", "U95_display", "E_n_display", "grade_probability_display",
     "certificate_id", "pipeline_version", "processed_at",
+    # issue 32: where the log came from: the delivery folder and the section's id in its file, the format
+    "delivery_id", "section_key", "log_format",
 ]
 SORT_COLUMNS = ["inspection_date", "inspection_id", "row", "quantity", "source"]     # the export's row order
 _FORMULA_START = ("=", "+", "-", "@", "\t", "\r")

@@ -19,9 +19,9 @@ import numpy as np
 
 from pipeline.core.atomic import atomic_path
 from pipeline.core.errors import CertificateError
-from pipeline.core.limits import MAX_JSON_BYTES
 from pipeline.camera import Certificate, Parameter
 from pipeline.camera.conventions import CONVENTIONS, OPTIONAL_ZERO, PARAMETERS, REQUIRED
+from pipeline.formats.jsonfile import read_json
 
 __all__ = ["FORMAT_NAME", "FORMAT_VERSION", "certificate_from_dict", "load_certificate", "certificate_to_dict",
            "save_certificate"]
@@ -267,22 +267,8 @@ def load_certificate(
         given, a different calibrated size raises CertificateError
     """
     source = str(path)
-    try:
-        size = Path(path).stat().st_size
-        if size > MAX_JSON_BYTES:
-            raise CertificateError(f"{source}: {size:,} bytes; a certificate is a JSON file of at most "
-                                   f"{MAX_JSON_BYTES:,} bytes (docs/operations.md, input limits); check the file")
-        text = Path(path).read_text(encoding="utf-8")
-    except FileNotFoundError:
-        raise CertificateError(f"{source}: no such certificate file; check the path or the certificate id") from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise CertificateError(f"{source}: cannot read the certificate ({exc}); supply a UTF-8 JSON file") from None
-    try:
-        doc = json.loads(text)
-    except json.JSONDecodeError as exc:
-        raise CertificateError(
-            f"{source}: not valid JSON at line {exc.lineno}, column {exc.colno} ({exc.msg}); fix the file"
-        ) from None
+    doc = read_json(Path(path), CertificateError, "no such certificate file; check the path or the certificate id",
+                    "; supply the certificate as a UTF-8 JSON file (docs/certificate-format.md)")
     cert = certificate_from_dict(doc, source)
     if on_date is not None:
         cert.check_valid_on(on_date)

@@ -3,6 +3,7 @@ or blames the wrong thing. Each test fails on the code before the fix it names."
 
 from __future__ import annotations
 
+import datetime as dt
 import json
 import os
 import time
@@ -90,3 +91,175 @@ def test_digit_groups_are_not_numbers():
 
     assert finite_number("1_0.0") is None and whole_number("1_0") is None
     assert finite_number("10.0") == 10.0 and finite_number(" 2.5 ") == 2.5
+
+
+# -- 2: one unreadable file of the dataset is left out, named, and quarantined by a run ------------
+
+def _records(iid: str, n: int = 2, date=dt.date(2026, 11, 20), value: float = 5.0):
+    inspection = {"inspection_id": iid, "inspection_date": date, "status": "ok", "model": "perspective",
+                  "processed_at": dt.datetime.now(dt.timezone.utc), "input_sha256": "k-" + iid,
+                  "package_folder": f"/nowhere/{iid}", "n_measurements": n, "n_observations": n, "error": None}
+    observations = [{"row": r, "distance_m": 0.5 * r, "code": "BAB", "char1": "B", "valid": True} for r in range(1, n + 1)]
+    measurements = [{"row": r, "quantity": "Q1", "source": "marks", "code": "BAB", "unit": "mm", "value": value + r,
+                     "U95": 1.0, "status": "ok"} for r in range(1, n + 1)]
+    return inspection, observations, measurements
+
+
+def _damaged_dataset(root: Path) -> dict[str, Path]:
+    """Three inspections stored, then the four damages of item 2: truncated, foreign, garbage folder, schema 4."""
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    from pipeline.store import inspection_files, write_inspection
+
+    for iid in ("P1", "P2", "P3"):
+        write_inspection(root, *_records(iid))
+    truncated = inspection_files(root, "measurements", "P2")[0]
+    truncated.write_bytes(truncated.read_bytes()[:200])
+    readme = truncated.parent / "README.txt"
+    readme.write_text("notes of the survey office")
+    garbage = root / "inspections" / "inspection_date=garbage" / "X.parquet"
+    garbage.parent.mkdir()
+    garbage.write_bytes(inspection_files(root, "inspections", "P1")[0].read_bytes())
+    future = truncated.parent / "P9~abc.parquet"
+    table = pa.table({"inspection_id": ["P9"], "write_id": ["abc"], "row": ["three"]})
+    pq.write_table(table.replace_schema_metadata({"pipegauge_schema_version": "4", "table": "measurements"}), future)
+    return {"truncated": truncated, "readme": readme, "garbage": garbage, "future": future}
+
+
+def test_a_bad_file_of_the_dataset_is_left_out_naming_it_and_the_rest_is_read(tmp_path, caplog):
+    from pipeline.store import read_records, read_table, remove_uncommitted
+
+    bad = _damaged_dataset(tmp_path)
+    with caplog.at_level("WARNING", logger="pipeline.store"):
+        measurements = read_table(tmp_path, "measurements")
+        inspections = read_records(tmp_path, "inspections")
+    assert sorted(measurements.inspection_id.unique()) == ["P1", "P3"]
+    assert sorted(r.inspection_id for r in inspections) == ["P1", "P2", "P3"]
+    text = caplog.text
+    assert f"{bad['truncated']}: unreadable as Parquet" in text
+    assert f"{bad['readme']}: not a Parquet file" in text
+    assert f"{bad['garbage']}: not in a folder named inspection_date=YYYY-MM-DD" in text
+    assert f"{bad['future']}: written with dataset schema version '4'; this pipegauge reads versions up to 3" in text
+    # the clean-up reads only the commits' ids, file by file: the bad files do not stop it
+    assert remove_uncommitted(tmp_path) == [bad["future"]]          # no commit names P9
+    assert sorted(read_table(tmp_path, "measurements").inspection_id.unique()) == ["P1", "P3"]
+
+
+def test_a_run_quarantines_the_bad_files_with_a_message_naming_each(tmp_path):
+    from pipeline.app import Layout, writing
+    from pipeline.store import read_table
+
+    out = tmp_path / "out"
+    bad = _damaged_dataset(out / "dataset")
+    said: list[str] = []
+    with writing(Layout(out), said.append):
+        pass
+    for path in bad.values():
+        assert not path.exists()
+        assert any(m.startswith(f"{path}: ") and "moved to" in m for m in said), said
+    kept = out / "dataset" / "quarantine" / bad["readme"].relative_to(out / "dataset")
+    assert kept.read_text() == "notes of the survey office"
+    assert "not a Parquet file" in kept.with_name(kept.name + ".why.txt").read_text()
+    assert sorted(read_table(out / "dataset", "measurements").inspection_id.unique()) == ["P1", "P3"]
+
+
+# -- 4, 5, 6: the skip path checks the stored files and the report; an unwritable report fails no package --
+
+def _measured(tmp_path: Path, monkeypatch, value: float = 5.0):
+    """process_package with a stand-in measurement (no video), the package's folder and its dataset."""
+    from pipeline.app import InspectionResult
+    from pipeline.app import process
+
+    folder = tmp_path / "inbox" / "P"
+    if not folder.exists():
+        folder.mkdir(parents=True)
+        for name in ("video.mp4", "header.json", "observations.csv", "marks.csv"):
+            (folder / name).write_text("")
+        _manifest(folder)
+    calls = []
+
+    def measured(*args, **kwargs):
+        inspection, observations, measurements = _records("P", value=value)
+        calls.append(value)
+        return InspectionResult(dict(inspection), observations, measurements)
+
+    def rendered(dataset, inspection_id, path):
+        from pipeline.store import read_table
+
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_text(f"{read_table(dataset, 'measurements').value.tolist()}")
+        return path
+
+    monkeypatch.setattr(process, "measure_package", measured)
+    monkeypatch.setattr(process, "render_inspection_report", rendered)
+    return folder, calls
+
+
+def test_a_deleted_or_corrupt_detail_file_is_measured_again(tmp_path, monkeypatch):
+    from pipeline.app import process_package
+    from pipeline.store import inspection_files, read_table
+
+    folder, calls = _measured(tmp_path, monkeypatch)
+    data = tmp_path / "dataset"
+    assert process_package(folder, data).processed
+    assert not process_package(folder, data).processed          # unchanged: skipped
+    inspection_files(data, "measurements", "P")[0].unlink()
+    said: list[str] = []
+    outcome = process_package(folder, data, progress=said.append)
+    assert outcome.processed and len(calls) == 2 and "its measurements file" in said[0] and "is missing" in said[0]
+    assert len(read_table(data, "measurements")) == 2
+    path = inspection_files(data, "observations", "P")[0]
+    path.write_bytes(path.read_bytes()[:100])
+    assert process_package(folder, data).processed and len(calls) == 3
+    assert len(read_table(data, "observations")) == 2 and not process_package(folder, data).processed
+
+
+def test_a_report_older_than_its_commit_is_rendered_again(tmp_path, monkeypatch):
+    from pipeline.app import process_package
+    from pipeline.reports import report_file_name
+
+    folder, _ = _measured(tmp_path, monkeypatch, value=5.0)
+    data, reports = tmp_path / "dataset", tmp_path / "reports"
+    process_package(folder, data, reports=reports)
+    pdf = reports / report_file_name("P")
+    assert pdf.read_text() == "[6.0, 7.0]"
+    # the v3 commit is made, the run killed before its report: the v2 report is left, older than the commit
+    from pipeline.store import write_inspection
+
+    inspection, observations, measurements = _records("P", value=50.0)
+    from pipeline.store import stored_input_key
+
+    inspection["input_sha256"] = stored_input_key(data, "P")["input_sha256"]
+    old = pdf.stat().st_mtime_ns
+    os.utime(pdf, ns=(old - 10**9, old - 10**9))
+    write_inspection(data, inspection, observations, measurements)
+    outcome = process_package(folder, data, reports=reports)
+    assert not outcome.processed and pdf.read_text() == "[51.0, 52.0]"
+
+
+def test_an_unwritable_reports_folder_leaves_the_package_stored_and_says_so(tmp_path, monkeypatch):
+    from pipeline.app import process, process_package
+
+    folder, _ = _measured(tmp_path, monkeypatch)
+
+    def unwritable(dataset, inspection_id, path):
+        raise PermissionError(13, "Permission denied", str(path))
+
+    monkeypatch.setattr(process, "render_inspection_report", unwritable)
+    outcome = process_package(folder, tmp_path / "dataset", reports=tmp_path / "reports")
+    assert outcome.status == "ok" and outcome.processed
+    assert "its PDF report could not be written to" in outcome.error and "the results are stored" in outcome.error
+
+
+def test_an_unwritable_summary_stops_nothing(tmp_path, monkeypatch):
+    from pipeline.app import Layout, finish_night
+    from pipeline.app import night
+
+    def unwritable(rows, data, path):
+        raise PermissionError(13, "Permission denied", str(path))
+
+    monkeypatch.setattr(night, "render_night_summary", unwritable)
+    said: list[str] = []
+    finish_night([{"processed": True}], Layout(tmp_path), dt.date(2026, 12, 1), said.append)
+    assert "could not be written to" in said[0] and "Permission denied" in said[0]

@@ -21,10 +21,10 @@ from pipeline.app.measure import InspectionResult, measure_package
 from pipeline.core.errors import PackageError, PipegaugeError, StoreError
 from pipeline.formats.manifest import load_manifest
 from pipeline.reports import render_inspection_report, report_file_name
-from pipeline.store import stored_input_key, write_inspection
+from pipeline.store import commit_problem, inspection_files, stored_input_key, write_inspection
 from pipeline.vision.video.overlay_ocr import OverlayReader
 
-__all__ = ["PackageOutcome", "process_package", "refused_outcome"]
+__all__ = ["PackageOutcome", "process_package", "refused_outcome", "report_is_current"]
 
 
 @dataclass(frozen=True)
@@ -86,7 +86,10 @@ def process_package(folder: str | os.PathLike, dataset: str | os.PathLike, *, mo
         return refused_outcome(folder, f"package id {package_id!r} is stored from {other}, which still holds it; nothing "
                                        "of this folder was read or stored: give each package its own package_id",
                                package_id)
-    if stored and stored["input_sha256"] == key:
+    damage = commit_problem(dataset, package_id, stored) if stored and stored["input_sha256"] == key else None
+    if damage and progress:
+        progress(f"{package_id}: stored before, but {damage}: measured again")
+    if stored and stored["input_sha256"] == key and damage is None:
         error = _render(dataset, package_id, reports, missing_only=True)
         return PackageOutcome(str(folder), package_id, stored["status"], _joined(stored["error"], error),
                               stored["n_measurements"] or 0, time.perf_counter() - t0, processed=False)
@@ -124,13 +127,27 @@ def _render(dataset, inspection_id: str, reports, missing_only: bool = False) ->
     if not reports:
         return None
     path = Path(reports) / report_file_name(inspection_id)
-    if missing_only and path.is_file():
+    if missing_only and report_is_current(path, dataset, inspection_id):
         return None
     try:
         render_inspection_report(dataset, inspection_id, path)
     except PipegaugeError as exc:
         return f"its PDF report could not be rendered ({exc})"
+    except OSError as exc:          # the results are stored: a report that cannot be written fails no package
+        return (f"its PDF report could not be written to {path} ({exc.strerror or exc}); the results are stored: "
+                "make the reports folder writable and rerun to render it")
     return None
+
+
+def report_is_current(path: Path, dataset, inspection_id: str) -> bool:
+    """A report exists and was rendered after its inspection's last commit (a run killed between the commit
+    and the report leaves an older one, which is then rendered again)."""
+    try:
+        rendered = path.stat().st_mtime_ns
+    except OSError:
+        return False
+    commits = [p.stat().st_mtime_ns for p in inspection_files(dataset, "inspections", inspection_id) if p.is_file()]
+    return not commits or rendered >= max(commits)
 
 
 def _joined(*errors: str | None) -> str | None:

@@ -263,3 +263,125 @@ def test_an_unwritable_summary_stops_nothing(tmp_path, monkeypatch):
     said: list[str] = []
     finish_night([{"processed": True}], Layout(tmp_path), dt.date(2026, 12, 1), said.append)
     assert "could not be written to" in said[0] and "Permission denied" in said[0]
+
+
+# -- 3, 10, 16: contractor mistakes stay in their row; certificates are plausible and their own -----
+
+def _certificate(tmp_path: Path, **changes) -> Path:
+    doc = json.loads((SAMPLES / "certificates" / "SYN-720x576.json").read_text())
+    for dotted, value in changes.items():
+        *parents, key = dotted.split("__")
+        node = doc
+        for p in parents:
+            node = node[p]
+        node[key] = value
+    path = tmp_path / "SYN-720x576.json"
+    path.write_text(json.dumps(doc))
+    return path
+
+
+@pytest.mark.parametrize("changes, message", [
+    ({"intrinsics__fx__value": 1.9e303}, r"intrinsics.fx.value': 1.9e\+303 px is no focal length of a 720x576 px camera"),
+    ({"intrinsics__fx__value": 1.9e-297}, r"intrinsics.fx.value': 1.9e-297 px is no focal length"),
+    ({"intrinsics__k1__value": 1e6}, r"intrinsics.k1.value': 1e\+06 1 is no distortion coefficient of a real lens"),
+    ({"intrinsics__fx__u": 1e300}, r"intrinsics.fx.u': a standard uncertainty of 1e\+300 px says the parameter is not"),
+    ({"intrinsics__k2__u": 1e300}, r"intrinsics.k2.u': a standard uncertainty of 1e\+300 1"),
+    ({"covariance": {"parameters": [["fx"]], "matrix": [[1.0]]}}, r"covariance.parameters': \['fx'\] is not a parameter"),
+])
+def test_an_implausible_or_malformed_certificate_is_refused_naming_its_field(tmp_path, changes, message):
+    from pipeline.formats.certificate import load_certificate
+
+    with pytest.raises(CertificateError, match=message):
+        load_certificate(_certificate(tmp_path, **changes))
+
+
+def test_both_sample_certificates_are_plausible():
+    from pipeline.formats.certificate import load_certificate
+
+    for path in sorted((SAMPLES / "certificates").glob("*.json")):
+        assert load_certificate(path).certificate_id == path.stem
+
+
+def test_marks_of_a_row_number_used_twice_are_refused_and_say_which_quantity_they_leave_unmeasured(tmp_path):
+    from pipeline.formats.marks import read_marks
+    from pipeline.formats.observation_log import read_log
+
+    log = tmp_path / "observations.csv"
+    tail = "," * 9
+    log.write_text("row,distance_m,code,char1,char2,q1,q1_unit,q2,q2_unit,clock_from,clock_to,at_joint,continuous,"
+                   f"video_time,photo,remark\n1,0.5,BAB,B,A,3,mm{tail}\n2,1.0,BDD,,,20,%{tail}\n"
+                   f"2,1.2,BAG,,,10,%{tail}\n3,1.5,BAB,B,A,2,mm{tail}\n")
+    marks = tmp_path / "marks.csv"
+    marks.write_text("row,quantity,frame,point,x_px,y_px,u_px\n1,Q1,5,a,10,10,0.7\n1,Q1,5,b,nan,20,0.7\n"
+                     "2,Q1,5,a,10,10,0.7\n2,Q1,5,b,20,20,0.7\n3,Q1,-4,a,1,1,0.7\n3,Q1,-4,b,2,2,0.7\n")
+    obs = read_log(log, 10.0)
+    found, problems = read_marks(marks, obs)
+    assert found == []
+    assert {p.quantity for p in problems} == {(1, "Q1"), (2, "Q1"), (3, "Q1")}
+    assert any("row 2 is used twice in the observation log, so its marks cannot be told apart" in p.message
+               for p in problems)
+
+
+def test_two_identical_points_are_a_measurement_error_not_a_crash():
+    from test_measurement import _contour, _marked, _truth
+
+    from pipeline.core.errors import MeasurementError
+    from pipeline.measurement import MarkedQuantity, measure_quantity
+
+    truth, cert, und, view = _truth("S01-circular-clean")
+    obs = next(o for o in truth["observations"] if o["code"] == "BAB")
+    q = _marked(und, obs["quantities"][0], "BAB", obs.get("char1", "B"))
+    same = MarkedQuantity(q.code, q.char1, q.quantity, q.method, q.a, q.a, q.u_a, q.u_b)
+    with pytest.raises(MeasurementError, match="its points a and b are the same point"):
+        measure_quantity(same, _contour(view), cert, H=300.0, tolerance=3.0, model="perspective", seed=1)
+
+
+def test_a_percent_quantity_under_a_pixel_is_below_resolution():
+    from test_measurement import _contour, _marked, _truth
+
+    from pipeline.measurement import MarkedQuantity, measure_quantity
+
+    truth, cert, und, view = _truth("S02-circular-water-offset")
+    obs = next(o for o in truth["observations"] if o["code"] == "BAG")
+    q = _marked(und, obs["quantities"][0], "BAG", "")
+    near = MarkedQuantity(q.code, q.char1, q.quantity, q.method, q.a, (q.a[0] + 0.001, q.a[1]), q.u_a, q.u_b)
+    r = measure_quantity(near, _contour(view), cert, H=400.0, tolerance=4.0, model="perspective", seed=5)
+    assert r.unit == "%" and r.below_resolution
+    assert any("below the image's resolution" in reason for reason in r.reasons)
+
+
+def test_a_certificate_file_holding_another_cameras_id_is_refused(tmp_path):
+    import shutil
+
+    from pipeline.app.load import load_delivery
+    from pipeline.domain.results import InspectionRecord
+
+    shutil.copytree(S01, tmp_path / "inbox" / "S01", ignore=shutil.ignore_patterns("truth"))
+    (tmp_path / "inbox" / "certificates").mkdir()
+    _certificate(tmp_path / "inbox" / "certificates", certificate_id="SYN-1280x720")
+    with pytest.raises(CertificateError, match="SYN-720x576.json: holds certificate 'SYN-1280x720', but the package "
+                                               "names 'SYN-720x576'"):
+        load_delivery(tmp_path / "inbox" / "S01", InspectionRecord())
+
+
+def test_a_header_text_over_its_limit_is_refused_and_an_unknown_material_is_a_problem(tmp_path):
+    import shutil
+
+    from pipeline.app.load import load_delivery
+    from pipeline.domain.results import InspectionRecord
+    from pipeline.formats.header import load_header
+
+    header = json.loads((S01 / "header.json").read_text())
+    path = tmp_path / "header.json"
+    path.write_text(json.dumps({**header, "section_id": "S" * 600_000}))
+    with pytest.raises(HeaderError, match="field 'section_id': 600,000 characters; a header's text field holds at "
+                                          "most 200"):
+        load_header(path)
+    shutil.copytree(S01, tmp_path / "inbox" / "S01", ignore=shutil.ignore_patterns("truth"))
+    shutil.copytree(SAMPLES / "certificates", tmp_path / "inbox" / "certificates")
+    (tmp_path / "inbox" / "S01" / "header.json").write_text(json.dumps({**header, "material": "unobtainium"}))
+    delivery = load_delivery(tmp_path / "inbox" / "S01", InspectionRecord())
+    assert len(delivery.header_problems) == 1
+    assert "header.json: field 'material': 'unobtainium' is not a pipe material pipegauge knows" in \
+        delivery.header_problems[0]
+    assert load_delivery(S01, InspectionRecord(), certificates=SAMPLES / "certificates").header_problems == ()

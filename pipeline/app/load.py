@@ -12,6 +12,8 @@ from dataclasses import asdict, dataclass
 from pathlib import Path
 
 from pipeline.camera import Certificate
+from pipeline.core.errors import CertificateError
+from pipeline.domain.materials import material_problem
 from pipeline.domain.records import Mark, Observation, RowProblem, SectionHeader
 from pipeline.domain.results import InspectionRecord
 from pipeline.formats import load_package_log
@@ -35,6 +37,7 @@ class Delivery:
     marks: list[Mark]
     mark_problems: list[RowProblem]
     certificate: Certificate
+    header_problems: tuple[str, ...] = ()     # what of the header is read but doubtful (an unknown material)
 
     @property
     def video_sha256(self) -> str | None:
@@ -59,7 +62,13 @@ def load_delivery(folder: str | os.PathLike, record: InspectionRecord, *,
     record.update(asdict(header))
     marks, mark_problems = read_marks(manifest.marks, observations)
     cert = load_certificate(certificate_path(manifest, certificates))
+    if cert.certificate_id != manifest.certificate_id:
+        raise CertificateError(f"{cert.source}: holds certificate {cert.certificate_id!r}, but the package names "
+                               f"{manifest.certificate_id!r} (its package.json) and the file is named for it: "
+                               "another camera's certificate is in its place; put the camera's own certificate there")
     record.update(certificate_id=cert.certificate_id, certificate_valid_until=cert.valid_until,
                   camera=" ".join(str(cert.camera.get(k, "")) for k in ("make", "model", "serial")).strip() or None)
     cert.check_valid_on(header.inspection_date)
-    return Delivery(folder, manifest, digests, header, observations, marks, mark_problems, cert)
+    source = manifest.header or manifest.transfer
+    doubtful = tuple(f"{source.name if source else 'header'}: {p}" for p in [material_problem(header.material)] if p)
+    return Delivery(folder, manifest, digests, header, observations, marks, mark_problems, cert, doubtful)

@@ -107,14 +107,17 @@ def measure_package(folder: str | os.PathLike, *, certificates: str | os.PathLik
     marks, ingest, info, und, mask = delivery.marks, where.ingest, where.info, where.undistorter, where.mask
 
     result = InspectionResult(record, [observation_record(o) for o in observations])
-    problems: list[str] = [str(p) for o in observations for p in o.problems] + [str(p) for p in delivery.mark_problems]
-    by_row = {o.row: o for o in observations}
+    problems: list[str] = ([*delivery.header_problems] + [str(p) for o in observations for p in o.problems]
+                           + [str(p) for p in delivery.mark_problems])
+    by_row: dict[int, Observation] = {}
+    for o in observations:      # a row number used twice (a problem of the log): its first row stands for it
+        by_row.setdefault(o.row, o)
     ideal_frames: dict[int, np.ndarray] = {}
     by_frame: dict[int, list[Mark]] = defaultdict(list)
     for m in marks:
         by_frame[m.frame].append(m)
     automatic = {o.row: _automatic_frame(o, [m for m in marks if m.row == o.row], ingest.track, info)
-                 for o in observations if measurable_automatically(o)}
+                 for o in by_row.values() if measurable_automatically(o)}
     frames = sorted({f for f in [*by_frame, *(f for f in automatic.values() if f is not None)] if 0 <= f < info.frame_count})
     t0 = time.perf_counter()
     say(f"{manifest.package_id}: pipe contours at {len(frames)} frame(s)")
@@ -175,6 +178,18 @@ def measure_package(folder: str | os.PathLike, *, certificates: str | os.PathLik
             except PipegaugeError as exc:
                 row.update(status="error", error=str(exc))
         result.measurements.append(row)
+    # a quantity whose marks were refused while reading them is a row of its own, not measured, with the reason
+    measured = {(r.row, r.quantity) for r in result.measurements if r.source == "marks"}
+    refused: dict[tuple[int, str], list[str]] = defaultdict(list)
+    for p in delivery.mark_problems:
+        if p.quantity is not None and p.quantity not in measured:
+            refused[p.quantity].append(f"{p.where}, field {p.field!r}: {p.message}")
+    for (r, quantity), why in sorted(refused.items()):
+        obs = by_row[r]
+        result.measurements.append(MeasurementRecord(
+            row=r, quantity=quantity, source="marks", code=obs.code, char1=obs.char1, char2=obs.char2, model=model,
+            distance_m=obs.distance_m, operator_value=obs.q1 if quantity == "Q1" else obs.q2, status="error",
+            error=f"its marks were refused ({manifest.marks.name}): " + "; ".join(why)))
     for r, found in sorted(automatic.items()):
         obs = by_row[r]
         row = _automatic_base(obs, found, ingest.track, model)

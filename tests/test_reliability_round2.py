@@ -385,3 +385,53 @@ def test_a_header_text_over_its_limit_is_refused_and_an_unknown_material_is_a_pr
     assert "header.json: field 'material': 'unobtainium' is not a pipe material pipegauge knows" in \
         delivery.header_problems[0]
     assert load_delivery(S01, InspectionRecord(), certificates=SAMPLES / "certificates").header_problems == ()
+
+
+# -- 14: a file the run may not read is the package's failure, stored, never a retried "disk" error -------
+
+def test_an_unreadable_video_fails_its_package_naming_it_and_is_stored(tmp_path, monkeypatch):
+    import builtins
+    import shutil
+
+    from pipeline.app import identity, process_package
+    from pipeline.store import read_records, stored_input_key
+    from pipeline.vision.video import reader
+
+    shutil.copytree(S01, tmp_path / "inbox" / "S01", ignore=shutil.ignore_patterns("truth"))
+    shutil.copytree(SAMPLES / "certificates", tmp_path / "inbox" / "certificates")
+    video = tmp_path / "inbox" / "S01" / "video.mp4"
+    real_sha, real_open = identity.file_sha256, builtins.open
+
+    def denied(path, *args, **kwargs):      # what mode 600 of another user gives (the tests may run as root)
+        if Path(path) == video:
+            raise PermissionError(13, "Permission denied", str(path))
+        return (real_sha if not args and not kwargs else real_open)(path, *args, **kwargs)
+
+    monkeypatch.setattr(identity, "file_sha256", denied)
+    monkeypatch.setattr(reader, "open", denied, raising=False)
+    outcome = process_package(tmp_path / "inbox" / "S01", tmp_path / "dataset")
+    assert outcome.status == "failed" and outcome.processed and not outcome.refused
+    assert f"{video}: cannot be read (Permission denied); give the user running pipegauge read access" in outcome.error
+    assert read_records(tmp_path / "dataset", "inspections")[0].status == "failed"
+    assert stored_input_key(tmp_path / "dataset", "S01-circular-clean") is not None
+    assert not process_package(tmp_path / "inbox" / "S01", tmp_path / "dataset").processed   # not retried nightly
+
+
+def test_a_log_that_is_a_named_pipe_or_unreadable_is_refused_at_once(tmp_path, monkeypatch):
+    from pipeline.core.errors import ObservationLogError
+    from pipeline.formats import csvfile
+    from pipeline.formats.observation_log import read_log
+
+    fifo = tmp_path / "observations.csv"
+    os.mkfifo(fifo)
+    with pytest.raises(ObservationLogError, match="observations.csv: not a regular file"):
+        read_log(fifo, 10.0)
+    fifo.unlink()
+    fifo.write_text("row\n")
+
+    def denied(self, *args, **kwargs):
+        raise PermissionError(13, "Permission denied", str(self))
+
+    monkeypatch.setattr(csvfile.Path, "open", denied)
+    with pytest.raises(ObservationLogError, match=r"observations.csv: cannot be read \(permission denied\)"):
+        read_log(fifo, 10.0)

@@ -45,6 +45,12 @@ def _open(path: str | os.PathLike) -> cv2.VideoCapture:
     if p.stat().st_size > MAX_VIDEO_BYTES:
         raise CorruptVideoError(f"{p}: {p.stat().st_size:,} bytes; pipegauge reads a video of at most "
                                 f"{MAX_VIDEO_BYTES:,} bytes (docs/operations.md, input limits); deliver one video per section")
+    try:
+        with open(p, "rb") as fh:       # OpenCV says only "cannot open" for a file it may not read
+            fh.read(1)
+    except OSError as exc:
+        raise CorruptVideoError(f"{p}: cannot be read ({exc.strerror or exc}); give the user running pipegauge read "
+                                "access to the video") from None
     cap = cv2.VideoCapture(str(p))
     if not cap.isOpened():
         raise CorruptVideoError(f"{p}: OpenCV cannot open this video (unknown container or damaged header); "

@@ -435,3 +435,40 @@ def test_a_log_that_is_a_named_pipe_or_unreadable_is_refused_at_once(tmp_path, m
     monkeypatch.setattr(csvfile.Path, "open", denied)
     with pytest.raises(ObservationLogError, match=r"observations.csv: cannot be read \(permission denied\)"):
         read_log(fifo, 10.0)
+
+
+def _sample_copy(tmp_path: Path, name: str = "S01-circular-clean") -> Path:
+    import shutil
+
+    inbox = tmp_path / "inbox"
+    shutil.copytree(SAMPLES / name, inbox / name, ignore=shutil.ignore_patterns("truth"))
+    if not (inbox / "certificates").exists():
+        shutil.copytree(SAMPLES / "certificates", inbox / "certificates")
+    return inbox / name
+
+
+def _contractor_mistakes(folder: Path) -> None:
+    """Item 3 and 16's mistakes in one log: row 6 (BAA) numbered twice, row 1's points identical, a NaN mark."""
+    log = folder / "observations.csv"
+    log.write_text(log.read_text() + "6,4.40,BAG,,,10.0,%,,,12,,,,00:00:40.50,,\n")
+    lines = (folder / "marks.csv").read_text().splitlines()
+    lines[2] = lines[1].replace(",a,", ",b,")                   # row 1 Q1: b where a is
+    lines[11] = lines[11].replace("292.0", "nan")               # row 5 Q1 a: not a number
+    (folder / "marks.csv").write_text("\n".join(lines) + "\n")
+
+
+@pytest.mark.slow
+def test_contractor_mistakes_are_errors_of_their_rows_and_the_rest_is_measured(tmp_path, reader):
+    from pipeline.app import process_package
+    from pipeline.store import read_records
+
+    folder = _sample_copy(tmp_path)
+    _contractor_mistakes(folder)
+    outcome = process_package(folder, tmp_path / "dataset", reader=reader)
+    assert outcome.status == "partial" and outcome.processed, outcome.error
+    rows = {(m.row, m.quantity, m.source): m for m in read_records(tmp_path / "dataset", "measurements")}
+    assert "its points a and b are the same point" in rows[1, "Q1", "marks"].error
+    assert rows[5, "Q1", "marks"].status == "error" and "its marks were refused" in rows[5, "Q1", "marks"].error
+    assert (6, "Q1", "contour") in rows                         # the BAA of row 6, from the image alone
+    assert rows[2, "Q1", "marks"].status == "ok" and rows[2, "Q2", "marks"].status == "ok"
+    assert "quantity(ies) not measured" in outcome.error and "0 quantity(ies)" not in outcome.error

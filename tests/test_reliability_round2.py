@@ -472,3 +472,56 @@ def test_contractor_mistakes_are_errors_of_their_rows_and_the_rest_is_measured(t
     assert (6, "Q1", "contour") in rows                         # the BAA of row 6, from the image alone
     assert rows[2, "Q1", "marks"].status == "ok" and rows[2, "Q2", "marks"].status == "ok"
     assert "quantity(ies) not measured" in outcome.error and "0 quantity(ies)" not in outcome.error
+
+
+# -- 9: a cut in the video and a chainage running backwards are warned of -----------------------------
+
+def _reads(values_by_frame: dict[int, float]):
+    from pipeline.vision.video.overlay_ocr import OverlayRead
+
+    return [OverlayRead(f, f"{v:.2f}m", round(v, 2), 1.0) for f, v in sorted(values_by_frame.items())]
+
+
+def _crawl(frames, fps=25.0, speed=0.1, start=0.0):
+    """The counter of a crawler at ``speed`` [m/s] at each of ``frames`` (every 4th read), rounded to 0.01 m."""
+    return {f: round(start + speed * f / fps, 2) for f in frames}
+
+
+def test_a_spliced_video_is_a_jump_and_a_backward_run_in_the_tracks_warnings():
+    from pipeline.vision.video.chainage_track import fit_track
+
+    # frames 0-99, 150-249, 200-249 of a crawl at 0.1 m/s, spliced: 200 frames of video
+    source = list(range(0, 100)) + list(range(150, 250)) + list(range(200, 250))
+    counter = _crawl(range(250))
+    reads = _reads({new: counter[old] for new, old in enumerate(source) if new % 4 == 0})
+    track = fit_track(reads, len(source), 25.0)
+    warnings = track.warnings()
+    assert any("the chainage jumps from 0.38 m to 0.60 m between frames 96 and 100" in w for w in warnings), warnings
+    assert any("jumps from 0.98 m to 0.80 m between frames 196 and 200" in w for w in warnings), warnings
+    assert any("runs backwards from 0.97 m to 0.81 m (frames 194-202" in w for w in warnings), warnings
+    clean = fit_track(_reads({f: v for f, v in counter.items() if f % 4 == 0}), 250, 25.0)
+    assert clean.warnings() == []
+
+
+def test_a_chainage_counting_down_is_warned_of():
+    from pipeline.vision.video.chainage_track import fit_track
+
+    reads = _reads({f: round(0.78 - 0.1 * f / 25.0, 2) for f in range(0, 150, 4)})
+    warnings = fit_track(reads, 150, 25.0).warnings()
+    assert len(warnings) == 1 and "the chainage runs backwards from 0.78 m" in warnings[0]
+
+
+def test_a_logged_distance_far_from_the_chainage_at_the_marks_frame_is_flagged():
+    from pipeline.app.measure import _check_distance
+    from pipeline.domain.results import MeasurementRecord
+
+    row = MeasurementRecord(row=3, quantity="Q1", chainage_m=0.74, u_chainage_m=0.0205, distance_m=0.67,
+                            confident=True, warnings="u(p_H) is 3.1 % of p_H")
+    _check_distance(row)
+    assert row.confident is False
+    assert row.warnings.startswith("u(p_H) is 3.1 % of p_H; the chainage at the measured frame is 0.74 m, the log "
+                                   "says 0.67 m (0.07 m apart, more than the 0.05 m")
+    near = MeasurementRecord(row=3, quantity="Q1", chainage_m=0.68, u_chainage_m=0.0205, distance_m=0.67,
+                             confident=True)
+    _check_distance(near)
+    assert near.confident is True and near.warnings is None

@@ -174,6 +174,7 @@ def measure_package(folder: str | os.PathLike, *, certificates: str | os.PathLik
             assert marked is not None               # a run is queued only for a marked quantity
             try:
                 row.update(_quantity_fields(future.result()))
+                _check_distance(row)
                 result.thumbnails.append(_thumbnail(ideal(m.frame), contours[m.frame], marked, m.row, m.frame, "marks"))
             except PipegaugeError as exc:
                 row.update(status="error", error=str(exc))
@@ -202,6 +203,7 @@ def measure_package(folder: str | os.PathLike, *, certificates: str | os.PathLik
                                        seed=_seed(manifest.package_id, r, "Q1 contour"))
             t_measure += time.perf_counter() - t0
             row.update(_quantity_fields(res), u_mark_px=q.u_a)
+            _check_distance(row)
             result.thumbnails.append(_thumbnail(ideal(found), contours[found], q, r, found, "contour"))
         except PipegaugeError as exc:
             row.update(status="error", error=str(exc))
@@ -215,6 +217,33 @@ def measure_package(folder: str | os.PathLike, *, certificates: str | os.PathLik
                   n_problems=len(problems), problems=problems, time_contour_s=t_contour, time_measure_s=t_measure,
                   time_total_s=time.perf_counter() - t_start)
     return result
+
+
+# The logged distance and the chainage at the measured frame agree within DISTANCE_GAP_K standard uncertainties of
+# the chainage plus the log's display step; a larger gap means the frame is not the observation's (a cut or a
+# splice in the video, a mark on the wrong frame): the quantity is measured but flagged, not confident.
+DISTANCE_GAP_K = 2.0
+LOG_STEP_M = 0.01
+
+
+def distance_gap(chainage_m: float | None, u_chainage_m: float | None, distance_m: float | None) -> str | None:
+    """Why the chainage at a quantity's frame disagrees with its logged distance [m], or None."""
+    if not all(isinstance(x, float) and np.isfinite(x) for x in (chainage_m, u_chainage_m, distance_m)):
+        return None
+    assert chainage_m is not None and u_chainage_m is not None and distance_m is not None
+    allowed = DISTANCE_GAP_K * u_chainage_m + LOG_STEP_M
+    gap = abs(chainage_m - distance_m)
+    if gap <= allowed:
+        return None
+    return (f"the chainage at the measured frame is {chainage_m:.2f} m, the log says {distance_m:.2f} m ({gap:.2f} m "
+            f"apart, more than the {allowed:.2f} m they may differ by): the frame may not show this observation "
+            "(a cut in the video, or a mark on another frame)")
+
+
+def _check_distance(row: MeasurementRecord) -> None:
+    why = distance_gap(row.chainage_m, row.u_chainage_m, row.distance_m)
+    if why is not None:
+        row.update(confident=False, warnings="; ".join(w for w in (row.warnings, why) if w))
 
 
 def _thumbnail(ideal_bgr: np.ndarray, contour, marked: MarkedQuantity, row: int, frame: int,

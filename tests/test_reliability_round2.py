@@ -525,3 +525,14 @@ def test_a_logged_distance_far_from_the_chainage_at_the_marks_frame_is_flagged()
                              confident=True)
     _check_distance(near)
     assert near.confident is True and near.warnings is None
+
+
+def test_the_surveyed_stretch_of_a_chainage_counting_down_is_its_whole_range():
+    from types import SimpleNamespace
+
+    from pipeline.app.judge import _survey
+    from pipeline.vision.video.chainage_track import fit_track
+
+    track = fit_track(_reads({f: round(0.78 - 0.1 * f / 25.0, 2) for f in range(0, 150, 4)}), 150, 25.0)
+    verdict = _survey(track, SimpleNamespace(section_length_m=5.0), [])
+    assert verdict.start_m == pytest.approx(0.19, abs=0.01) and verdict.end_m == pytest.approx(0.78)

@@ -93,7 +93,8 @@ def add_verdicts(result, header, observations, track, scheme_key: str | None = N
 def _survey(track, header, observations):
     if track is None or len(track.values) == 0:
         return None
-    start, end = float(track.values[0]), float(max(track.values))
+    # the stretch the counter covered, whichever way it ran (a counter running backwards starts at its maximum)
+    start, end = float(min(track.values)), float(max(track.values))
     return survey_verdict(start, float(track.counter.u(start)), end, float(track.counter.u(end)),
                           header.section_length_m, [(o.row, o.code, o.distance_m) for o in observations])
 

@@ -1,7 +1,7 @@
 """The ``pipegauge`` command line.
 
 Exit codes: 0 success, 1 a domain error (bad input, failed check), 2 a usage
-error. Messages for people go to stderr; results go to stdout (a table, or
+error, 130 stopped by SIGINT (Ctrl-C), 143 stopped by SIGTERM. Messages for people go to stderr; results go to stdout (a table, or
 JSON with ``--json``). Heavy imports happen inside each verb, so ``--help``
 is instant.
 """
@@ -12,7 +12,9 @@ import argparse
 import datetime as dt
 import json
 import os
+import signal
 import sys
+import threading
 from pathlib import Path
 from typing import Callable, Sequence, cast
 
@@ -26,6 +28,7 @@ from pipeline import __version__  # noqa: E402
 from pipeline.core.errors import PipegaugeError  # noqa: E402
 
 EXIT_OK, EXIT_FAILED, EXIT_USAGE = 0, 1, 2
+EXIT_INTERRUPTED, EXIT_TERMINATED = 128 + 2, 128 + 15     # as the shell reports a process ended by SIGINT, SIGTERM
 
 
 def _image_size(text: str) -> tuple[int, int]:
@@ -524,12 +527,28 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+class _Terminated(KeyboardInterrupt):
+    """SIGTERM (``kill``, ``timeout``, systemd): the verb stops as Ctrl-C stops it, so every clean-up runs (the
+    embedded server stopped, its pid file removed, temporaries deleted; docs/operations.md, "Signals")."""
+
+
+def _on_sigterm(signum, frame) -> None:
+    raise _Terminated()
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
     func: Callable[[argparse.Namespace], int] = args.func
+    if threading.current_thread() is threading.main_thread():
+        signal.signal(signal.SIGTERM, _on_sigterm)
     try:
         return func(args)
+    except KeyboardInterrupt as exc:
+        what = "SIGTERM" if isinstance(exc, _Terminated) else "SIGINT (Ctrl-C)"
+        _say(f"pipegauge {args.verb}: stopped by {what}; what was stored before is kept whole (each package is one "
+             "commit) and a rerun goes on from there")
+        return EXIT_TERMINATED if isinstance(exc, _Terminated) else EXIT_INTERRUPTED
     except PipegaugeError as exc:
         _say(f"pipegauge {args.verb}: error: {exc}")
         return EXIT_FAILED

@@ -536,3 +536,139 @@ def test_the_surveyed_stretch_of_a_chainage_counting_down_is_its_whole_range():
     track = fit_track(_reads({f: round(0.78 - 0.1 * f / 25.0, 2) for f in range(0, 150, 4)}), 150, 25.0)
     verdict = _survey(track, SimpleNamespace(section_length_m=5.0), [])
     assert verdict.start_m == pytest.approx(0.19, abs=0.01) and verdict.end_m == pytest.approx(0.78)
+
+
+# -- 11: measure --data OUT writes OUT's dataset ---------------------------------------------------------
+
+def test_measure_data_out_is_the_runs_dataset_also_before_it_exists(tmp_path):
+    from pipeline.app import Layout
+
+    out = tmp_path / "out"
+    (out / "reports").mkdir(parents=True)           # a run that stored nothing yet, or a report rendered
+    assert Layout.of(out).dataset == out / "dataset" and Layout.of(out).reports == out / "reports"
+    fresh = tmp_path / "fresh"
+    assert Layout.of(fresh).dataset == fresh       # a new folder given as --data is the dataset itself
+    (out / "dataset").mkdir()
+    assert Layout.of(out / "dataset").dataset == out / "dataset"      # the same lock as the run's
+
+
+# -- 7, 8, 12, 13: the embedded server: whose it is, signals, start-up problems in one line ---------------
+
+def _fake_server(owner: Path | None):
+    import subprocess
+    import sys
+
+    env = {k: v for k, v in os.environ.items() if k != "PIPEGAUGE_SERVER_OF"}
+    if owner is not None:
+        env["PIPEGAUGE_SERVER_OF"] = str(owner.resolve())
+    return subprocess.Popen([sys.executable, "-c", "import time; time.sleep(120)",
+                             "prefect.server.api.server:create_app"], env=env)
+
+
+def test_a_pid_file_naming_another_runs_server_kills_nothing(tmp_path):
+    from flows.embedded_server import _stop_left_over
+    from pipeline.app import Layout
+
+    a, b = tmp_path / "out-a", tmp_path / "out-b"
+    a.mkdir()
+    theirs = _fake_server(b)
+    mine = _fake_server(a)
+    try:
+        time.sleep(0.5)
+        said: list[str] = []
+        Layout(a).server_pid.write_text(f"{theirs.pid}\n")    # the pid was given since to run B's server
+        _stop_left_over(Layout(a), said.append)
+        assert theirs.poll() is None and said == [] and not Layout(a).server_pid.exists()
+        Layout(a).server_pid.write_text(f"{mine.pid}\n")
+        _stop_left_over(Layout(a), said.append)
+        assert mine.wait(timeout=15) is not None
+        assert said == [f"stopped the embedded Prefect server (pid {mine.pid}) left running by an interrupted run"]
+    finally:
+        for p in (theirs, mine):
+            p.kill()
+            p.wait()
+
+
+def _cli(*args: str, env: dict, timeout: float = 300):
+    import subprocess
+    import sys
+
+    return subprocess.run([sys.executable, "-m", "flows.cli", *args], cwd=ROOT, env=env, capture_output=True,
+                          text=True, timeout=timeout)
+
+
+def _env(tmp_path: Path, **extra) -> dict:
+    env = dict(os.environ, DO_NOT_TRACK="1", PREFECT_SERVER_ANALYTICS_ENABLED="false",
+               PREFECT_HOME=str(tmp_path / "prefect-home"), **extra)
+    env.pop("PREFECT_API_URL", None) if "PREFECT_API_URL" not in extra else None
+    return env
+
+
+@pytest.mark.slow
+def test_prefect_start_up_problems_are_one_line_each(tmp_path):
+    inbox = tmp_path / "inbox"
+    inbox.mkdir()
+    t0 = time.monotonic()
+    nowhere = _cli("run", str(inbox), "--out", str(tmp_path / "out"),
+                   env=_env(tmp_path, PREFECT_API_URL="http://127.0.0.1:9/api"))
+    assert nowhere.returncode == 1 and "Traceback" not in nowhere.stderr, nowhere.stderr
+    assert "the Prefect server PREFECT_API_URL names (http://127.0.0.1:9/api) does not answer" in nowhere.stderr
+    env = _env(tmp_path, HOME="/proc/pipegauge-nowhere")
+    env.pop("PREFECT_HOME")
+    homeless = _cli("run", str(inbox), "--out", str(tmp_path / "out"), env=env)
+    assert homeless.returncode == 1 and "Traceback" not in homeless.stderr, homeless.stderr[-2000:]
+    assert "Prefect's home /proc/pipegauge-nowhere/.prefect cannot be written" in homeless.stderr
+    assert time.monotonic() - t0 < 120
+
+
+@pytest.mark.slow
+def test_an_embedded_server_that_cannot_start_is_one_error(tmp_path, monkeypatch):
+    from prefect.server.api import server
+
+    from flows.embedded_server import embedded_prefect_server
+    from pipeline.app import Layout
+    from pipeline.core.errors import PipegaugeError
+
+    def no_port(self, timeout=None):
+        raise RuntimeError("Unable to find an available port in range 8000-8999\nmore lines")
+
+    monkeypatch.delenv("PREFECT_API_URL", raising=False)
+    monkeypatch.setattr(server.SubprocessASGIServer, "start", no_port)
+    (tmp_path / "out").mkdir()
+    with pytest.raises(PipegaugeError, match=r"the embedded Prefect server did not start \(Unable to find an "
+                                             r"available port in range 8000-8999\); check that a port"):
+        with embedded_prefect_server(Layout(tmp_path / "out"), lambda m: None):
+            pass
+    assert "PIPEGAUGE_SERVER_OF" not in os.environ
+
+
+@pytest.mark.slow
+def test_sigterm_stops_the_run_and_its_embedded_server(tmp_path):
+    import shutil
+    import signal
+    import subprocess
+    import sys
+
+    inbox = tmp_path / "inbox"
+    shutil.copytree(SAMPLES / "certificates", inbox / "certificates")
+    shutil.copytree(S01, inbox / "S01", ignore=shutil.ignore_patterns("truth"))
+    out = tmp_path / "out"
+    proc = subprocess.Popen([sys.executable, "-m", "flows.cli", "run", str(inbox), "--out", str(out)], cwd=ROOT,
+                            env=_env(tmp_path), stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+    pid_file = out / ".prefect-server.pid"
+    deadline = time.monotonic() + 300
+    while not pid_file.exists() and time.monotonic() < deadline and proc.poll() is None:
+        time.sleep(0.2)
+    assert proc.poll() is None, proc.stderr.read()
+    server = int(pid_file.read_text())
+    time.sleep(3)                                    # inside the flow, measuring
+    proc.send_signal(signal.SIGTERM)
+    stderr = proc.communicate(timeout=120)[1]
+    assert proc.returncode == 143, stderr[-3000:]
+    assert "stopped by SIGTERM" in stderr and "Traceback" not in stderr, stderr[-3000:]
+    deadline = time.monotonic() + 30
+    while Path(f"/proc/{server}").exists() and time.monotonic() < deadline:
+        time.sleep(0.5)
+    assert not Path(f"/proc/{server}/cmdline").exists() or b"create_app" not in \
+        Path(f"/proc/{server}/cmdline").read_bytes(), "the embedded server outlived the run"
+    assert not pid_file.exists()

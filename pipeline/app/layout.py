@@ -33,7 +33,12 @@ class Layout:
         folder itself, which keeps no reports (``pipegauge measure --data DATASET`` as before there were OUTs).
         """
         folder = Path(folder)
-        return cls(folder) if (folder / "dataset").is_dir() else _DatasetOnly(folder)
+        out = cls(folder)
+        # a run's OUT also before its dataset exists: it holds reports or a run's server file, never inspections/
+        if (folder / "dataset").is_dir() or (not (folder / "inspections").is_dir()
+                                             and (out.server_pid.exists() or (folder / "reports").is_dir())):
+            return out
+        return _DatasetOnly(folder)
 
     @property
     def dataset(self) -> Path:

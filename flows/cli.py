@@ -352,6 +352,17 @@ def cmd_export(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
+def cmd_doctor(args: argparse.Namespace) -> int:
+    from pipeline.app.doctor import diagnose, repair
+
+    findings = repair(args.out, _say) if args.repair else diagnose(args.out)
+    for finding in findings:
+        print(finding)
+    _say(f"pipegauge doctor: {args.out}: " + (f"{len(findings)} finding(s)" if findings else "nothing wrong found")
+         + ("" if args.repair or not findings else "; `pipegauge doctor OUT --repair` repairs what it can"))
+    return EXIT_FAILED if findings else EXIT_OK
+
+
 def cmd_log(args: argparse.Namespace) -> int:
     from pipeline.formats import read_log_file
     from pipeline.core.text import format_table
@@ -498,6 +509,16 @@ def build_parser() -> argparse.ArgumentParser:
     ex.add_argument("--from", dest="start", type=_date, help="first inspection date YYYY-MM-DD")
     ex.add_argument("--to", dest="end", type=_date, help="last inspection date YYYY-MM-DD")
     ex.set_defaults(func=cmd_export)
+
+    dr = verbs.add_parser("doctor", help="check a run's output folder: dataset files, reports and locks against "
+                                         "what the inspections record",
+                          description="Name every damaged, foreign, incomplete or left-over file of OUT's dataset, "
+                                      "every missing or stale PDF report, a stale server pid file and a held lock; "
+                                      "with --repair, quarantine bad files, measure incomplete inspections again and "
+                                      "render reports (docs/operations.md). Exit 1 when something is (still) wrong.")
+    dr.add_argument("out", type=Path, metavar="OUT", help="a run's output folder (or a dataset folder)")
+    dr.add_argument("--repair", action="store_true", help="repair what can be repaired, under the dataset's lock")
+    dr.set_defaults(func=cmd_doctor)
 
     lg = verbs.add_parser("log", help="print an observation log (observations.csv or a VSA-KEK transfer) as pipegauge reads it",
                           description="Header, observations and problems of a delivered log, validated as a package's "

@@ -181,6 +181,7 @@ def _measured(tmp_path: Path, monkeypatch, value: float = 5.0):
 
     def measured(*args, **kwargs):
         inspection, observations, measurements = _records("P", value=value)
+        inspection["package_folder"] = str(folder)
         calls.append(value)
         return InspectionResult(dict(inspection), observations, measurements)
 
@@ -672,3 +673,44 @@ def test_sigterm_stops_the_run_and_its_embedded_server(tmp_path):
     assert not Path(f"/proc/{server}/cmdline").exists() or b"create_app" not in \
         Path(f"/proc/{server}/cmdline").read_bytes(), "the embedded server outlived the run"
     assert not pid_file.exists()
+
+
+# -- doctor: OUT checked against what its inspections record, and repaired ---------------------------------
+
+def test_doctor_names_every_damage_and_repair_leaves_nothing(tmp_path, monkeypatch):
+    from pipeline.app import Layout, process_package
+    from pipeline.app.doctor import diagnose, repair
+    from pipeline.store import inspection_files, read_table, write_inspection
+
+    folder, calls = _measured(tmp_path, monkeypatch)
+    out = tmp_path / "out"
+    layout = Layout(out)
+    process_package(folder, layout.dataset, reports=layout.reports)
+    write_inspection(layout.dataset, *_records("GONE"))             # its package folder no longer exists
+    assert [f.kind for f in diagnose(out)] == ["report-missing"]    # GONE was stored without its report
+    # the damages
+    inspection_files(layout.dataset, "measurements", "P")[0].unlink()
+    readme = inspection_files(layout.dataset, "observations", "GONE")[0].parent / "README.txt"
+    readme.write_text("notes")
+    pdf = layout.report("P")
+    os.utime(pdf, ns=(pdf.stat().st_mtime_ns - 10**9,) * 2)
+    os.utime(inspection_files(layout.dataset, "inspections", "P")[0])     # committed after its report
+    (layout.reports / "OLD-ID.pdf").write_text("a report of an id no longer stored")
+    layout.server_pid.write_text("999999999\n")
+    (inspection_files(layout.dataset, "thumbnails", "P")[0].parent / "P~dead.parquet").write_bytes(
+        inspection_files(layout.dataset, "thumbnails", "P")[0].read_bytes())
+    found = diagnose(out)
+    kinds = sorted(f.kind for f in found)
+    assert kinds == ["foreign", "incomplete", "report-missing", "report-orphan", "report-stale", "server-pid",
+                     "uncommitted"], found
+    text = "\n".join(map(str, found))
+    assert f"foreign: {readme}: not a Parquet file" in text
+    assert "incomplete: inspection 'P': its measurements file" in text and "is missing" in text
+    assert f"report-stale: {pdf}: older than inspection 'P'" in text
+    said: list[str] = []
+    left = repair(out, said.append)
+    assert [f.kind for f in left] == ["report-orphan"], left          # kept: it is no damage of the dataset
+    assert len(calls) == 2 and len(read_table(layout.dataset, "measurements", inspection_ids=["P"])) == 2
+    assert (layout.dataset / "quarantine" / readme.relative_to(layout.dataset)).is_file()
+    assert not layout.server_pid.exists() and layout.report("GONE").is_file()
+    assert any("P: measured again from" in m for m in said), said

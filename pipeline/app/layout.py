@@ -17,8 +17,9 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from pipeline.reports import report_file_name
+from pipeline.store import inspection_files
 
-__all__ = ["Layout"]
+__all__ = ["Layout", "report_is_current"]
 
 
 @dataclass(frozen=True)
@@ -71,3 +72,14 @@ class _DatasetOnly(Layout):
     @property
     def reports(self) -> Path | None:
         return None
+
+
+def report_is_current(path: Path, dataset: str | os.PathLike, inspection_id: str) -> bool:
+    """A report exists and was rendered after its inspection's last commit (a run killed between the commit
+    and the report leaves an older one, which is then rendered again)."""
+    try:
+        rendered = path.stat().st_mtime_ns
+    except OSError:
+        return False
+    commits = [p.stat().st_mtime_ns for p in inspection_files(dataset, "inspections", inspection_id) if p.is_file()]
+    return not commits or rendered >= max(commits)

@@ -17,14 +17,15 @@ from typing import Callable
 
 from pipeline.app.identity import file_digests, input_key
 from pipeline.app.inbox import link_out, package_id_of
+from pipeline.app.layout import report_is_current
 from pipeline.app.measure import InspectionResult, measure_package
 from pipeline.core.errors import PackageError, PipegaugeError, StoreError
 from pipeline.formats.manifest import load_manifest
 from pipeline.reports import render_inspection_report, report_file_name
-from pipeline.store import commit_problem, inspection_files, stored_input_key, write_inspection
+from pipeline.store import commit_problem, stored_input_key, write_inspection
 from pipeline.vision.video.overlay_ocr import OverlayReader
 
-__all__ = ["PackageOutcome", "process_package", "refused_outcome", "report_is_current"]
+__all__ = ["PackageOutcome", "process_package", "refused_outcome", "render_report"]
 
 
 @dataclass(frozen=True)
@@ -90,7 +91,7 @@ def process_package(folder: str | os.PathLike, dataset: str | os.PathLike, *, mo
     if damage and progress:
         progress(f"{package_id}: stored before, but {damage}: measured again")
     if stored and stored["input_sha256"] == key and damage is None:
-        error = _render(dataset, package_id, reports, missing_only=True)
+        error = render_report(dataset, package_id, reports, missing_only=True)
         return PackageOutcome(str(folder), package_id, stored["status"], _joined(stored["error"], error),
                               stored["n_measurements"] or 0, time.perf_counter() - t0, processed=False)
     result = measure_package(folder, certificates=certificates, model=model, reader=reader, progress=progress,
@@ -103,7 +104,7 @@ def process_package(folder: str | os.PathLike, dataset: str | os.PathLike, *, mo
         rec.update(status="failed", error=f"the results could not be stored ({exc}); please report this")
         write_inspection(dataset, {k: rec.get(k) for k in _FAILED_FIELDS}, [], [], [])
         result.measurements = []
-    error = _render(dataset, rec["inspection_id"], reports)
+    error = render_report(dataset, rec["inspection_id"], reports)
     return PackageOutcome(str(folder), rec["inspection_id"], rec["status"], _joined(rec["error"], error),
                           len(result.measurements), time.perf_counter() - t0, result=result if keep_result else None)
 
@@ -122,7 +123,7 @@ def _other_claimant(stored: dict, folder: Path, package_id: str) -> str | None:
     return str(other) if other.is_dir() and package_id_of(other) == package_id else None
 
 
-def _render(dataset, inspection_id: str, reports, missing_only: bool = False) -> str | None:
+def render_report(dataset, inspection_id: str, reports, missing_only: bool = False) -> str | None:
     """Render an inspection's report; returns why it could not be rendered (the stored result stays)."""
     if not reports:
         return None
@@ -137,17 +138,6 @@ def _render(dataset, inspection_id: str, reports, missing_only: bool = False) ->
         return (f"its PDF report could not be written to {path} ({exc.strerror or exc}); the results are stored: "
                 "make the reports folder writable and rerun to render it")
     return None
-
-
-def report_is_current(path: Path, dataset, inspection_id: str) -> bool:
-    """A report exists and was rendered after its inspection's last commit (a run killed between the commit
-    and the report leaves an older one, which is then rendered again)."""
-    try:
-        rendered = path.stat().st_mtime_ns
-    except OSError:
-        return False
-    commits = [p.stat().st_mtime_ns for p in inspection_files(dataset, "inspections", inspection_id) if p.is_file()]
-    return not commits or rendered >= max(commits)
 
 
 def _joined(*errors: str | None) -> str | None:

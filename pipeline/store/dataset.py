@@ -47,7 +47,7 @@ from pipeline.store.schema import SCHEMA_VERSION, SCHEMAS, TABLES
 _log = logging.getLogger(__name__)
 
 __all__ = ["write_inspection", "read_table", "read_records", "inspection_files", "stored_input_key", "file_stem",
-           "remove_uncommitted", "require_dataset", "commit_problem"]
+           "remove_uncommitted", "require_dataset", "commit_problem", "uncommitted_files"]
 
 _UNSAFE = re.compile(r"[^A-Za-z0-9._-]|^[._]")
 DETAIL_TABLES = ("thumbnails", "measurements", "observations")
@@ -247,18 +247,21 @@ def commit_problem(root: str | os.PathLike, inspection_id: str, stored: dict) ->
     return None
 
 
-def remove_uncommitted(root: str | os.PathLike) -> list[Path]:
-    """Delete the detail files no inspection's commit names (a store killed before or after its commit).
-
-    Call it only while holding the dataset lock, when no store can be in progress.
-    """
+def uncommitted_files(root: str | os.PathLike) -> list[Path]:
+    """The detail files no inspection's commit names (a store killed before or after its commit)."""
     # only the commits' ids, file by file: a bad file of the table neither stops the clean-up nor is read whole
     commits = _read_files(root, "inspections", None, None, None, columns=["inspection_id", "write_id"])
     named = {f"{file_stem(i)}~{w}" for i, w in zip(commits.inspection_id, commits.write_id) if isinstance(w, str)}
-    stale = []
-    for table in DETAIL_TABLES:
-        for path in (Path(root) / table).glob("inspection_date=*/*~*.parquet"):
-            if path.stem not in named:
-                path.unlink(missing_ok=True)
-                stale.append(path)
+    return [path for table in DETAIL_TABLES for path in sorted((Path(root) / table).glob("inspection_date=*/*~*.parquet"))
+            if path.stem not in named]
+
+
+def remove_uncommitted(root: str | os.PathLike) -> list[Path]:
+    """Delete the detail files no inspection's commit names (``uncommitted_files``).
+
+    Call it only while holding the dataset lock, when no store can be in progress.
+    """
+    stale = uncommitted_files(root)
+    for path in stale:
+        path.unlink(missing_ok=True)
     return stale

@@ -714,3 +714,114 @@ def test_doctor_names_every_damage_and_repair_leaves_nothing(tmp_path, monkeypat
     assert (layout.dataset / "quarantine" / readme.relative_to(layout.dataset)).is_file()
     assert not layout.server_pid.exists() and layout.report("GONE").is_file()
     assert any("P: measured again from" in m for m in said), said
+
+
+# -- the night-level test of issue 29's "Must show" -------------------------------------------------------
+
+def _copy_package(inbox: Path, name: str, **manifest) -> Path:
+    import shutil
+
+    folder = inbox / name
+    shutil.copytree(S01, folder, ignore=shutil.ignore_patterns("truth"))
+    doc = json.loads((folder / "package.json").read_text())
+    (folder / "package.json").write_text(json.dumps({**doc, "package_id": name, **manifest}))
+    return folder
+
+
+def _hostile_night(tmp_path: Path) -> tuple[Path, dict[str, str]]:
+    """An inbox: the good S01, and one package per defect of items 1, 3, 14 and 15, each with the reason its
+    line must give."""
+    import shutil
+
+    inbox = tmp_path / "inbox"
+    shutil.copytree(SAMPLES / "certificates", inbox / "certificates")
+    shutil.copytree(S01, inbox / "S01-circular-clean", ignore=shutil.ignore_patterns("truth"))
+    expect = {"S01-circular-clean": ": ok ("}
+    # 1: package.json nested 50,000 deep, a FIFO, a link to /dev/zero
+    (inbox / "deep-manifest").mkdir()
+    (inbox / "deep-manifest" / "package.json").write_text("[" * 50_000 + "]" * 50_000)
+    expect["deep-manifest"] = "nested 50000 deep"
+    (inbox / "fifo-manifest").mkdir()
+    os.mkfifo(inbox / "fifo-manifest" / "package.json")
+    expect["fifo-manifest"] = "is a named pipe (FIFO), not a regular file"
+    (inbox / "zero-manifest").mkdir()
+    (inbox / "zero-manifest" / "package.json").symlink_to("/dev/zero")
+    expect["zero-manifest"] = "outside the package"
+    # 3: a certificate's u of 1e300, a covariance naming a list, a header nested 50,000 deep, contractor mistakes
+    for name, change in (("cert-u", {"intrinsics__fx__u": 1e300}),
+                         ("cert-cov", {"covariance": {"parameters": [["fx"]], "matrix": [[1.0]]}})):
+        _copy_package(inbox, name, certificate_id=name.upper())
+        path = _certificate(tmp_path, certificate_id=name.upper(), **change)
+        path.rename(inbox / "certificates" / f"{name.upper()}.json")
+    expect["cert-u"] = "intrinsics.fx.u': a standard uncertainty of 1e+300 px"
+    expect["cert-cov"] = "covariance.parameters': ['fx'] is not a parameter name"
+    deep = _copy_package(inbox, "deep-header")
+    (deep / "header.json").write_text('{"a": ' * 50_000 + "1" + "}" * 50_000)
+    expect["deep-header"] = "nested 50000 deep"
+    _contractor_mistakes(_copy_package(inbox, "mistakes"))
+    expect["mistakes"] = ": partial ("
+    # 14: a video the run cannot read (a FIFO: the tests may run as root, for whom no mode is unreadable)
+    fifo = _copy_package(inbox, "fifo-video")
+    (fifo / "video.mp4").unlink()
+    os.mkfifo(fifo / "video.mp4")
+    expect["fifo-video"] = "field 'video': 'video.mp4' is not a regular file (a folder, pipe or device)"
+    # 15: a key twice, a 600 KB section id
+    twice = _copy_package(inbox, "dup-keys")
+    (twice / "package.json").write_text((twice / "package.json").read_text()[:-1] + ', "package_id": "other"}')
+    expect["dup-keys"] = "the key 'package_id' appears twice in one object"
+    long = _copy_package(inbox, "long-section")
+    header = json.loads((long / "header.json").read_text())
+    (long / "header.json").write_text(json.dumps({**header, "section_id": "S" * 600_000}))
+    expect["long-section"] = "field 'section_id': 600,000 characters"
+    return inbox, expect
+
+
+def _snapshot(out: Path) -> dict[str, int]:
+    return {str(p.relative_to(out)): p.stat().st_mtime_ns for p in out.rglob("*")
+            if p.is_file() and p.name != ".pipegauge.lock"}
+
+
+@pytest.mark.slow
+def test_a_hostile_night_stores_the_good_names_each_bad_and_a_rerun_rewrites_nothing(tmp_path):
+    from pipeline.store import inspection_files, read_records
+
+    inbox, expect = _hostile_night(tmp_path)
+    out = tmp_path / "out"
+    env = _env(tmp_path)
+    t0 = time.monotonic()
+    first = _cli("run", str(inbox), "--out", str(out), env=env, timeout=900)
+    assert time.monotonic() - t0 < 900
+    assert first.returncode == 1, first.stderr[-3000:]
+    for text in (first.stderr,):
+        assert "Traceback" not in text and "unexpected error" not in text, text[-3000:]
+    lines = {name: next((line for line in first.stderr.splitlines() if f"] {name}: " in line), "")
+             for name in expect}
+    for name, reason in expect.items():
+        assert reason in lines[name], (name, lines[name])
+    stored = {r.inspection_id: r for r in read_records(out / "dataset", "inspections")}
+    assert stored["S01-circular-clean"].status == "ok" and stored["S01-circular-clean"].n_measurements == 8
+    assert stored["mistakes"].status == "partial" and stored["cert-u"].status == "failed"
+    # the dataset damaged (items 2 and 4): a truncated detail file of S01, a README, a folder of no date
+    detail = inspection_files(out / "dataset", "measurements", "S01-circular-clean")[0]
+    detail.write_bytes(detail.read_bytes()[:300])
+    readme = detail.parent / "README.txt"
+    readme.write_text("notes")
+    garbage = out / "dataset" / "observations" / "inspection_date=garbage" / "x.parquet"
+    garbage.parent.mkdir()
+    garbage.write_bytes(b"PAR1")
+    second = _cli("run", str(inbox), "--out", str(out), env=env, timeout=900)
+    assert second.returncode == 1 and "Traceback" not in second.stderr, second.stderr[-3000:]
+    for path in (detail, readme, garbage):
+        assert f"{path}: " in second.stderr and "moved to" in second.stderr, second.stderr[-3000:]
+    s01 = next(line for line in second.stderr.splitlines() if "] S01-circular-clean: " in line)
+    assert ": ok (8 quantities" in s01, s01                     # measured again, not "unchanged"
+    assert len(read_records(out / "dataset", "measurements", inspection_ids=["S01-circular-clean"])) >= 8
+    # the rerun rewrites nothing
+    before = _snapshot(out)
+    third = _cli("run", str(inbox), "--out", str(out), env=env, timeout=900)
+    assert third.returncode == 1 and "Traceback" not in third.stderr, third.stderr[-3000:]
+    assert " 0 processed, " in third.stderr, third.stderr[-2000:]
+    after = _snapshot(out)
+    assert after == before, sorted(set(after.items()) ^ set(before.items()))
+    doctor = _cli("doctor", str(out), env=env)
+    assert doctor.returncode == 0 and "nothing wrong found" in doctor.stderr, doctor.stdout + doctor.stderr

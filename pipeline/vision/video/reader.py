@@ -38,6 +38,9 @@ class VideoInfo:
 
 def _open(path: str | os.PathLike) -> cv2.VideoCapture:
     p = Path(path)
+    if p.exists() and not p.is_file():
+        raise CorruptVideoError(f"{p}: not a regular file (a folder, pipe or device); nothing was read from it: "
+                                "deliver the video itself")
     if not p.is_file():
         raise CorruptVideoError(f"{p}: no such video file; check the package's file list")
     if p.stat().st_size == 0:

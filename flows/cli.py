@@ -1,7 +1,7 @@
 """The ``pipegauge`` command line.
 
 Exit codes: 0 success, 1 a domain error (bad input, failed check), 2 a usage
-error. Messages for people go to stderr; results go to stdout (a table, or
+error, 130 stopped by SIGINT (Ctrl-C), 143 stopped by SIGTERM. Messages for people go to stderr; results go to stdout (a table, or
 JSON with ``--json``). Heavy imports happen inside each verb, so ``--help``
 is instant.
 """
@@ -12,7 +12,9 @@ import argparse
 import datetime as dt
 import json
 import os
+import signal
 import sys
+import threading
 from pathlib import Path
 from typing import Callable, Sequence, cast
 
@@ -26,6 +28,7 @@ from pipeline import __version__  # noqa: E402
 from pipeline.core.errors import PipegaugeError  # noqa: E402
 
 EXIT_OK, EXIT_FAILED, EXIT_USAGE = 0, 1, 2
+EXIT_INTERRUPTED, EXIT_TERMINATED = 128 + 2, 128 + 15     # as the shell reports a process ended by SIGINT, SIGTERM
 
 
 def _image_size(text: str) -> tuple[int, int]:
@@ -369,6 +372,17 @@ def cmd_export(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
+def cmd_doctor(args: argparse.Namespace) -> int:
+    from pipeline.app.doctor import diagnose, repair
+
+    findings = repair(args.out, _say) if args.repair else diagnose(args.out)
+    for finding in findings:
+        print(finding)
+    _say(f"pipegauge doctor: {args.out}: " + (f"{len(findings)} finding(s)" if findings else "nothing wrong found")
+         + ("" if args.repair or not findings else "; `pipegauge doctor OUT --repair` repairs what it can"))
+    return EXIT_FAILED if findings else EXIT_OK
+
+
 def cmd_log(args: argparse.Namespace) -> int:
     from pipeline.formats import read_log_file, validate_exchange
     from pipeline.core.text import format_table
@@ -528,6 +542,16 @@ def build_parser() -> argparse.ArgumentParser:
     ex.add_argument("--to", dest="end", type=_date, help="last inspection date YYYY-MM-DD")
     ex.set_defaults(func=cmd_export)
 
+    dr = verbs.add_parser("doctor", help="check a run's output folder: dataset files, reports and locks against "
+                                         "what the inspections record",
+                          description="Name every damaged, foreign, incomplete or left-over file of OUT's dataset, "
+                                      "every missing or stale PDF report, a stale server pid file and a held lock; "
+                                      "with --repair, quarantine bad files, measure incomplete inspections again and "
+                                      "render reports (docs/operations.md). Exit 1 when something is (still) wrong.")
+    dr.add_argument("out", type=Path, metavar="OUT", help="a run's output folder (or a dataset folder)")
+    dr.add_argument("--repair", action="store_true", help="repair what can be repaired, under the dataset's lock")
+    dr.set_defaults(func=cmd_doctor)
+
     lg = verbs.add_parser("log", help="print a delivered log (observations.csv, VSA-KEK, ISYBAU, DWA-M 150, EN 13508-2 "
                                       "text) as pipegauge reads it",
                           description="Every section of a delivered log with its header, observations and problems, "
@@ -561,12 +585,28 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+class _Terminated(KeyboardInterrupt):
+    """SIGTERM (``kill``, ``timeout``, systemd): the verb stops as Ctrl-C stops it, so every clean-up runs (the
+    embedded server stopped, its pid file removed, temporaries deleted; docs/operations.md, "Signals")."""
+
+
+def _on_sigterm(signum, frame) -> None:
+    raise _Terminated()
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
     func: Callable[[argparse.Namespace], int] = args.func
+    if threading.current_thread() is threading.main_thread():
+        signal.signal(signal.SIGTERM, _on_sigterm)
     try:
         return func(args)
+    except KeyboardInterrupt as exc:
+        what = "SIGTERM" if isinstance(exc, _Terminated) else "SIGINT (Ctrl-C)"
+        _say(f"pipegauge {args.verb}: stopped by {what}; what was stored before is kept whole (each package is one "
+             "commit) and a rerun goes on from there")
+        return EXIT_TERMINATED if isinstance(exc, _Terminated) else EXIT_INTERRUPTED
     except PipegaugeError as exc:
         _say(f"pipegauge {args.verb}: error: {exc}")
         return EXIT_FAILED

@@ -166,7 +166,7 @@ def test_unreadable_files(tmp_path):
         load_certificate(listing)
     binary = tmp_path / "binary.json"
     binary.write_bytes(b"\xff\xfe\x00garbage")
-    with pytest.raises(CertificateError, match="cannot read the certificate"):
+    with pytest.raises(CertificateError, match="binary.json: not UTF-8 text"):
         load_certificate(binary)
 
 

@@ -55,7 +55,7 @@ def test_header_size_contradicting_its_shape(tmp_path):
 def test_header_not_json(tmp_path):
     path = tmp_path / "header.json"
     path.write_text("{shape: circular")
-    with pytest.raises(HeaderError, match="not valid UTF-8 JSON"):
+    with pytest.raises(HeaderError, match="not valid JSON at line 1"):
         load_header(path)
 
 

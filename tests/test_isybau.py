@@ -212,3 +212,12 @@ def test_the_log_verb_prints_every_section_and_its_json(capsys):
     data = json.loads(capsys.readouterr().out)
     assert [s["section"] for s in data["sections"]] == ["H1001", "H1002", "L1001.1"]
     assert [o["code"] for o in data["sections"][0]["observations"]] == ["BCD", "BAB", "BAJ", "BBA", "BBA", "BCE"]
+
+
+def test_every_material_an_exchange_format_maps_to_is_a_material_pipegauge_knows():
+    from pipeline.domain.materials import KNOWN_MATERIALS
+    from pipeline.formats import dwa_m150, en13508_text
+    from pipeline.formats.isybau.codes import MATERIALS
+
+    for table in (MATERIALS, dwa_m150.MATERIALS, en13508_text.MATERIALS):
+        assert set(table.values()) <= KNOWN_MATERIALS, sorted(set(table.values()) - KNOWN_MATERIALS)

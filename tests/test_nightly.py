@@ -174,7 +174,10 @@ def test_good_bad_and_hostile_packages_in_one_night_then_nothing_new(tmp_path, e
     assert kept(_snapshot(out)) == kept(stored_files), "a rerun with nothing new rewrote a file"
 
     # Delivering the missing certificate is new input: that package alone is processed again.
-    shutil.copy(inbox / "certificates" / "SYN-720x576.json", inbox / "certificates" / "CAM-NOWHERE.json")
+    # (the camera's certificate under its own id: a file named for one id holding another is refused, issue 29)
+    certificate = json.loads((inbox / "certificates" / "SYN-720x576.json").read_text())
+    (inbox / "certificates" / "CAM-NOWHERE.json").write_text(json.dumps({**certificate,
+                                                                        "certificate_id": "CAM-NOWHERE"}))
     third = _pipegauge("run", str(inbox), "--out", str(out), env=env)
     assert third.returncode == 1 and "no-certificate: ok" in third.stderr and "1 processed, 12 unchanged" in third.stderr
 

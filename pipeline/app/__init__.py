@@ -12,8 +12,8 @@ The way of one package, a module per step::
 
 ``night`` is the run policy shared by ``pipegauge run``/``serve`` (the Prefect flow wraps it) and
 ``pipegauge measure``: the lock, the crash clean-up, the plan, the progress lines, the summary.
-``layout`` defines the output folder. The verbs' other procedures: ``export``, ``probe``, ``calibration``,
-``paper``.
+``layout`` defines the output folder; ``doctor`` checks and repairs one. The verbs' other procedures: ``export``,
+``probe``, ``calibration``, ``paper``.
 """
 
 from __future__ import annotations
@@ -25,7 +25,8 @@ from typing import Any
 _HOMES = {
     "file_digests": "identity", "file_sha256": "identity", "input_key": "identity", "package_digest": "identity",
     "discover_packages": "inbox", "duplicate_claims": "inbox", "package_id_of": "inbox",
-    "Layout": "layout",
+    "Layout": "layout", "report_is_current": "layout",
+    "diagnose": "doctor", "repair": "doctor",
     "InspectionResult": "measure", "measure_package": "measure",
     "NightPlan": "night", "finish_night": "night", "measure_packages": "night", "plan_night": "night",
     "progress_line": "night", "writing": "night",

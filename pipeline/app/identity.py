@@ -40,7 +40,16 @@ def file_digests(folder: str | os.PathLike) -> dict[str, str]:
         if p.is_symlink() and inside not in p.resolve().parents:
             raise PackageError(f"{p}: a link to {p.resolve()}, outside the package; nothing of the package was read: "
                                "deliver the file itself")
-    return {p.relative_to(folder).as_posix(): file_sha256(p) for p in paths if p.is_file()}
+    return {p.relative_to(folder).as_posix(): _digest(p) for p in paths if p.is_file()}
+
+
+def _digest(path: Path) -> str:
+    """A file's SHA-256, or what keeps it from being read (the package is then measured, and fails naming the
+    file; the key changes when the file becomes readable)."""
+    try:
+        return file_sha256(path)
+    except OSError as exc:
+        return f"unreadable: {exc.strerror or exc}"
 
 
 def package_digest(digests: dict[str, str]) -> str:
@@ -58,7 +67,7 @@ def input_key(manifest: PackageManifest | None, digests: dict[str, str], certifi
         if manifest is None:
             raise PipegaugeError("no readable package.json")
         certificate = file_sha256(certificate_path(manifest, certificates))
-    except PipegaugeError as exc:
+    except (PipegaugeError, OSError) as exc:
         certificate = f"unavailable: {exc}"
     parts = [package_digest(digests), certificate, __version__, model]
     return hashlib.sha256("\n".join(parts).encode()).hexdigest()

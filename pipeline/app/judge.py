@@ -98,7 +98,8 @@ def logged_survey(header, observations) -> str:
 def _survey(track, header, observations):
     if track is None or len(track.values) == 0:
         return None
-    start, end = float(track.values[0]), float(max(track.values))
+    # the stretch the counter covered, whichever way it ran (a counter running backwards starts at its maximum)
+    start, end = float(min(track.values)), float(max(track.values))
     return survey_verdict(start, float(track.counter.u(start)), end, float(track.counter.u(end)),
                           header.section_length_m, [(o.row, o.code, o.distance_m) for o in observations])
 

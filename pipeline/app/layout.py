@@ -17,8 +17,9 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from pipeline.reports import report_file_name
+from pipeline.store import inspection_files
 
-__all__ = ["Layout"]
+__all__ = ["Layout", "report_is_current"]
 
 
 @dataclass(frozen=True)
@@ -33,7 +34,12 @@ class Layout:
         folder itself, which keeps no reports (``pipegauge measure --data DATASET`` as before there were OUTs).
         """
         folder = Path(folder)
-        return cls(folder) if (folder / "dataset").is_dir() else _DatasetOnly(folder)
+        out = cls(folder)
+        # a run's OUT also before its dataset exists: it holds reports or a run's server file, never inspections/
+        if (folder / "dataset").is_dir() or (not (folder / "inspections").is_dir()
+                                             and (out.server_pid.exists() or (folder / "reports").is_dir())):
+            return out
+        return _DatasetOnly(folder)
 
     @property
     def dataset(self) -> Path:
@@ -66,3 +72,14 @@ class _DatasetOnly(Layout):
     @property
     def reports(self) -> Path | None:
         return None
+
+
+def report_is_current(path: Path, dataset: str | os.PathLike, inspection_id: str) -> bool:
+    """A report exists and was rendered after its inspection's last commit (a run killed between the commit
+    and the report leaves an older one, which is then rendered again)."""
+    try:
+        rendered = path.stat().st_mtime_ns
+    except OSError:
+        return False
+    commits = [p.stat().st_mtime_ns for p in inspection_files(dataset, "inspections", inspection_id) if p.is_file()]
+    return not commits or rendered >= max(commits)

@@ -12,6 +12,8 @@ from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
 from pipeline.camera import Certificate
+from pipeline.core.errors import CertificateError
+from pipeline.domain.materials import material_problem
 from pipeline.domain.records import Mark, Observation, RowProblem, SectionHeader
 from pipeline.domain.results import InspectionRecord
 from pipeline.core.errors import PipegaugeError
@@ -47,6 +49,7 @@ class Delivery:
     mark_problems: list[RowProblem]
     certificate: Certificate
     log_problems: list[str] = field(default_factory=list)   # the section's and its file's, not a row's
+    header_problems: tuple[str, ...] = ()     # what of the header is read but doubtful (an unknown material)
 
     @property
     def video_sha256(self) -> str | None:
@@ -92,7 +95,13 @@ def load_delivery(folder: str | os.PathLike, record: InspectionRecord, *,
     else:
         marks, mark_problems = read_marks(manifest.marks, observations)
     cert = load_certificate(certificate_path(manifest, certificates))
+    if cert.certificate_id != manifest.certificate_id:
+        raise CertificateError(f"{cert.source}: holds certificate {cert.certificate_id!r}, but the package names "
+                               f"{manifest.certificate_id!r} (its package.json) and the file is named for it: "
+                               "another camera's certificate is in its place; put the camera's own certificate there")
     record.update(certificate_id=cert.certificate_id, certificate_valid_until=cert.valid_until,
                   camera=" ".join(str(cert.camera.get(k, "")) for k in ("make", "model", "serial")).strip() or None)
     cert.check_valid_on(header.inspection_date)
-    return Delivery(folder, manifest, digests, header, observations, marks, mark_problems, cert, log_problems)
+    source = manifest.header or manifest.transfer
+    doubtful = tuple(f"{source.name if source else 'header'}: {p}" for p in [material_problem(header.material)] if p)
+    return Delivery(folder, manifest, digests, header, observations, marks, mark_problems, cert, log_problems, doubtful)

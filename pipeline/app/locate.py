@@ -54,7 +54,7 @@ def locate(delivery: Delivery, record: InspectionRecord, reader: OverlayReader |
     record.update(video_file=manifest.video.name, video_sha256=delivery.video_sha256, video_frames=info.frame_count,
                   video_fps=info.fps, video_width_px=info.width, video_height_px=info.height,
                   chainage_read_rate=ingest.read_rate)
-    record.warnings = overlay_header_mismatches(ingest.overlay_text, asdict(delivery.header))
+    record.warnings = overlay_header_mismatches(ingest.overlay_text, asdict(delivery.header)) + ingest.track.warnings()
     und = Undistorter(cert, info.width, info.height, what=str(manifest.video))
     mask = overlay_mask_of(ingest.spread_frames.values(), und)
     record.time_track_s = time.perf_counter() - t0

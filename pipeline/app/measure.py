@@ -112,15 +112,17 @@ def measure_package(folder: str | os.PathLike, *, certificates: str | os.PathLik
     marks, ingest, info, und, mask = delivery.marks, where.ingest, where.info, where.undistorter, where.mask
 
     result = InspectionResult(record, [observation_record(o) for o in observations])
-    problems: list[str] = [*delivery.log_problems, *(str(p) for o in observations for p in o.problems),
-                           *(str(p) for p in delivery.mark_problems)]
-    by_row = {o.row: o for o in observations}
+    problems: list[str] = [*delivery.log_problems, *delivery.header_problems,
+                           *(str(p) for o in observations for p in o.problems), *(str(p) for p in delivery.mark_problems)]
+    by_row: dict[int, Observation] = {}
+    for o in observations:      # a row number used twice (a problem of the log): its first row stands for it
+        by_row.setdefault(o.row, o)
     ideal_frames: dict[int, np.ndarray] = {}
     by_frame: dict[int, list[Mark]] = defaultdict(list)
     for m in marks:
         by_frame[m.frame].append(m)
     automatic = {o.row: _automatic_frame(o, [m for m in marks if m.row == o.row], ingest.track, info)
-                 for o in observations if measurable_automatically(o)}
+                 for o in by_row.values() if measurable_automatically(o)}
     frames = sorted({f for f in [*by_frame, *(f for f in automatic.values() if f is not None)] if 0 <= f < info.frame_count})
     t0 = time.perf_counter()
     say(f"{manifest.package_id}: pipe contours at {len(frames)} frame(s)")
@@ -177,10 +179,23 @@ def measure_package(folder: str | os.PathLike, *, certificates: str | os.PathLik
             assert marked is not None               # a run is queued only for a marked quantity
             try:
                 row.update(_quantity_fields(future.result()))
+                _check_distance(row)
                 result.thumbnails.append(_thumbnail(ideal(m.frame), contours[m.frame], marked, m.row, m.frame, "marks"))
             except PipegaugeError as exc:
                 row.update(status="error", error=str(exc))
         result.measurements.append(row)
+    # a quantity whose marks were refused while reading them is a row of its own, not measured, with the reason
+    measured = {(r.row, r.quantity) for r in result.measurements if r.source == "marks"}
+    refused: dict[tuple[int, str], list[str]] = defaultdict(list)
+    for p in delivery.mark_problems:
+        if p.quantity is not None and p.quantity not in measured:
+            refused[p.quantity].append(f"{p.where}, field {p.field!r}: {p.message}")
+    for (r, quantity), why in sorted(refused.items()):
+        obs = by_row[r]
+        result.measurements.append(MeasurementRecord(
+            row=r, quantity=quantity, source="marks", code=obs.code, char1=obs.char1, char2=obs.char2, model=model,
+            distance_m=obs.distance_m, operator_value=obs.q1 if quantity == "Q1" else obs.q2, status="error",
+            error=f"its marks were refused ({manifest.marks.name}): " + "; ".join(why)))
     for r, found in sorted(automatic.items()):
         obs = by_row[r]
         row = _automatic_base(obs, found, ingest.track, model)
@@ -193,6 +208,7 @@ def measure_package(folder: str | os.PathLike, *, certificates: str | os.PathLik
                                        seed=_seed(manifest.package_id, r, "Q1 contour"))
             t_measure += time.perf_counter() - t0
             row.update(_quantity_fields(res), u_mark_px=q.u_a)
+            _check_distance(row)
             result.thumbnails.append(_thumbnail(ideal(found), contours[found], q, r, found, "contour"))
         except PipegaugeError as exc:
             row.update(status="error", error=str(exc))
@@ -219,6 +235,33 @@ def _log_only(record: InspectionRecord, why: LogOnly, t_start: float) -> Inspect
                   n_problems=len(problems), problems=problems, survey_statement=logged_survey(why.header, observations),
                   time_total_s=time.perf_counter() - t_start)
     return result
+
+
+# The logged distance and the chainage at the measured frame agree within DISTANCE_GAP_K standard uncertainties of
+# the chainage plus the log's display step; a larger gap means the frame is not the observation's (a cut or a
+# splice in the video, a mark on the wrong frame): the quantity is measured but flagged, not confident.
+DISTANCE_GAP_K = 2.0
+LOG_STEP_M = 0.01
+
+
+def distance_gap(chainage_m: float | None, u_chainage_m: float | None, distance_m: float | None) -> str | None:
+    """Why the chainage at a quantity's frame disagrees with its logged distance [m], or None."""
+    if not all(isinstance(x, float) and np.isfinite(x) for x in (chainage_m, u_chainage_m, distance_m)):
+        return None
+    assert chainage_m is not None and u_chainage_m is not None and distance_m is not None
+    allowed = DISTANCE_GAP_K * u_chainage_m + LOG_STEP_M
+    gap = abs(chainage_m - distance_m)
+    if gap <= allowed:
+        return None
+    return (f"the chainage at the measured frame is {chainage_m:.2f} m, the log says {distance_m:.2f} m ({gap:.2f} m "
+            f"apart, more than the {allowed:.2f} m they may differ by): the frame may not show this observation "
+            "(a cut in the video, or a mark on another frame)")
+
+
+def _check_distance(row: MeasurementRecord) -> None:
+    why = distance_gap(row.chainage_m, row.u_chainage_m, row.distance_m)
+    if why is not None:
+        row.update(confident=False, warnings="; ".join(w for w in (row.warnings, why) if w))
 
 
 def _thumbnail(ideal_bgr: np.ndarray, contour, marked: MarkedQuantity, row: int, frame: int,

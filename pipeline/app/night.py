@@ -22,7 +22,7 @@ from pipeline.app.layout import Layout
 from pipeline.app.process import PackageOutcome, process_package, refused_outcome
 from pipeline.formats.manifest import CERTIFICATES_FOLDER
 from pipeline.reports import render_night_summary
-from pipeline.store import remove_uncommitted
+from pipeline.store import TABLES, check_files, quarantine, remove_uncommitted
 from pipeline.store.lock import dataset_lock, remove_stale_temporaries
 
 __all__ = ["writing", "NightPlan", "plan_night", "progress_line", "finish_night", "measure_packages"]
@@ -36,11 +36,14 @@ def _quiet(message: str) -> None:
 
 @contextlib.contextmanager
 def writing(layout: Layout, say: Say = _quiet) -> Iterator[Layout]:
-    """Hold the dataset's lock and clean up what an interrupted run left (temporaries, uncommitted files).
+    """Hold the dataset's lock, move its bad files to quarantine (``pipeline.store.files``) and clean up what an
+    interrupted run left (temporaries, uncommitted files).
 
     A second writer of the same dataset, in this process or another, is refused at once (StoreError).
     """
     with dataset_lock(layout.dataset):
+        for item, target in quarantine(layout.dataset, check_files(layout.dataset, TABLES)):
+            say(f"{item.path}: {item.problem}; moved to {target} (the rest of the dataset is read without it)")
         stale = remove_stale_temporaries(layout.out) + remove_uncommitted(layout.dataset)
         if stale:
             say(f"removed {len(stale)} file(s) left by an interrupted run")
@@ -93,7 +96,11 @@ def finish_night(rows: Sequence[dict], layout: Layout, night: dt.date | None = N
     """The night's summary: rendered when a package was processed tonight or none exists yet, else kept."""
     path = layout.summary(night or dt.date.today())
     if any(r["processed"] for r in rows) or not path.is_file():
-        say(f"nightly summary: {render_night_summary(list(rows), layout.dataset, path)}")
+        try:
+            say(f"nightly summary: {render_night_summary(list(rows), layout.dataset, path)}")
+        except OSError as exc:      # the night's results are stored: a summary that cannot be written stops nothing
+            say(f"nightly summary: could not be written to {path} ({exc.strerror or exc}); the results are stored: "
+                "make the folder writable and rerun to render it")
     else:
         say(f"nightly summary: {path} (nothing new tonight: kept as it was)")
     return path

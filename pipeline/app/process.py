@@ -18,14 +18,15 @@ from typing import Callable
 from pipeline.app.delivery import section_digests, section_manifest
 from pipeline.app.identity import file_digests, input_key
 from pipeline.app.inbox import link_out, package_id_of
+from pipeline.app.layout import report_is_current
 from pipeline.app.measure import InspectionResult, measure_package
 from pipeline.core.errors import PackageError, PipegaugeError, StoreError
 from pipeline.formats.manifest import load_manifest
 from pipeline.reports import render_inspection_report, report_file_name
-from pipeline.store import stored_input_key, write_inspection
+from pipeline.store import commit_problem, stored_input_key, write_inspection
 from pipeline.vision.video.overlay_ocr import OverlayReader
 
-__all__ = ["PackageOutcome", "process_package", "refused_outcome"]
+__all__ = ["PackageOutcome", "process_package", "refused_outcome", "render_report"]
 
 
 @dataclass(frozen=True)
@@ -105,8 +106,11 @@ def process_package(folder: str | os.PathLike, dataset: str | os.PathLike, *, mo
         return refused_outcome(folder, f"package id {package_id!r} is stored from {other}, which still holds it; nothing "
                                        "of this folder was read or stored: give each package its own package_id",
                                package_id)
-    if stored and stored["input_sha256"] == key:
-        error = _render(dataset, package_id, reports, missing_only=True)
+    damage = commit_problem(dataset, package_id, stored) if stored and stored["input_sha256"] == key else None
+    if damage and progress:
+        progress(f"{package_id}: stored before, but {damage}: measured again")
+    if stored and stored["input_sha256"] == key and damage is None:
+        error = render_report(dataset, package_id, reports, missing_only=True)
         return PackageOutcome(str(folder), package_id, stored["status"], _joined(stored["error"], error),
                               stored["n_measurements"] or 0, time.perf_counter() - t0, processed=False,
                               section=section)
@@ -120,7 +124,7 @@ def process_package(folder: str | os.PathLike, dataset: str | os.PathLike, *, mo
         rec.update(status="failed", error=f"the results could not be stored ({exc}); please report this")
         write_inspection(dataset, {k: rec.get(k) for k in _FAILED_FIELDS}, [], [], [])
         result.measurements = []
-    error = _render(dataset, rec["inspection_id"], reports)
+    error = render_report(dataset, rec["inspection_id"], reports)
     return PackageOutcome(str(folder), rec["inspection_id"], rec["status"], _joined(rec["error"], error),
                           len(result.measurements), time.perf_counter() - t0, result=result if keep_result else None,
                           section=section)
@@ -140,17 +144,20 @@ def _other_claimant(stored: dict, folder: Path, package_id: str) -> str | None:
     return str(other) if other.is_dir() and package_id_of(other) == package_id else None
 
 
-def _render(dataset, inspection_id: str, reports, missing_only: bool = False) -> str | None:
+def render_report(dataset, inspection_id: str, reports, missing_only: bool = False) -> str | None:
     """Render an inspection's report; returns why it could not be rendered (the stored result stays)."""
     if not reports:
         return None
     path = Path(reports) / report_file_name(inspection_id)
-    if missing_only and path.is_file():
+    if missing_only and report_is_current(path, dataset, inspection_id):
         return None
     try:
         render_inspection_report(dataset, inspection_id, path)
     except PipegaugeError as exc:
         return f"its PDF report could not be rendered ({exc})"
+    except OSError as exc:          # the results are stored: a report that cannot be written fails no package
+        return (f"its PDF report could not be written to {path} ({exc.strerror or exc}); the results are stored: "
+                "make the reports folder writable and rerun to render it")
     return None
 
 

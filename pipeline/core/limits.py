@@ -11,7 +11,7 @@ parsed.
 from __future__ import annotations
 
 __all__ = [
-    "MAX_JSON_BYTES", "MAX_CSV_BYTES", "MAX_LOG_ROWS", "MAX_MARK_LINES", "MAX_ROW_NUMBER", "MAX_FRAME_INDEX",
+    "MAX_JSON_BYTES", "MAX_JSON_DEPTH", "MAX_CSV_BYTES", "MAX_LOG_ROWS", "MAX_MARK_LINES", "MAX_ROW_NUMBER", "MAX_FRAME_INDEX",
     "MAX_DISTANCE_M", "MAX_REMARK_CHARS", "MAX_TEXT_FIELD_CHARS", "MAX_VIDEO_BYTES", "MAX_VIDEO_SECONDS",
     "MAX_IMAGE_PIXELS", "MAX_IMAGE_SIDE_PX", "MAX_REPORT_OBSERVATIONS", "MAX_REPORT_QUANTITIES",
     "MAX_REPORT_WARNINGS", "MAX_TRANSFER_BYTES", "MAX_EXCHANGE_BYTES", "MAX_EXCHANGE_ELEMENTS",
@@ -20,6 +20,7 @@ __all__ = [
 
 # Delivered text files.
 MAX_JSON_BYTES = 1 << 20            # package.json, header.json, a certificate [bytes]
+MAX_JSON_DEPTH = 32                 # nesting of arrays and objects in one of them (ours nest at most 4)
 MAX_CSV_BYTES = 16 << 20            # observations.csv, marks.csv [bytes]
 MAX_TRANSFER_BYTES = 16 << 20       # an exchange file of one inspection (e.g. a VSA-KEK transfer) [bytes]
 MAX_EXCHANGE_BYTES = 64 << 20      # an exchange file of a whole job (ISYBAU, DWA-M 150, EN 13508-2 text) [bytes]

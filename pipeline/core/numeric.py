@@ -16,10 +16,13 @@ __all__ = ["finite_number", "is_missing", "is_finite", "whole_number"]
 def finite_number(x: Any) -> float | None:
     """``x`` as a finite float, or None (absent, not a number, text that is none, NaN, infinite).
 
-    >>> finite_number("2.5"), finite_number(""), finite_number(float("nan")), finite_number(None)
-    (2.5, None, None, None)
+    Text is read as a plain decimal number: Python's ``float`` also takes digit groups ("1_0.0" is 10.0), which
+    no delivery means, so text with an underscore is not a number.
+
+    >>> finite_number("2.5"), finite_number(""), finite_number(float("nan")), finite_number(None), finite_number("1_0.0")
+    (2.5, None, None, None, None)
     """
-    if isinstance(x, bool):
+    if isinstance(x, bool) or (isinstance(x, str) and "_" in x):
         return None
     try:
         value = float(x)

@@ -27,6 +27,8 @@ class RowProblem:
     where: str        # "row 3" (the log's row number as delivered) or "line 5" (a line of marks.csv)
     field: str
     message: str
+    # the (row, quantity) of the log a refused mark leaves unmeasured, when it names one (marks.csv)
+    quantity: tuple[int, str] | None = None
 
     def __str__(self) -> str:
         return f"{self.file} {self.where}, field {self.field!r}: {self.message}"

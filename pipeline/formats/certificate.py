@@ -19,9 +19,9 @@ import numpy as np
 
 from pipeline.core.atomic import atomic_path
 from pipeline.core.errors import CertificateError
-from pipeline.core.limits import MAX_JSON_BYTES
 from pipeline.camera import Certificate, Parameter
 from pipeline.camera.conventions import CONVENTIONS, OPTIONAL_ZERO, PARAMETERS, REQUIRED
+from pipeline.formats.jsonfile import read_json
 
 __all__ = ["FORMAT_NAME", "FORMAT_VERSION", "certificate_from_dict", "load_certificate", "certificate_to_dict",
            "save_certificate"]
@@ -183,6 +183,8 @@ def certificate_from_dict(doc: Any, source: str = "<memory>") -> Certificate:
             raise rd.fail(f"intrinsics.{name}.value", f"principal point {params[name].value} px lies outside the "
                           f"{width}x{height} image", "check the value and the image size")
 
+    _check_plausible(rd, params, convention, width, height)
+
     covariance = None
     if "covariance" in doc:
         covariance = _read_covariance(rd, doc["covariance"], params, raw, pitch)
@@ -218,12 +220,52 @@ def certificate_from_dict(doc: Any, source: str = "<memory>") -> Certificate:
     )
 
 
+# What a real camera's calibration can say (docs/certificate-format.md, "Plausibility"): a focal length of
+# 0.05-50 image diagonals (a 250-degree fisheye to a 1-degree telephoto), distortion coefficients in OpenCV's
+# dimensionless form within +-1000 (a wide-angle fit reaches tens), tangential terms within +-1, and
+# uncertainties under these spans (a focal length's under half its value). A certificate outside them is a
+# typing or unit error, refused before a measurement would blame the image for it.
+FOCAL_DIAGONALS = (0.05, 50.0)
+MAX_RADIAL = 1000.0         # |k1|, |k2|, |k3| in the opencv convention [1]
+MAX_TANGENTIAL = 1.0        # |p1|, |p2| in the opencv convention [1]
+
+
+def _check_plausible(rd: _Reader, params: dict[str, Parameter], convention: str, width: int, height: int) -> None:
+    diagonal = math.hypot(width, height)
+    low, high = (d * diagonal for d in FOCAL_DIAGONALS)
+    f = params["f" if convention == "pixel" else "fx"].value
+    for name, p in params.items():
+        where = f"intrinsics.{name}"
+        if name in ("f", "fx", "fy"):
+            if not low <= p.value <= high:
+                raise rd.fail(f"{where}.value", f"{p.value:g} px is no focal length of a {width}x{height} px camera "
+                              f"(plausible: {low:.0f}-{high:.0f} px, 0.05-50 image diagonals)",
+                              "check the value and its unit (px or mm)")
+            span = 0.5 * p.value
+        elif name in ("cx", "cy"):
+            span = float(width if name == "cx" else height)
+        else:
+            # the pixel convention's k_n [px^-2n] and p [px^-1] in OpenCV's dimensionless form
+            order = int(name[1]) if name.startswith("k") else 0
+            scale = (f ** (2 * order) if name.startswith("k") else f) if convention == "pixel" else 1.0
+            span = MAX_RADIAL if name.startswith("k") else MAX_TANGENTIAL
+            if not abs(p.value * scale) <= span:
+                raise rd.fail(f"{where}.value", f"{p.value:g} {p.unit} is no distortion coefficient of a real lens "
+                              f"(plausible: within +-{span:g} in OpenCV's dimensionless form)", "check the value")
+            span /= scale
+        if not p.u <= span:
+            raise rd.fail(f"{where}.u", f"a standard uncertainty of {p.u:g} {p.unit} says the parameter is not "
+                          f"calibrated (plausible: at most {span:.3g} {p.unit})", "check the value")
+
+
 def _read_covariance(rd: _Reader, cov: Any, params: dict[str, Parameter], raw: Mapping, pitch: float):
     if not isinstance(cov, dict):
         raise rd.fail("covariance", "must be an object with 'parameters' and 'matrix'", "see docs/certificate-format.md")
     names = rd.get(cov, "parameters", list, "covariance.")
     matrix = rd.get(cov, "matrix", list, "covariance.")
     for name in names:
+        if not isinstance(name, str):
+            raise rd.fail("covariance.parameters", f"{name!r} is not a parameter name", "list the names as text")
         if name not in params:
             raise rd.fail("covariance.parameters", f"{name!r} is not an intrinsic parameter", f"use names from {list(params)}")
     if len(set(names)) != len(names):
@@ -267,22 +309,8 @@ def load_certificate(
         given, a different calibrated size raises CertificateError
     """
     source = str(path)
-    try:
-        size = Path(path).stat().st_size
-        if size > MAX_JSON_BYTES:
-            raise CertificateError(f"{source}: {size:,} bytes; a certificate is a JSON file of at most "
-                                   f"{MAX_JSON_BYTES:,} bytes (docs/operations.md, input limits); check the file")
-        text = Path(path).read_text(encoding="utf-8")
-    except FileNotFoundError:
-        raise CertificateError(f"{source}: no such certificate file; check the path or the certificate id") from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise CertificateError(f"{source}: cannot read the certificate ({exc}); supply a UTF-8 JSON file") from None
-    try:
-        doc = json.loads(text)
-    except json.JSONDecodeError as exc:
-        raise CertificateError(
-            f"{source}: not valid JSON at line {exc.lineno}, column {exc.colno} ({exc.msg}); fix the file"
-        ) from None
+    doc = read_json(Path(path), CertificateError, "no such certificate file; check the path or the certificate id",
+                    "; supply the certificate as a UTF-8 JSON file (docs/certificate-format.md)")
     cert = certificate_from_dict(doc, source)
     if on_date is not None:
         cert.check_valid_on(on_date)

@@ -6,6 +6,7 @@ Shared by the formats that are CSV tables (``observation_log``, ``marks``); each
 from __future__ import annotations
 
 import csv
+import stat
 from pathlib import Path
 
 from pipeline.core.errors import ObservationLogError
@@ -17,7 +18,11 @@ __all__ = ["read_table", "too_many", "clip"]
 def read_table(path: Path, required: tuple[str, ...], what: str, max_rows: int) -> list[dict[str, str]]:
     """The rows of a delivered CSV file, refused whole when it is larger than the limits (pipeline.core.limits)."""
     try:
-        size = path.stat().st_size
+        info = path.stat()
+        if not stat.S_ISREG(info.st_mode):     # a FIFO would block the open, a device never end
+            raise ObservationLogError(f"{path}: not a regular file (a folder, pipe or device); nothing was read "
+                                      f"from it: deliver the {what} itself")
+        size = info.st_size
         if size > MAX_CSV_BYTES:
             raise ObservationLogError(f"{path}: {size:,} bytes; pipegauge reads {_a(what)} of at most "
                                       f"{MAX_CSV_BYTES:,} bytes (docs/operations.md, input limits); check the file")
@@ -31,6 +36,9 @@ def read_table(path: Path, required: tuple[str, ...], what: str, max_rows: int) 
                 rows.append(raw)
     except FileNotFoundError:
         raise ObservationLogError(f"{path}: the {what} is missing; the package must hold it (docs/formats.md)") from None
+    except PermissionError:
+        raise ObservationLogError(f"{path}: cannot be read (permission denied); give the user running pipegauge read "
+                                  "access to the file") from None
     except (UnicodeDecodeError, csv.Error) as exc:
         raise ObservationLogError(f"{path}: cannot be read as UTF-8 CSV ({exc}); save it as UTF-8 comma-separated values") from None
     missing = [c for c in required if c not in columns]

@@ -14,6 +14,7 @@ from pathlib import Path
 
 from pipeline.core.atomic import atomic_path
 from pipeline.core.errors import HeaderError
+from pipeline.core.limits import MAX_TEXT_FIELD_CHARS
 from pipeline.maths.profiles import SHAPES, profile_width
 from pipeline.domain.records import SectionHeader
 from pipeline.formats.jsonfile import read_json
@@ -51,7 +52,11 @@ def load_header(path: str | os.PathLike) -> SectionHeader:
 def _text(data: dict, key: str, problems: list[str], required: bool = True) -> str:
     value = data.get(key, "")
     if not isinstance(value, str) or (required and not value.strip()):
-        problems.append(f"field {key!r}: expected non-empty text, got {value!r}")
+        problems.append(f"field {key!r}: expected non-empty text, got {str(value)[:60]!r}")
+        return ""
+    if len(value.strip()) > MAX_TEXT_FIELD_CHARS:
+        problems.append(f"field {key!r}: {len(value.strip()):,} characters; a header's text field holds at most "
+                        f"{MAX_TEXT_FIELD_CHARS} (docs/operations.md, input limits); shorten it")
         return ""
     return value.strip()
 

@@ -99,6 +99,9 @@ def load_manifest(folder: str | os.PathLike) -> PackageManifest:
         target = (folder / str(name)).resolve()
         if not isinstance(name, str) or folder.resolve() not in target.parents:
             problems.append(f"field {key!r}: {name!r} must name a file inside the package folder")
+        elif target.exists() and not target.is_file():
+            problems.append(f"field {key!r}: {name!r} is not a regular file (a folder, pipe or device); nothing was "
+                            "read from it: deliver the file itself")
         elif not target.is_file():
             problems.append(f"field {key!r}: the file {name!r} is missing from the package")
         files[key] = folder / str(name)

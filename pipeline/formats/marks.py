@@ -31,28 +31,42 @@ def read_marks(path: str | os.PathLike, observations: list[Observation]) -> tupl
     """
     path = Path(path)
     name = path.name
-    by_row = {o.row: o for o in observations}
+    by_row: dict[int, Observation] = {}
+    twice = set()
+    for o in observations:          # a row number used twice: its marks cannot be told apart (the log flags it)
+        if o.row in by_row:
+            twice.add(o.row)
+        by_row.setdefault(o.row, o)
     problems: list[RowProblem] = []
     groups: dict[tuple[int, str], dict[str, tuple]] = {}
     for line, raw in enumerate(read_table(path, MARK_COLUMNS, "marks file", MAX_MARK_LINES), start=2):
         f = {k: (raw.get(k) or "").strip() for k in (*MARK_COLUMNS, *MARK_OPTIONAL_COLUMNS)}
         where = f"line {line}"
 
-        def bad(column: str, message: str) -> None:
-            problems.append(RowProblem(name, where, column, message))
-
         row, frame = _int(f["row"]), _int(f["frame"])
         x, y = _float(f["x_px"]), _float(f["y_px"])
         quantity, point = f["quantity"].upper(), f["point"].lower()
+        # a refused line of a quantity the log asks for leaves that quantity unmeasured: say which
+        wanted: tuple[int, str] | None = (row, quantity) if row is not None and row in by_row and quantity in ("Q1", "Q2") \
+            else None
+
+        def bad(column: str, message: str) -> None:
+            problems.append(RowProblem(name, where, column, message, wanted))
+
         u = _float(f["u_px"]) if f["u_px"] else DEFAULT_MARK_U_PX
         if row not in by_row:
             bad("row", f"{_clip(f['row'], 20)!r} is not a row of the observation log")
+            continue
+        if row in twice:
+            bad("row", f"row {row} is used twice in the observation log, so its marks cannot be told apart; number "
+                       "the log's rows uniquely")
             continue
         obs = by_row[row]
         q = obs.quantification(quantity) if quantity in ("Q1", "Q2") else None
         if quantity not in ("Q1", "Q2"):
             bad("quantity", f"{f['quantity']!r}: use Q1 or Q2")
         elif q is None or q.method is None:
+            wanted = None           # nothing of the log goes unmeasured for it
             bad("quantity", f"row {row} is {(obs.code + ' ' + obs.char1).strip()}: its {quantity} is not measured in the image")
         if point not in ("a", "b"):
             bad("point", f"{f['point']!r}: use a or b")
@@ -72,12 +86,14 @@ def read_marks(path: str | os.PathLike, observations: list[Observation]) -> tupl
     marks = []
     for (row, quantity), group in sorted(groups.items()):
         if set(group) != {"a", "b"}:
-            problems.append(RowProblem(name, f"row {row}", "point", f"{quantity} needs two points a and b, got {sorted(group)}"))
+            problems.append(RowProblem(name, f"row {row}", "point", f"{quantity} needs two points a and b, got {sorted(group)}",
+                                       (row, quantity)))
             continue
         (fa, pa, ua, la), (fb, pb, ub, lb) = group["a"], group["b"]
         if fa != fb:
             problems.append(RowProblem(name, f"lines {la}-{lb}", "frame", f"row {row} {quantity}: points a and b are on "
-                                                                          f"frames {fa} and {fb}; mark both on one frame"))
+                                                                          f"frames {fa} and {fb}; mark both on one frame",
+                                       (row, quantity)))
             continue
         marks.append(Mark(row, quantity, fa, pa, pb, max(ua, ub), (la, lb)))
     return marks, problems

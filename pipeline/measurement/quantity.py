@@ -255,6 +255,9 @@ def measure_quantity(q: MarkedQuantity, contour: PipeContour, cert: Certificate,
         raise MeasurementError(f"{q.code} {q.quantity}: no camera pose could be fitted ({'; '.join(contour.problems)})")
     reference = reference_dimension(shape, q.char1)
     a, b = np.asarray(q.a, float), np.asarray(q.b, float)
+    if not np.linalg.norm(b - a) > 0:       # nothing to scale: the ratios below would divide by zero
+        raise MeasurementError(f"{q.code} {q.quantity}: its points a and b are the same point {tuple(q.a)} px; "
+                               "mark the two ends of the extent")
     # only the image separation along the measured extent scales to it; the rest is the nuisance
     direction = _image_direction(view, q.method, a, b)
     p_X = float(np.linalg.norm(b - a)) if direction is None else float(abs(np.dot(b - a, direction)))
@@ -340,7 +343,7 @@ def measure_quantity(q: MarkedQuantity, contour: PipeContour, cert: Certificate,
                  "the feature is not in a cross-section plane square to the camera")
         reasons.append(f"orthographic model off by {abs(v_ortho - v_persp):.3g} {method.unit} against the perspective "
                        f"model {where}")
-    below_resolution = method.unit == "mm" and p_X < RESOLUTION_PX
+    below_resolution = p_X < RESOLUTION_PX      # in mm or % alike: the value is then below its interval's low end
     if below_resolution:
         reasons.append(f"below the image's resolution: the marks are {p_X:.2g} px apart along the measured extent "
                        f"(under {RESOLUTION_PX:g} px); only the upper bound {high:.3g} {method.unit} is measured")

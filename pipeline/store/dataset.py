@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import datetime as dt
 import hashlib
+import logging
 import os
 import re
 import secrets
@@ -40,10 +41,13 @@ from pipeline.core.atomic import atomic_path
 from pipeline.core.errors import StoreError
 from pipeline.domain.results import RECORDS, InspectionRecord, MeasurementRecord, ObservationRecord, Record, ThumbnailRecord
 from pipeline.store.rows import as_record, from_row, to_row
+from pipeline.store.files import QUARANTINE, BadFile, table_files
 from pipeline.store.schema import SCHEMA_VERSION, SCHEMAS, TABLES
 
+_log = logging.getLogger(__name__)
+
 __all__ = ["write_inspection", "read_table", "read_records", "inspection_files", "stored_input_key", "file_stem",
-           "remove_uncommitted", "require_dataset"]
+           "remove_uncommitted", "require_dataset", "commit_problem", "uncommitted_files"]
 
 _UNSAFE = re.compile(r"[^A-Za-z0-9._-]|^[._]")
 DETAIL_TABLES = ("thumbnails", "measurements", "observations")
@@ -165,33 +169,42 @@ def read_records(root: str | os.PathLike, table: str, *, start: dt.date | None =
 
 def _read_files(root: str | os.PathLike, table: str, start: dt.date | None, end: dt.date | None,
                 inspection_ids: list[str] | None, columns: list[str] | None = None) -> pd.DataFrame:
+    """The rows of a table's good files (``pipeline.store.files``); a bad file is left out with a warning naming it."""
     folder = Path(root) / table
     schema = SCHEMAS[table]
-    if not folder.is_dir():
-        empty = schema.empty_table().to_pandas()
-        return empty[columns] if columns else empty
+    # a few inspections (a report, a skip check): their own files, not every file of the table, so that a night
+    # of n inspections does not check and read n^2 files
+    few = inspection_ids is not None and len(inspection_ids) <= _FEW_IDS
+    only = [p for iid in inspection_ids for p in inspection_files(root, table, iid)] if few and inspection_ids else None
+    paths, bad = table_files(root, table, only=only)
+    expr = None
+    for cond in ((ds.field("inspection_date") >= pa.scalar(start, pa.date32())) if start else None,
+                 (ds.field("inspection_date") <= pa.scalar(end, pa.date32())) if end else None,
+                 ds.field("inspection_id").isin(inspection_ids) if inspection_ids else None):
+        if cond is not None:
+            expr = cond if expr is None else expr & cond
     partitioning = ds.partitioning(pa.schema([schema.field("inspection_date")]), flavor="hive")
-    source: Path | list[str] = folder
-    if inspection_ids is not None and len(inspection_ids) <= _FEW_IDS:
-        # a few inspections (a report, a skip check): their own files, not every fragment of the table, so that
-        # a night of n inspections does not read n^2 files
-        source = [str(p) for iid in inspection_ids for p in inspection_files(root, table, iid)]
-        if not source:
-            empty = schema.empty_table().to_pandas()
-            return empty[columns] if columns else empty
+
+    def read(files: list[Path]) -> pa.Table:
+        dataset = ds.dataset([str(p) for p in files], format="parquet", partitioning=partitioning,
+                             partition_base_dir=str(folder), schema=schema)
+        return dataset.to_table(filter=expr, columns=columns)
+
     try:
-        dataset = ds.dataset(source, format="parquet", partitioning=partitioning, schema=schema,
-                             partition_base_dir=str(folder), exclude_invalid_files=False,
-                             ignore_prefixes=[".", "_"])
-        expr = None
-        for cond in ((ds.field("inspection_date") >= pa.scalar(start, pa.date32())) if start else None,
-                     (ds.field("inspection_date") <= pa.scalar(end, pa.date32())) if end else None,
-                     ds.field("inspection_id").isin(inspection_ids) if inspection_ids else None):
-            if cond is not None:
-                expr = cond if expr is None else expr & cond
-        return dataset.to_table(filter=expr, columns=columns).to_pandas()
-    except (pa.ArrowInvalid, OSError) as exc:
-        raise StoreError(f"{folder}: cannot be read as a Parquet dataset ({exc})") from exc
+        result = read(paths)
+    except (pa.ArrowInvalid, OSError):
+        # one file's pages (or types) do not read: read them one by one, leaving out those that fail
+        parts = []
+        for path in paths:
+            try:
+                parts.append(read([path]))
+            except (pa.ArrowInvalid, OSError) as exc:
+                bad.append(BadFile(path, f"unreadable as part of the {table} table ({exc})"))
+        result = pa.concat_tables(parts) if parts else read([])
+    for item in bad:
+        _log.warning("%s; left out of what is read (`pipegauge doctor OUT --repair` moves it to %s/)", item,
+                     Path(root) / QUARANTINE)
+    return result.to_pandas()
 
 
 def stored_input_key(root: str | os.PathLike, inspection_id: str) -> dict | None:
@@ -201,8 +214,8 @@ def stored_input_key(root: str | os.PathLike, inspection_id: str) -> dict | None
     for path in inspection_files(root, "inspections", inspection_id):
         try:
             names = pq.read_schema(path).names
-            columns = [c for c in ("input_sha256", "status", "error", "n_measurements", "package_folder",
-                                   "processed_at") if c in names]
+            columns = [c for c in ("input_sha256", "status", "error", "n_measurements", "n_observations",
+                                   "package_folder", "processed_at", "write_id") if c in names]
             rows += pq.read_table(path, columns=columns).to_pylist()
         except (pa.ArrowInvalid, OSError):
             continue                    # unreadable: process the package again
@@ -211,17 +224,49 @@ def stored_input_key(root: str | os.PathLike, inspection_id: str) -> dict | None
     return max(rows, key=lambda r: r.get("processed_at") or dt.datetime.min.replace(tzinfo=dt.timezone.utc))
 
 
+def commit_problem(root: str | os.PathLike, inspection_id: str, stored: dict) -> str | None:
+    """What is wrong with the files of an inspection's commit (``stored_input_key``'s row), or None when whole.
+
+    Each detail table must hold the commit's file, readable to its end, and the counts the inspection's row
+    records must be those of its files (a run that skipped the package would otherwise keep a loss hidden).
+    """
+    write_id = stored.get("write_id")
+    if not isinstance(write_id, str) or not write_id:
+        return None                     # schema 2: no write id to check the files against
+    stem = f"{file_stem(inspection_id)}~{write_id}.parquet"
+    counts = {"measurements": ("n_measurements", lambda t: sum(s == "ok" for s in t.column("status").to_pylist())),
+              "observations": ("n_observations", lambda t: t.num_rows)}
+    for table in DETAIL_TABLES:
+        found = sorted((Path(root) / table).glob(f"inspection_date=*/{stem}"))
+        if not found:
+            return f"its {table} file ({table}/.../{stem}) is missing"
+        try:
+            rows = pq.read_table(found[0])
+        except (pa.ArrowInvalid, OSError) as exc:
+            return f"its {table} file {found[0]} is unreadable ({exc})"
+        if table in counts:
+            name, count = counts[table]
+            expected = stored.get(name)
+            if expected is not None and count(rows) != expected:
+                return f"its {table} file {found[0]} holds {count(rows)} where the inspection records {name}={expected}"
+    return None
+
+
+def uncommitted_files(root: str | os.PathLike) -> list[Path]:
+    """The detail files no inspection's commit names (a store killed before or after its commit)."""
+    # only the commits' ids, file by file: a bad file of the table neither stops the clean-up nor is read whole
+    commits = _read_files(root, "inspections", None, None, None, columns=["inspection_id", "write_id"])
+    named = {f"{file_stem(i)}~{w}" for i, w in zip(commits.inspection_id, commits.write_id) if isinstance(w, str)}
+    return [path for table in DETAIL_TABLES for path in sorted((Path(root) / table).glob("inspection_date=*/*~*.parquet"))
+            if path.stem not in named]
+
+
 def remove_uncommitted(root: str | os.PathLike) -> list[Path]:
-    """Delete the detail files no inspection's commit names (a store killed before or after its commit).
+    """Delete the detail files no inspection's commit names (``uncommitted_files``).
 
     Call it only while holding the dataset lock, when no store can be in progress.
     """
-    commits = read_table(root, "inspections")
-    named = {f"{file_stem(i)}~{w}" for i, w in zip(commits.inspection_id, commits.write_id) if isinstance(w, str)}
-    stale = []
-    for table in DETAIL_TABLES:
-        for path in (Path(root) / table).glob("inspection_date=*/*~*.parquet"):
-            if path.stem not in named:
-                path.unlink(missing_ok=True)
-                stale.append(path)
+    stale = uncommitted_files(root)
+    for path in stale:
+        path.unlink(missing_ok=True)
     return stale

@@ -40,7 +40,7 @@ MATERIALS = {
     "AZ": "asbestos cement", "B": "concrete", "BS": "concrete segments", "CNS": "stainless steel",
     "EIS": "iron or steel", "FZ": "fibre cement", "GFK": "grp", "GG": "grey cast iron", "GGG": "ductile iron",
     "KST": "plastic", "MA": "masonry", "OB": "in-situ concrete", "P": "porosit", "PC": "polymer concrete",
-    "PCC": "polymer-modified cement concrete", "PE": "pe", "PEHD": "pe-hd", "PH": "polyester resin",
+    "PCC": "polymer-modified concrete", "PE": "pe", "PEHD": "pe-hd", "PH": "polyester resin",
     "PHB": "polyester resin concrete", "PP": "pp", "PVC": "pvc", "PVCU": "pvc-u", "SFB": "steel fibre concrete",
     "SPB": "prestressed concrete", "SB": "reinforced concrete", "ST": "steel", "STZ": "vitrified clay",
     "SZB": "sprayed concrete", "ZG": "brickwork",

@@ -73,6 +73,9 @@ def read_transfer(path: str | os.PathLike) -> Transfer:
             for chunk in iter(lambda: fh.read(1 << 16), b""):
                 parser.feed(chunk)
         parser.close()
+    except PermissionError:
+        raise TransferError(f"{path}: cannot be read (permission denied); give the user running pipegauge read access "
+                            "to the file") from None
     except DefusedXmlException as exc:
         raise TransferError(f"{path}: refused: the file declares a DTD or entities ({type(exc).__name__}, line "
                             f"{reader.line()}); an INTERLIS transfer has none (entity expansion and external entities "

@@ -24,7 +24,7 @@ from pipeline.judgement.grading.scheme import Band, Scheme
 __all__ = ["SCHEME", "FLEXIBLE_MATERIALS"]
 
 FLEXIBLE_MATERIALS = frozenset({"pe", "pe-hd", "hdpe", "pp", "pvc", "pvc-u", "gfk", "grp", "polyethylene",
-                                "polypropylene", "steel", "stainless steel", "plastic"})
+                                "polypropylene", "steel", "stainless steel", "plastic", "polyester resin"})
 
 
 def _bands(code: str, chars: str, aspect: str, thresholds: tuple[float, ...], unit: str, **kw) -> tuple[Band, ...]:

@@ -8,6 +8,14 @@ track's knots, joined linearly. A run of equal readings lasting at least
 with their neighbours by more than the crawler could have moved are rejected;
 a sustained drop starts a reversing segment (camera pulled back).
 
+A video whose chainage jumps or runs back is flagged, never silently fitted
+(docs/operations.md, "Cuts in the video"): a *jump* is a change between two
+consecutive kept reads of more than ``JUMP_MIN_M`` at more than
+``JUMP_SPEED_FACTOR`` times the crawler's top speed (a cut, or a splice of
+two recordings: every read after it agrees with its neighbours, so the
+outlier test keeps it); running *backwards* is a reversing stretch that loses
+more than ``BACKWARDS_MIN_M``.
+
 Uncertainty of the chainage at a frame (all standard uncertainties [m]):
 display resolution r / sqrt(12), the counter's scale error (relative,
 rectangular) times the chainage, and its zeroing offset.
@@ -23,7 +31,11 @@ import numpy as np
 from pipeline.core.errors import OverlayError
 from pipeline.vision.video.overlay_ocr import OverlayRead
 
-__all__ = ["CounterModel", "ChainageTrack", "fit_track"]
+__all__ = ["CounterModel", "ChainageTrack", "fit_track", "JUMP_MIN_M", "JUMP_SPEED_FACTOR", "BACKWARDS_MIN_M"]
+
+JUMP_MIN_M = 0.05           # a jump is more than 5 display steps of 0.01 m ...
+JUMP_SPEED_FACTOR = 2.0     # ... at more than twice the crawler's top speed (max_speed_m_s)
+BACKWARDS_MIN_M = 0.10      # a reversing stretch that loses more than this is reported
 
 
 @dataclass(frozen=True)
@@ -51,6 +63,27 @@ class ChainageTrack:
     segments: list[tuple[int, int, str]] = field(default_factory=list)   # (first, last frame, "moving"|"stopped"|"reversing")
     rejected: list[tuple[int, str, str]] = field(default_factory=list)   # (frame, text, reason)
     reads_used: int = 0
+    jumps: list[tuple[int, int, float, float]] = field(default_factory=list)   # (frame, next frame, value, next value)
+
+    @property
+    def backwards(self) -> list[tuple[int, int, float]]:
+        """The reversing stretches that lose more than ``BACKWARDS_MIN_M``: (first, last frame, metres lost)."""
+        out = []
+        for a, b, kind in self.segments:
+            lost = float(self.values[a] - self.values[b]) if kind == "reversing" else 0.0
+            if lost > BACKWARDS_MIN_M:
+                out.append((a, b, lost))
+        return out
+
+    def warnings(self) -> list[str]:
+        """What a person must check before trusting the chainage: its jumps and backward runs, in words."""
+        out = [f"the chainage jumps from {v:.2f} m to {w:.2f} m between frames {a} and {b} "
+               f"({abs(w - v) / max((b - a) / self.fps, 1e-9):.1f} m/s, more than a crawler moves): the video may be "
+               "cut or spliced; marks after it may not be on the frames the operator saw" for a, b, v, w in self.jumps]
+        out += [f"the chainage runs backwards from {self.values[a]:.2f} m to {self.values[b]:.2f} m (frames {a}-{b}, "
+                f"{lost:.2f} m): the camera was pulled back or the counter runs the wrong way; distances in this "
+                "stretch are ambiguous" for a, b, lost in self.backwards]
+        return out
 
     def at_frame(self, frame: int) -> tuple[float, float]:
         """(chainage [m], standard uncertainty [m]) at a frame."""
@@ -98,6 +131,10 @@ def fit_track(reads: list[OverlayRead], n_frames: int, fps: float, *, counter: C
                            "the overlay cannot be followed")
     frames = np.array([r.frame for r in kept], dtype=float)
     values = np.array([r.value for r in kept])
+    jumps = [(int(frames[i]), int(frames[i + 1]), float(values[i]), float(values[i + 1]))
+             for i in range(len(values) - 1)
+             if abs(values[i + 1] - values[i]) > JUMP_MIN_M
+             and abs(values[i + 1] - values[i]) * fps / (frames[i + 1] - frames[i]) > JUMP_SPEED_FACTOR * max_speed_m_s]
 
     # Runs of equal readings, then knots at each change and at both ends of long runs.
     knots_f, knots_v = [frames[0]], [values[0]]
@@ -137,4 +174,4 @@ def fit_track(reads: list[OverlayRead], n_frames: int, fps: float, *, counter: C
             j += 1
         full.append((i, j, kind))
         i = j if j > i else i + 1
-    return ChainageTrack(track, fps, counter, full, rejected, len(kept))
+    return ChainageTrack(track, fps, counter, full, rejected, len(kept), jumps)

@@ -38,6 +38,9 @@ class VideoInfo:
 
 def _open(path: str | os.PathLike) -> cv2.VideoCapture:
     p = Path(path)
+    if p.exists() and not p.is_file():
+        raise CorruptVideoError(f"{p}: not a regular file (a folder, pipe or device); nothing was read from it: "
+                                "deliver the video itself")
     if not p.is_file():
         raise CorruptVideoError(f"{p}: no such video file; check the package's file list")
     if p.stat().st_size == 0:
@@ -45,6 +48,12 @@ def _open(path: str | os.PathLike) -> cv2.VideoCapture:
     if p.stat().st_size > MAX_VIDEO_BYTES:
         raise CorruptVideoError(f"{p}: {p.stat().st_size:,} bytes; pipegauge reads a video of at most "
                                 f"{MAX_VIDEO_BYTES:,} bytes (docs/operations.md, input limits); deliver one video per section")
+    try:
+        with open(p, "rb") as fh:       # OpenCV says only "cannot open" for a file it may not read
+            fh.read(1)
+    except OSError as exc:
+        raise CorruptVideoError(f"{p}: cannot be read ({exc.strerror or exc}); give the user running pipegauge read "
+                                "access to the video") from None
     cap = cv2.VideoCapture(str(p))
     if not cap.isOpened():
         raise CorruptVideoError(f"{p}: OpenCV cannot open this video (unknown container or damaged header); "

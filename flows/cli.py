@@ -335,17 +335,25 @@ def cmd_report(args: argparse.Namespace) -> int:
 
 
 def cmd_export(args: argparse.Namespace) -> int:
-    from pipeline.app.export import export
+    from pipeline.app.export import check_export_request, export
     from pipeline.formats import WRITERS
 
-    fmt = args.format or ("parquet" if args.out.suffix.lower() == ".parquet" else "csv")
-    written = export(fmt, _dataset_of(args.data), args.out, args.start, args.end)
+    try:
+        fmt = check_export_request(args.format, args.out, args.start, args.end)
+    except PipegaugeError as exc:
+        _say(f"pipegauge export: error: {exc}")
+        return EXIT_USAGE
+    written = export(fmt, _dataset_of(args.data), args.out, args.start, args.end, values=args.values,
+                     level=args.level)
     if WRITERS[fmt].out == "file":
-        _say(f"pipegauge export: {sum(n for _, n in written)} quantities written to {args.out} ({fmt})")
+        what = "observations" if args.level == "observation" else "quantities"
+        _say(f"pipegauge export: {sum(n for _, n in written)} {what} written to {args.out} ({fmt}, values "
+             f"{args.values})")
     else:
         for path, n in written:
             print(path)
-        _say(f"pipegauge export: {len(written)} transfer(s) ({fmt}, {sum(n for _, n in written)} observations) in {args.out}")
+        _say(f"pipegauge export: {len(written)} transfer(s) ({fmt}, {sum(n for _, n in written)} observations, values "
+             f"{args.values}) in {args.out}")
     return EXIT_OK
 
 
@@ -483,9 +491,14 @@ def build_parser() -> argparse.ArgumentParser:
     me.add_argument("--verbose", action="store_true", help="report progress within each package")
     me.set_defaults(func=cmd_measure)
 
-    ex = verbs.add_parser("export", help="export measured quantities with U95 for asset management (CSV or Parquet)",
-                          description="One row per measured quantity with value, U95, unit and interval, joined with "
-                                      "its observation and section. CSV text cells are safe against spreadsheet "
+    ex = verbs.add_parser("export", help="export the condition log with U95 for asset management (CSV, Parquet, "
+                                         "VSA-KEK)",
+                          description="The condition log: one row per logged observation (nodes and unmeasured rows "
+                                      "included) with its section's header and provenance, the contractor's values "
+                                      "and pipegauge's measurement, U95, log check and grade beside them; --level "
+                                      "quantity gives one row per measured quantity. A contractor's value is never "
+                                      "replaced unless --values measured, and then only by a measurement that "
+                                      "decides it (docs/formats.md). CSV text cells are safe against spreadsheet "
                                       "formula injection.")
     ex.add_argument("--data", type=Path, default=Path("reports/dataset"), help="dataset folder (default: %(default)s)")
     ex.add_argument("--out", type=Path, required=True,
@@ -494,6 +507,13 @@ def build_parser() -> argparse.ArgumentParser:
                     help="default: from the file's extension; vsa-kek-*: VSA-KEK INTERLIS transfers (docs/formats.md)")
     ex.add_argument("--from", dest="start", type=_date, help="first inspection date YYYY-MM-DD")
     ex.add_argument("--to", dest="end", type=_date, help="last inspection date YYYY-MM-DD")
+    ex.add_argument("--values", choices=("delivered", "measured"), default="delivered",
+                    help="delivered (default): the contractor's values and classes as delivered, pipegauge's "
+                         "measurement beside them; measured: a logged value replaced by a measurement that decides "
+                         "it (confident, not below resolution, U95 under the logging step or within one class)")
+    ex.add_argument("--level", choices=("observation", "quantity"), default="observation",
+                    help="rows of a CSV/Parquet export: observation (the condition log, default) or quantity "
+                         "(one per measured quantity)")
     ex.set_defaults(func=cmd_export)
 
     lg = verbs.add_parser("log", help="print an observation log (observations.csv or a VSA-KEK transfer) as pipegauge reads it",

@@ -327,10 +327,28 @@ def _dataset_of(data: Path) -> Path:
 
 
 def cmd_report(args: argparse.Namespace) -> int:
+    from pipeline.app import find_inspection
     from pipeline.reports import render_inspection_report
 
-    path = render_inspection_report(_dataset_of(args.data), args.inspection_id, args.out)
+    dataset = _dataset_of(args.data)
+    path = render_inspection_report(dataset, find_inspection(dataset, args.inspection_id), args.out)
     _say(f"pipegauge report: {path}")
+    return EXIT_OK
+
+
+def cmd_summary(args: argparse.Namespace) -> int:
+    from pipeline.app import dataset_summary
+
+    if args.start and args.end and args.start > args.end:
+        _say(f"pipegauge summary: error: --from {args.start} is after --to {args.end}; swap them")
+        return EXIT_USAGE
+    entries = dataset_summary(args.data, args.start, args.end)
+    if args.json:
+        print(json.dumps([e.as_dict() for e in entries], indent=1))
+    else:
+        for e in entries:
+            print(e.line())
+    _say(f"pipegauge summary: {len(entries)} inspection(s), most in need of a person first")
     return EXIT_OK
 
 
@@ -471,11 +489,24 @@ def build_parser() -> argparse.ArgumentParser:
     rp = verbs.add_parser("report", help="render an inspection's PDF condition report from the dataset",
                           description="Re-render the condition report of one inspection from the stored dataset "
                                       "(docs/reports.md).")
-    rp.add_argument("inspection_id", metavar="INSPECTION_ID")
+    rp.add_argument("inspection_id", metavar="INSPECTION_ID",
+                    help="an inspection id, or a section id (its latest inspection), as pipegauge summary lists them")
     rp.add_argument("--data", type=Path, default=Path("reports"),
                     help="a run's output folder or a dataset folder (default: %(default)s)")
     rp.add_argument("--out", type=Path, required=True, help="the PDF to write")
     rp.set_defaults(func=cmd_report)
+
+    su = verbs.add_parser("summary", help="the morning list: sections ranked by grade and by what needs a person",
+                          description="Every stored inspection, most in need of a person first: failed deliveries "
+                                      "with their reason and the fix, then by the section's grade (worst first), then "
+                                      "by contractor's values the measurement contradicts and observations the image "
+                                      "could not decide; each with its grade, counts and report (docs/reports.md).")
+    su.add_argument("--data", type=Path, default=Path("reports"),
+                    help="a run's output folder or a dataset folder (default: %(default)s)")
+    su.add_argument("--from", dest="start", type=_date, help="first inspection date YYYY-MM-DD")
+    su.add_argument("--to", dest="end", type=_date, help="last inspection date YYYY-MM-DD")
+    su.add_argument("--json", action="store_true", help="print JSON, one object per inspection")
+    su.set_defaults(func=cmd_summary)
 
     me = verbs.add_parser("measure", help="measure the logged observations of inspection packages into the dataset",
                           description="Validate each package (manifest, header, log, marks, certificate, video), read "

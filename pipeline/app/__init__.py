@@ -12,8 +12,8 @@ The way of one package, a module per step::
 
 ``night`` is the run policy shared by ``pipegauge run``/``serve`` (the Prefect flow wraps it) and
 ``pipegauge measure``: the lock, the crash clean-up, the plan, the progress lines, the summary.
-``layout`` defines the output folder. The verbs' other procedures: ``export``, ``probe``, ``calibration``,
-``paper``.
+``layout`` defines the output folder. The verbs' other procedures: ``export``, ``summary`` (the morning list),
+``probe``, ``calibration``, ``paper``.
 """
 
 from __future__ import annotations
@@ -30,6 +30,7 @@ _HOMES = {
     "NightPlan": "night", "finish_night": "night", "measure_packages": "night", "plan_night": "night",
     "progress_line": "night", "writing": "night",
     "PackageOutcome": "process", "process_package": "process", "refused_outcome": "process",
+    "dataset_summary": "summary", "find_inspection": "summary",
 }
 __all__ = list(_HOMES)
 

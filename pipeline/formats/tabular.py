@@ -26,7 +26,8 @@ from pipeline.maths.metrology.display import significant_step
 # module and should not pay for them.
 
 __all__ = ["read_csv_log", "EXPORT_COLUMNS", "SORT_COLUMNS", "LOG_COLUMNS", "LEVELS", "spreadsheet_safe",
-           "display_columns", "export_table", "log_table", "write_csv", "write_parquet"]
+           "display_columns", "export_table", "log_table", "write_csv", "write_parquet", "SUMMARY_COLUMNS",
+           "write_summary_csv", "read_summary_csv"]
 
 LEVELS = ("observation", "quantity")      # the export's rows: the condition log (default), or measured quantities
 
@@ -283,3 +284,33 @@ def write_parquet(table, path: str | os.PathLike) -> int:
                 **{f"pipegauge.{k}".encode(): str(v).encode() for k, v in table.attrs.items()}}
         pq.write_table(arrow.replace_schema_metadata(meta), tmp)
     return len(table)
+
+
+# -- the morning list (summary.csv) -----------------------------------------------
+# One row per section of a night, ranked (pipeline.reports.morning): the columns of its SectionEntry.
+SUMMARY_COLUMNS = ("rank", "section_id", "start_node", "finish_node", "inspection_id", "inspection_date",
+                   "delivery_id", "status", "grade", "grades", "observations", "measured", "disagree", "undecided",
+                   "needs_person", "action", "report", "error")
+
+
+def write_summary_csv(entries, path: str | os.PathLike) -> Path:
+    """The morning list as UTF-8 CSV, atomically, text cells spreadsheet-safe; ``entries`` are mappings (or
+    objects with ``as_dict``) with the ``SUMMARY_COLUMNS``. Returns the path."""
+    path = Path(path)
+    with atomic_path(path) as tmp, Path(tmp).open("w", newline="", encoding="utf-8") as fh:
+        w = csv.writer(fh)
+        w.writerow(SUMMARY_COLUMNS)
+        for e in entries:
+            row = e.as_dict() if hasattr(e, "as_dict") else e
+            w.writerow([spreadsheet_safe(row.get(c, "")) for c in SUMMARY_COLUMNS])
+    return path
+
+
+def read_summary_csv(path: str | os.PathLike) -> list[dict]:
+    """summary.csv read back: one dict per row, the counts as int, text cells as written."""
+    with Path(path).open(newline="", encoding="utf-8") as fh:
+        rows = list(csv.DictReader(fh))
+    for r in rows:
+        for c in ("rank", "observations", "measured", "disagree", "undecided"):
+            r[c] = int(r[c]) if r.get(c) else 0
+    return rows

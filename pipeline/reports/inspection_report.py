@@ -307,8 +307,8 @@ def render_inspection_report(data: str | os.PathLike, inspection_id: str, path: 
     tables = {t: read_records(data, t, inspection_ids=[inspection_id])
               for t in ("inspections", "observations", "measurements", "thumbnails")}
     if not tables["inspections"]:
-        raise StoreError(f"{data}: no inspection {inspection_id!r} in the dataset; list them with "
-                         "pipegauge export or check the id")
+        raise StoreError(f"{data}: no inspection {inspection_id!r} in the dataset; pipegauge summary lists the "
+                         "inspections and their sections")
     inspection = tables["inspections"][0]
     observations = sorted(tables["observations"], key=lambda o: (o["row"]))
     measurements = sorted(tables["measurements"], key=lambda m: (m["row"], m["quantity"], _source(m) != "marks"))

@@ -1,0 +1,106 @@
+"""Issue 31, the morning list: the nightly summary (PDF), summary.csv and ``pipegauge summary`` rank the sections by
+what needs a person, each with its grade, counts and report; ``pipegauge report`` takes what the summary lists."""
+
+from __future__ import annotations
+
+import datetime as dt
+import json
+
+import pytest
+from pypdf import PdfReader
+
+from flows.cli import main
+from pipeline.formats.tabular import read_summary_csv
+from pipeline.reports import render_night_summary
+from pipeline.reports.example import example_inspection
+from pipeline.store import write_inspection
+
+
+def _text(pdf) -> list[str]:
+    return [line for p in PdfReader(pdf).pages for line in p.extract_text().splitlines()]
+
+
+def _night(tmp_path):
+    """Three sections: a clean EZ3 one, an EZ1 one whose row 2 the measurement contradicts, a failed delivery."""
+    data = tmp_path / "out" / "dataset"
+    for iid, section, grade, disagree in (("CLEAN-1", "C1", "EZ3", False), ("WRONG-1", "W1", "EZ1", True)):
+        inspection, observations, measurements, thumbnails = example_inspection(iid, n_observations=3)
+        inspection.update(section_id=section, section_grade=grade, section_grade_probability=0.9,
+                          grading_scheme="vsa-2023")
+        for m in measurements:
+            m.update(log_check="agrees", below_resolution=False, grading_scheme="vsa-2023")
+        for o in observations:
+            o.update(grade=grade, grading_scheme="vsa-2023")
+        if disagree:
+            measurements[1].update(log_check="disagrees", logged_value=10.0, log_difference=-3.0, E_n=3.0)
+        write_inspection(data, inspection, observations, measurements, thumbnails)
+    write_inspection(data, {"inspection_id": "BAD-1", "inspection_date": dt.date(2026, 11, 20), "status": "failed",
+                            "section_id": "B1", "error": "video.mp4: no such file", "problems": []}, [], [], [])
+    rows = [{"package": i, "inspection_id": i, "status": s, "quantities": 3, "error": "", "processed": True}
+            for i, s in (("CLEAN-1", "ok"), ("WRONG-1", "ok"), ("BAD-1", "failed"))]
+    rows.append({"package": "twin", "inspection_id": "twin", "status": "failed", "quantities": 0, "processed": False,
+                 "refused": True, "error": "package id 'twin' is claimed by two folders"})
+    return data, rows
+
+
+def test_the_summary_ranks_failed_deliveries_then_grades_and_names_each_report(tmp_path, capsys):
+    data, rows = _night(tmp_path)
+    reports = tmp_path / "out" / "reports"
+    reports.mkdir()
+    (reports / "WRONG-1.pdf").write_bytes(b"%PDF")
+    pdf = render_night_summary(rows, data, reports / "summary-2026-11-21.pdf", night=dt.date(2026, 11, 21))
+    lines = _text(pdf)
+    title = next(k for k, line in enumerate(lines) if line.startswith("Nightly summary 2026-11-21"))
+    # the first line after the title names what most needs a person: a failed delivery and its reason
+    assert lines[title + 1].startswith("Most in need of a person: B1: the delivery failed (video.mp4: no such file)")
+    listed = read_summary_csv(reports / "summary-2026-11-21.csv")
+    assert [(r["rank"], r["inspection_id"]) for r in listed] == [(1, "BAD-1"), (2, "twin"), (3, "WRONG-1"),
+                                                                 (4, "CLEAN-1")]
+    wrong = listed[2]
+    assert (wrong["grade"], wrong["disagree"], wrong["grades"], wrong["report"]) == ("EZ1", 1, "EZ1 3",
+                                                                                     str(reports / "WRONG-1.pdf"))
+    assert "row 2" in wrong["needs_person"] and "correct the delivery" in listed[0]["action"]
+    assert "twin" in " ".join(lines) and "claimed by two folders" in " ".join(lines)
+    # the same list from the command line, from the run's folder
+    capsys.readouterr()
+    assert main(["summary", "--data", str(tmp_path / "out"), "--json"]) == 0
+    printed = json.loads(capsys.readouterr().out)
+    assert [e["inspection_id"] for e in printed] == ["BAD-1", "WRONG-1", "CLEAN-1"]    # refused ones are not stored
+    assert printed[1]["report"] == str(reports / "WRONG-1.pdf")
+    assert main(["summary", "--data", str(tmp_path / "out")]) == 0
+    assert capsys.readouterr().out.splitlines()[0].startswith("1. B1, inspection BAD-1: delivery failed")
+
+
+def test_report_takes_a_section_id_as_the_summary_lists_it(tmp_path, capsys):
+    data, _ = _night(tmp_path)
+    assert main(["report", "W1", "--data", str(tmp_path / "out"), "--out", str(tmp_path / "w1.pdf")]) == 0
+    assert "Condition report" in " ".join(_text(tmp_path / "w1.pdf")) and "W1" in " ".join(_text(tmp_path / "w1.pdf"))
+    capsys.readouterr()
+    assert main(["report", "S02", "--data", str(tmp_path / "out"), "--out", str(tmp_path / "x.pdf")]) == 1
+    err = capsys.readouterr().err
+    assert "no inspection or section 'S02'" in err and "BAD-1" in err and "pipegauge summary" in err
+    assert "pipegauge export" not in err
+
+
+def test_worst_observations_list_a_quantity_once_and_unresolved_ones_last():
+    from pipeline.domain.results import MeasurementRecord
+    from pipeline.reports.summary_report import worst_observations
+
+    common = dict(inspection_id="X", status="ok", grading_scheme="vsa-2023", unit="mm", code="BAB", quantity="Q1")
+    m = [MeasurementRecord(row=1, source="marks", high=18.6, grade="EZ0", below_resolution=True, **common),
+         MeasurementRecord(row=2, source="marks", high=9.0, grade="EZ1", below_resolution=False, **common),
+         MeasurementRecord(row=2, source="contour", high=9.5, grade="EZ1", below_resolution=False, **common)]
+    assert [(r.row, r.source) for r in worst_observations(m, {"X": 300.0})] == [(2, "marks"), (1, "marks")]
+
+
+@pytest.mark.slow
+def test_the_samples_summary_names_first_the_section_that_most_needs_a_person(sample_night):
+    from pipeline.reports.morning import morning_list
+
+    entries = morning_list(sample_night / "dataset", reports=sample_night / "reports")
+    lines = _text(sample_night / "reports" / "summary.pdf")
+    title = next(k for k, line in enumerate(lines) if line.startswith("Nightly summary"))
+    assert lines[title + 1].startswith(f"Most in need of a person: {entries[0].section}, grade {entries[0].grade}")
+    assert [r["inspection_id"] for r in read_summary_csv(sample_night / "reports" / "summary.csv")] == [
+        e.inspection_id for e in entries]
+    assert all(e.report.endswith(".pdf") for e in entries)

@@ -104,3 +104,50 @@ def test_the_samples_summary_names_first_the_section_that_most_needs_a_person(sa
     assert [r["inspection_id"] for r in read_summary_csv(sample_night / "reports" / "summary.csv")] == [
         e.inspection_id for e in entries]
     assert all(e.report.endswith(".pdf") for e in entries)
+
+
+# -- a failed delivery: its date and its report ---------------------------------------------------------------------
+
+def _failed_package(tmp_path, *, header: bool = True):
+    import shutil
+    from pathlib import Path
+
+    samples = Path(__file__).resolve().parent.parent / "sample_videos"
+    pkg = tmp_path / "inbox" / "S01-no-video"
+    shutil.copytree(samples / "S01-circular-clean", pkg, ignore=shutil.ignore_patterns("truth", "video.mp4"))
+    if not header:
+        (pkg / "header.json").unlink()
+    return pkg
+
+
+def test_a_failed_delivery_with_a_readable_header_is_stored_under_its_inspection_date(tmp_path):
+    from pipeline.app import process_package
+    from pipeline.store import read_records
+
+    pkg = _failed_package(tmp_path)
+    outcome = process_package(pkg, tmp_path / "dataset", reports=tmp_path / "reports")
+    assert outcome.status == "failed" and "video.mp4" in outcome.error
+    assert [p.parent.name for p in (tmp_path / "dataset" / "inspections").rglob("*.parquet")] == [
+        "inspection_date=2026-11-20"]                        # the header's date, not the processing date
+    rec = read_records(tmp_path / "dataset", "inspections")[0]
+    assert (rec.inspection_date, rec.section_id, rec.start_node) == (dt.date(2026, 11, 20), "S01", "MH101")
+    text = " ".join(" ".join(_text(tmp_path / "reports" / f"{outcome.inspection_id}.pdf")).split())
+    assert "( → )" not in text and "Pipe ," not in text and "size not given" not in text
+    assert "Condition report: section S01 (MH101 → MH102), not measured" in text
+    assert "What failed Status failed:" in text and "the file 'video.mp4' is missing" in text
+    assert "What to do: correct the delivery" in text
+    assert "inspected 2026-11-20 (the header's inspection date); processed " in text
+
+
+def test_a_delivery_without_a_readable_header_says_it_is_stored_under_the_processing_date(tmp_path):
+    from pipeline.app import process_package
+    from pipeline.store import read_records
+
+    outcome = process_package(_failed_package(tmp_path, header=False), tmp_path / "dataset",
+                              reports=tmp_path / "reports")
+    rec = read_records(tmp_path / "dataset", "inspections")[0]
+    assert rec.inspection_date == rec.processed_at.date()
+    assert any("no section header could be read: stored under the processing date" in w for w in rec.warnings)
+    text = " ".join(" ".join(_text(tmp_path / "reports" / f"{outcome.inspection_id}.pdf")).split())
+    assert "Condition report: inspection S01-no-video, not measured" in text and "( → )" not in text
+    assert "inspection date unknown (no section header could be read)" in text

@@ -65,12 +65,16 @@ def inspection_warnings(inspection: dict, measurements: list[dict], today: dt.da
     unmeasured quantities (one per observation and problem; the technical reasons stay in the dataset),
     certificate validity."""
     out = []
-    if inspection.get("status") != "ok":
+    if inspection.get("status") not in ("ok", "failed"):      # a failed one says so in its own block
         out.append(f"Status {inspection.get('status')}: {inspection.get('error') or 'see below'}. Action: correct "
                    "the delivery as the problems below say and deliver it again; the next night measures it anew.")
     for problem in inspection.get("problems") if inspection.get("problems") is not None else []:
         out.append(f"Input problem: {problem}. Action: ask the contractor to correct this row or field.")
     for warning in inspection.get("warnings") if inspection.get("warnings") is not None else []:
+        if "no section header could be read" in str(warning):
+            out.append(f"{str(warning)[0].upper()}{str(warning)[1:]}. Action: deliver the package with its header; "
+                       "it is then stored under its inspection date.")
+            continue
         out.append(f"The video's overlay and the section header disagree: {warning}. Action: check which one is "
                    "right; a wrong header (height, shape, material) changes every measured value.")
     out += measurement_warnings(measurements, _name)
@@ -95,30 +99,79 @@ def _name(m: dict) -> str:
     return f"{codes}, {plain_description(m.get('code') or '', m.get('char1'), m.get('char2'))}"
 
 
+def _joined(*parts: str, sep: str = ", ") -> str:
+    return sep.join(p for p in parts if p)
+
+
 def _header_block(i: dict) -> Table:
-    size = f"{i.get('height_mm'):g} mm high" if not is_missing(i.get("height_mm")) else "size not given"
-    if not is_missing(i.get("width_mm")):
+    """The inspection's header, each row only with what is known (a failed delivery's record holds little)."""
+    size = f"{i.get('height_mm'):g} mm high" if not is_missing(i.get("height_mm")) else ""
+    if size and not is_missing(i.get("width_mm")):
         size += f", {i['width_mm']:g} mm wide"
-    if not is_missing(i.get("height_tolerance_mm")):
+    if size and not is_missing(i.get("height_tolerance_mm")):
         size += f", tolerance ± {i['height_tolerance_mm']:g} mm"
+    nodes = (f"{_txt(i.get('start_node'))} → {_txt(i.get('finish_node'))}"
+             if _txt(i.get("start_node")) or _txt(i.get("finish_node")) else "")
+    section = _joined(_joined(_txt(i.get("section_id")), nodes, sep=": "), _txt(i.get("direction")))
+    inspected = (f"inspected {_txt(i.get('inspection_date'))} (the header's inspection date)"
+                 if _txt(i.get("inspection_date")) and not _header_unread(i)
+                 else "inspection date unknown (no section header could be read)")
+    processed = (f"processed {_txt(str(i.get('processed_at'))[:16])} UTC" if not is_missing(i.get("processed_at"))
+                 else "")
+    length = f"section length {_txt(i.get('section_length_m'))} m" if _txt(i.get("section_length_m")) else ""
+    certificate = (_joined(f"calibration certificate {_txt(i.get('certificate_id'))}",
+                           f"valid until {_txt(i.get('certificate_valid_until'))}"
+                           if _txt(i.get("certificate_valid_until")) else "")
+                   if _txt(i.get("certificate_id")) else "")
+    video = ""
+    if _txt(i.get("video_file")) or not is_missing(i.get("video_frames")):
+        size_px = (f"{_txt(i.get('video_width_px'))}×{_txt(i.get('video_height_px'))} px"
+                   if not is_missing(i.get("video_width_px")) else "")
+        frames = f"{_txt(i.get('video_frames'))} frames" if not is_missing(i.get("video_frames")) else ""
+        rate = (f"chainage read on {100 * i['chainage_read_rate']:.0f} % of sampled frames"
+                if not is_missing(i.get("chainage_read_rate")) else "")
+        video = _joined(_joined(_txt(i.get("video_file")), size_px, frames), rate, sep="; ")
     rows = [
-        ("Section", f"{_txt(i.get('section_id'))}: {_txt(i.get('start_node'))} → {_txt(i.get('finish_node'))}, "
-                    f"{_txt(i.get('direction'))}"),
-        ("Inspection", f"{_txt(i.get('inspection_date'))}, {_txt(i.get('contractor'))}; site {_txt(i.get('site'))}"),
-        ("Pipe", f"{_txt(i.get('shape'))}, {size}, {_txt(i.get('material'))}; section length "
-                 f"{_txt(i.get('section_length_m'))} m"),
-        ("Camera", f"{_txt(i.get('camera')) or 'camera not named'}; calibration certificate {_txt(i.get('certificate_id'))}, "
-                   f"valid until {_txt(i.get('certificate_valid_until'))}"),
-        ("Video", f"{_txt(i.get('video_file'))}, {_txt(i.get('video_width_px'))}×{_txt(i.get('video_height_px'))} px, "
-                  f"{_txt(i.get('video_frames'))} frames; chainage read on "
-                  + (f"{100 * i['chainage_read_rate']:.0f} %" if not is_missing(i.get("chainage_read_rate")) else "-")
-                  + " of sampled frames"),
-        ("Measurement", f"{_txt(i.get('model'))} model; pipegauge {_txt(i.get('pipeline_version'))}, processed "
-                        f"{_txt(str(i.get('processed_at'))[:19])} UTC; status {_txt(i.get('status'))}"),
+        ("Section", section),
+        ("Dates", _joined(inspected, processed, sep="; ")),
+        ("Inspection", _joined(_txt(i.get("contractor")), f"site {_txt(i.get('site'))}" if _txt(i.get("site")) else "")),
+        ("Pipe", _joined(_joined(_txt(i.get("shape")), size, _txt(i.get("material"))), length, sep="; ")),
+        ("Camera", _joined(_txt(i.get("camera")), certificate, sep="; ")),
+        ("Video", video),
+        ("Measurement", _joined(f"{_txt(i.get('model'))} model" if _txt(i.get("model")) else "",
+                                f"pipegauge {_txt(i.get('pipeline_version'))}", f"status {_txt(i.get('status'))}",
+                                sep="; ")),
         ("Package", f"{_txt(i.get('inspection_id'))}, SHA-256 "
                     + (f"{_txt(i['package_sha256'][:16])}…" if isinstance(i.get("package_sha256"), str) else "not computed")),
     ]
-    return key_value_table(rows)
+    return key_value_table([(k, v) for k, v in rows if v])
+
+
+def _header_unread(i: dict) -> bool:
+    """The record says it is stored under the processing date: no section header could be read."""
+    return any("no section header could be read" in str(w) for w in (i.get("warnings") or []))
+
+
+def _title(i: dict) -> str:
+    """'Condition report: section S01 (MH101 → MH102)', or the inspection id where no header was read."""
+    section = _txt(i.get("section_id"))
+    nodes = (f" ({_txt(i.get('start_node'))} → {_txt(i.get('finish_node'))})"
+             if _txt(i.get("start_node")) or _txt(i.get("finish_node")) else "")
+    what = f"section {section}{nodes}" if section else f"inspection {_txt(i.get('inspection_id'), 80)}"
+    return f"Condition report: {what}" + (", not measured" if i.get("status") == "failed" else "")
+
+
+def _failure_block(i: dict) -> list:
+    """A failed delivery's page 1: what failed, what to do, and what could be read."""
+    read = [name for name, key in (("the section header", "section_id"), ("the camera's certificate", "certificate_id"),
+                                   ("the video", "video_frames")) if not is_missing(i.get(key))]
+    could = ("What could be read: " + ", ".join(read) + " (below)." if read
+             else "Nothing of the delivery could be read beyond its folder.")
+    return [Paragraph("What failed", styles()["h2"]),
+            Paragraph(f"Status failed: {safe_text(i.get('error') or 'no reason was stored', 800)}.", styles()["warning"]),
+            Paragraph("What to do: correct the delivery as the reason says (the file and field it names) and deliver "
+                      "it again with the same package id; the next night measures it anew. Nothing of this inspection "
+                      "was measured, so no observation, grade or log check is reported. " + could, styles()["body"])]
 
 
 def _verdict_block(i: dict, measurements: list[dict]) -> list:
@@ -318,14 +371,20 @@ def render_inspection_report(data: str | os.PathLike, inspection_id: str, path: 
         by_row.setdefault(m["row"], []).append(m)
 
     st = styles()
-    story = [Paragraph(f"Condition report: section {_txt(inspection.get('section_id'))} "
-                       f"({_txt(inspection.get('start_node'))} → {_txt(inspection.get('finish_node'))})", st["title"]),
-             *_verdict_block(inspection, measurements), Paragraph("Inspection", st["h2"]), _header_block(inspection)]
+    failed = inspection.get("status") == "failed"
+    story = [Paragraph(safe_text(_title(inspection), 300), st["title"]),
+             *(_failure_block(inspection) if failed else _verdict_block(inspection, measurements)),
+             Paragraph("Inspection", st["h2"]), _header_block(inspection)]
     warnings = inspection_warnings(inspection, measurements, today)
-    story += [Paragraph("Warnings", st["h2"])]
-    story += [Paragraph("• " + safe_text(w, 600), st["warning"]) for w in warnings[:MAX_REPORT_WARNINGS]] or [
-        Paragraph("None.", st["body"])]
-    story += _more(len(warnings) - MAX_REPORT_WARNINGS, "warnings", "the inspection's problems in the dataset")
+    if warnings or not failed:
+        story += [Paragraph("Warnings", st["h2"])]
+        story += [Paragraph("• " + safe_text(w, 600), st["warning"]) for w in warnings[:MAX_REPORT_WARNINGS]] or [
+            Paragraph("None.", st["body"])]
+        story += _more(len(warnings) - MAX_REPORT_WARNINGS, "warnings", "the inspection's problems in the dataset")
+    if failed and not observations:
+        return build_pdf(story, path, title=f"Condition report {inspection_id}",
+                         footer=f"pipegauge {__version__} · inspection {inspection_id[:60]} · "
+                                f"rendered {today.isoformat()} from the dataset")
     span = strip_span(observations, inspection.get("survey_start_m"), inspection.get("survey_end_m"),
                       inspection.get("section_length_m"))
     beyond = [o["row"] for o in observations if is_finite(o.get("distance_m"))

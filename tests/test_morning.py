@@ -151,3 +151,72 @@ def test_a_delivery_without_a_readable_header_says_it_is_stored_under_the_proces
     text = " ".join(" ".join(_text(tmp_path / "reports" / f"{outcome.inspection_id}.pdf")).split())
     assert "Condition report: inspection S01-no-video, not measured" in text and "( → )" not in text
     assert "inspection date unknown (no section header could be read)" in text
+
+
+# -- the report's clock ranges -------------------------------------------------------------------------------------
+
+def _range_lines(drawing):
+    """The strip's clock-range bars: (x, y_low, y_high) of each thick line."""
+    from reportlab.graphics.shapes import Line
+
+    return [(ln.x1, min(ln.y1, ln.y2), max(ln.y1, ln.y2)) for ln in drawing.contents
+            if isinstance(ln, Line) and ln.strokeWidth == 1.6]
+
+
+def _band(drawing):
+    from reportlab.graphics.shapes import Rect
+
+    r = next(c for c in drawing.contents if isinstance(c, Rect))
+    return r.y, r.y + r.height             # bottom (clock 12 again), top (clock 12, the crown)
+
+
+def test_clock_ranges_run_clockwise_the_way_a_clock_range_means():
+    from pipeline.reports.graphics import clock_segments
+
+    assert clock_segments(10, 2) == [(10.0, 12.0), (0.0, 2.0)]      # over the crown
+    assert clock_segments(9, 3) == [(9.0, 12.0), (0.0, 3.0)]
+    assert clock_segments(2, 10) == [(2.0, 10.0)]                   # over the invert
+    assert clock_segments(12, 12) == [(0.0, 12.0)] == clock_segments(3, 3)    # all round
+    assert clock_segments(11, 12) == [(11.0, 12.0)]
+
+
+def test_a_10_to_2_crack_is_drawn_over_the_crown_and_12_to_12_all_round():
+    """Issue 31: S01's 10-2 crack was drawn from 2 down through 6 to 10, over the invert; a 12-12 deformation was a
+    dot."""
+    from pipeline.reports.graphics import pipe_strip
+
+    obs = [{"row": 1, "distance_m": 1.0, "code": "BAB", "clock_from": 10, "clock_to": 2},
+           {"row": 2, "distance_m": 3.0, "code": "BAA", "clock_from": 12, "clock_to": 12}]
+    d = pipe_strip(obs, (0.0, 5.0), {1, 2})
+    bottom, top = _band(d)
+    h = top - bottom
+    lines = _range_lines(d)
+    crack = sorted((y0, y1) for x, y0, y1 in lines if x == min(x for x, _, _ in lines))
+    # 10 -> 12 at the bottom edge, 12 -> 2 at the top edge; the invert (6, the middle) is not crossed
+    assert crack == [(pytest.approx(bottom), pytest.approx(top - h * 10 / 12)),
+                     (pytest.approx(top - h * 2 / 12), pytest.approx(top))]
+    middle = bottom + h / 2
+    assert not any(y0 < middle < y1 for y0, y1 in crack)
+    deformation = [(y0, y1) for x, y0, y1 in lines if x == max(x for x, _, _ in lines)]
+    assert deformation == [(pytest.approx(bottom), pytest.approx(top))]
+
+
+@pytest.mark.slow
+def test_the_samples_s01_report_has_no_empty_parts_and_its_crack_over_the_crown(sample_night):
+    from pipeline.reports.graphics import pipe_strip, strip_span
+    from pipeline.store import read_records
+
+    text = " ".join(" ".join(_text(sample_night / "reports" / "S01-circular-clean.pdf")).split())
+    assert "( → )" not in text and "Condition report: section S01 (MH101 → MH102)" in text
+    assert "10–2" in text and "Symbols and words" in text
+    assert "along the pipe 1 px ≈" in text                     # the below-resolution crack in its own direction
+    observations = [o.as_dict() for o in read_records(sample_night / "dataset", "observations",
+                                                      inspection_ids=["S01-circular-clean"])]
+    crack = next(o for o in observations if o["code"] == "BAB" and (o["clock_from"], o["clock_to"]) == (10, 2))
+    ins = read_records(sample_night / "dataset", "inspections", inspection_ids=["S01-circular-clean"])[0]
+    d = pipe_strip([crack], strip_span(observations, ins.survey_start_m, ins.survey_end_m, ins.section_length_m),
+                   {crack["row"]})
+    bottom, top = _band(d)
+    spans = sorted((y0, y1) for _, y0, y1 in _range_lines(d))
+    assert spans[0][0] == pytest.approx(bottom) and spans[-1][1] == pytest.approx(top)    # across both edges
+    assert not any(y0 < (bottom + top) / 2 < y1 for y0, y1 in spans)                      # not over the invert

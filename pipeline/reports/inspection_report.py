@@ -201,6 +201,20 @@ def _scheme_sentence(i) -> str:
             "class from the measurement's distribution.")
 
 
+_DIRECTIONS = {"along": "along the pipe", "around": "around the pipe", "tangent": "on the wall",
+               "section": "in the cross-section"}
+
+
+def resolution_note(m: dict) -> str:
+    """For a quantity below resolution, the scale in its own direction: 'along the pipe 1 px ≈ 8.4 mm at this
+    distance' (value / p_X: the marks' separation in the image along the measured extent [px]); "" otherwise."""
+    if m.get("below_resolution") is not True or not is_finite(m.get("p_X_px")) or not is_finite(m.get("value")) \
+            or float(m["p_X_px"]) <= 0:
+        return ""
+    where = _DIRECTIONS.get(str(m.get("extent") or ""), "in its direction")
+    return f"{where} 1 px ≈ {float(m['value']) / float(m['p_X_px']):.2g} {m.get('unit') or 'mm'} at this distance"
+
+
 def _delivered(o: dict) -> str:
     parts = []
     for q, unit in (("q1", "q1_unit"), ("q2", "q2_unit")):
@@ -220,9 +234,12 @@ def _observation_table(observations: list[dict], by_row: dict[int, list[dict]]) 
             checks.append(f"{_label(m)}: {safe_text(log_check_text(m), 200)}")
             if m["status"] == "ok":
                 flag = "" if m.get("confident") else " ⚠"
-                measured.append(f"{_label(m)}: {safe_text(format_record(m))}{flag}")
+                note = resolution_note(m)
+                measured.append(f"{_label(m)}: {safe_text(format_record(m))}{flag}"
+                                + (f"; {safe_text(note)}" if note else ""))
             else:
                 measured.append(f"{_label(m)}: not measured")
+        # the column fits "12–12" on one line (a narrower one split the word: "12–1 / 2")
         clock = "" if is_missing(o.get("clock_from")) else f"{int(o['clock_from'])}" + (
             "" if is_missing(o.get("clock_to")) else f"–{int(o['clock_to'])}")
         codes = " ".join(_txt(v) for v in (o.get("code"), o.get("char1"), o.get("char2")) if not is_missing(v) and v)
@@ -240,7 +257,7 @@ def _observation_table(observations: list[dict], by_row: dict[int, list[dict]]) 
     extra = [("TOPPADDING", (0, 0), (-1, -1), 1.2), ("BOTTOMPADDING", (0, 0), (-1, -1), 1.8)]
     for r in spans:
         extra += [("SPAN", (1, r), (-1, r)), ("LINEABOVE", (1, r), (-1, r), 0.25, colors.white)]
-    return grid_table(rows, [8 * mm, 10 * mm, 15 * mm, 28 * mm, 9 * mm, 15 * mm, 36 * mm, 31 * mm, 28 * mm], extra,
+    return grid_table(rows, [8 * mm, 10 * mm, 15 * mm, 25 * mm, 12 * mm, 15 * mm, 36 * mm, 31 * mm, 28 * mm], extra,
                       split_rows=True)
 
 
@@ -312,7 +329,8 @@ def _quantity_block(m: dict, thumbnail: bytes | None) -> KeepTogether:
     if m["status"] != "ok":
         return KeepTogether([title, _p(f"Not measured: {_txt(m.get('error'))}", "warning"), Spacer(1, 3 * mm)])
     facts = [
-        ("Result", safe_text(format_record(m)) + " (95 %)"),
+        ("Result", safe_text(format_record(m)) + " (95 %)"
+         + (f"; {safe_text(resolution_note(m))}" if resolution_note(m) else "")),
         ("u", f"{m['u']:.3g} {m['unit']} (standard)"),
         ("Logged", "-" if is_missing(m.get("operator_value")) else f"{m['operator_value']:g} {m['unit']} (contractor)"),
         ("Coverage", _coverage(m)),
@@ -326,7 +344,10 @@ def _quantity_block(m: dict, thumbnail: bytes | None) -> KeepTogether:
     fact_table.setStyle(TableStyle([("VALIGN", (0, 0), (-1, -1), "TOP"), ("LEFTPADDING", (0, 0), (-1, -1), 0),
                                     ("RIGHTPADDING", (0, 0), (-1, -1), 1), ("TOPPADDING", (0, 0), (-1, -1), 0.3),
                                     ("BOTTOMPADDING", (0, 0), (-1, -1), 0.3)]))
-    image = (Image(io.BytesIO(thumbnail), width=_THUMB, height=_THUMB * 0.8, kind="proportional") if thumbnail
+    points = "points found in the image" if _source(m) == "contour" else "the two marked points"
+    image = ([Image(io.BytesIO(thumbnail), width=_THUMB, height=_THUMB * 0.8, kind="proportional"),
+              _p(f"Green: the pipe's contour fitted in this frame (dashed where the fit is not trusted); red: {points} "
+                 "and the line measured between them.", "tiny")] if thumbnail
              else _p("(no thumbnail)"))
     budget = list(m["budget"]) if m.get("budget") is not None else []
     top = Table([[image, _budget_table(m, budget), fact_table]],
@@ -343,6 +364,31 @@ def _label(m: dict) -> str:
 def _source(record: dict) -> str:
     """marks or contour (datasets written before the column existed hold marked quantities only)."""
     return record.get("source") or "marks"
+
+
+GLOSSARY = (
+    ("U95", "expanded uncertainty at 95 % coverage: the true value lies within value ± U95 with 95 % probability"),
+    ("u, u_c", "standard uncertainty of an input, and of the result (combined)"),
+    ("E_n", "|logged − measured| / √(U95² + U_res²): the contractor's value against the measurement; ≤ 1 agrees"),
+    ("U_res", "the step the contractor logged to (e.g. 1 mm, 5 %) taken as an uncertainty of the logged value"),
+    ("outline not trusted", "the pipe's outline (contour) in the frame could not be fixed well, so the scale is "
+                            "uncertain: a check is then undecided unless E_n > 2"),
+    ("grade, worst likely", "the most probable condition class; the worst class with probability ≥ 5 % (it may be "
+                            "worse than the grade)"),
+    ("SC, p_H", "the scale [mm/px] across the pipe at the observation: the pipe's height H over its height p_H in "
+                "the image [px]"),
+    ("c_i, |c_i| u", "the sensitivity of the result to an input, and that input's contribution to u_c"),
+    ("k", "the coverage factor of a linear interval (1.96 for 95 %); Monte Carlo intervals have none"),
+    ("across, nuisance", "the marks' separation across the measured extent: listed in the budget, no part of the "
+                         "value (c_i = 0)"),
+)
+
+
+def _glossary() -> list:
+    """Every symbol of the report defined once, in a box."""
+    rows = [(safe_text(k), safe_text(v)) for k, v in GLOSSARY]
+    return [Spacer(1, 1.5 * mm), KeepTogether([Paragraph("Symbols and words", styles()["h3"]),
+                                              key_value_table(rows, (30 * mm, FRAME_WIDTH - 30 * mm))])]
 
 
 def _more(n: int, what: str, where: str) -> list[Paragraph]:
@@ -389,10 +435,16 @@ def render_inspection_report(data: str | os.PathLike, inspection_id: str, path: 
                       inspection.get("section_length_m"))
     beyond = [o["row"] for o in observations if is_finite(o.get("distance_m"))
               and not span[0] - 1e-9 <= o["distance_m"] <= span[1] + 1e-9]
+    s0, s1 = inspection.get("survey_start_m"), inspection.get("survey_end_m")
+    surveyed = (float(s0), float(s1)) if is_finite(s0) and is_finite(s1) else None
+    where = (f"surveyed {surveyed[0]:.2f}-{surveyed[1]:.2f} m" + (", the part not seen shaded" if
+                                                                   surveyed[0] > span[0] + 1e-6 else "")
+             if surveyed else "no surveyed range known")
     story += [Paragraph("Observations along the section", st["h2"]),
-              pipe_strip(observations, span, set(by_row)),
-              Paragraph(f"Unrolled wall over the surveyed range {span[0]:g}-{span[1]:g} m: clock position 12 (crown) "
-                        "at the top, 6 (invert) in the middle; measured observations in red"
+              pipe_strip(observations, span, set(by_row), surveyed_m=surveyed),
+              Paragraph(f"Unrolled wall {span[0]:g}-{span[1]:g} m ({where}): 12 (crown) at the top and bottom "
+                        "edges, 6 (invert) in the middle; a clock range runs clockwise (10–2 over the crown, across "
+                        "the edges; 12–12 all round); measured observations in red"
                         + (f"; {'rows' if len(beyond) > 1 else 'row'} {', '.join(map(str, beyond))} "
                            f"{'lie' if len(beyond) > 1 else 'lies'} outside this range and stand at its edge"
                            if beyond else "") + ".", st["small"]),
@@ -401,9 +453,12 @@ def render_inspection_report(data: str | os.PathLike, inspection_id: str, path: 
               *_more(len(observations) - MAX_REPORT_OBSERVATIONS, "observations", "the export"),
               Paragraph("Every measured value is given as value ± U95 (expanded uncertainty, 95 % coverage) with its "
                         "unit, or as value [low, high] when its 95 % interval lies unevenly about it, or as "
-                        "&lt; high when the feature spans under 2 px in the image (below resolution: only its upper "
-                        "bound is measured); ⚠ marks a low-confidence measurement (see Warnings); \"(image)\": "
-                        "measured from the image alone, without the contractor's marks.", st["small"])]
+                        "&lt; high when the feature spans under 2 px in the image in the quantity's own direction "
+                        "(below resolution: only its upper bound is measured; the row says how much a pixel covers in "
+                        "that direction, along the pipe far more than the scale SC across it); ⚠ marks a "
+                        "low-confidence measurement (see Warnings); \"(image)\": measured from the image alone, "
+                        "without the contractor's marks (source contour in the dataset and the export).", st["small"]),
+              *_glossary()]
     if measurements:
         story += [Paragraph("Measured quantities and their uncertainty budgets", st["h2"]),
                   Paragraph("Each budget lists its inputs with estimate and standard uncertainty u in the unit "

@@ -92,6 +92,10 @@ def cmd_certificate_check(args: argparse.Namespace) -> int:
 def cmd_certificate_convert(args: argparse.Namespace) -> int:
     from pipeline.formats.certificate import load_certificate
 
+    if args.out.resolve() == args.certificate.resolve() and not args.force:
+        _say(f"pipegauge certificate: error: --out {args.out} is the certificate being converted; write the "
+             "converted one to another file, or pass --force to replace it")
+        return EXIT_USAGE
     cert = load_certificate(args.certificate).in_convention(args.to)
     from pipeline.formats.certificate import save_certificate
 
@@ -175,6 +179,10 @@ def cmd_probe(args: argparse.Namespace) -> int:
 def cmd_measure(args: argparse.Namespace) -> int:
     from pipeline.app import Layout, measure_packages
 
+    if args.verbose:
+        from pipeline.vision.video.overlay_ocr import ocr_logging
+
+        ocr_logging(True)           # the OCR library's own lines too; without --verbose only its warnings
     failed = 0
     layout = Layout.of(args.data)
     # not while a run (or another measure) writes the same dataset: measure_packages holds its lock
@@ -298,10 +306,28 @@ def cmd_run(args: argparse.Namespace) -> int:
     return EXIT_FAILED if counts["failed"] else EXIT_OK
 
 
+def _cron_problem(cron: str) -> str | None:
+    """Why Prefect would refuse ``cron`` as a schedule (None when it takes it): checked before anything starts."""
+    from prefect.client.schemas.schedules import CronSchedule
+    from pydantic import ValidationError
+
+    try:
+        CronSchedule(cron=cron)
+    except ValidationError as exc:
+        return "; ".join(str(e.get("msg", "")).removeprefix("Value error, ") for e in exc.errors()) or str(exc)
+    except ValueError as exc:
+        return str(exc) or type(exc).__name__
+    return None
+
+
 def cmd_serve(args: argparse.Namespace) -> int:
     if (code := _check_inbox(args)) is not None:
         return code
     _quiet_prefect()
+    if (problem := _cron_problem(args.cron)) is not None:
+        _say(f"pipegauge serve: error: --cron {args.cron!r} is not a cron expression ({problem}); give five fields "
+             'minute hour day month weekday, for example "0 2 * * *" (02:00 every night)')
+        return EXIT_USAGE
     if not os.environ.get("PREFECT_API_URL"):
         from prefect.settings import PREFECT_API_URL
 
@@ -519,7 +545,8 @@ def build_parser() -> argparse.ArgumentParser:
                     help="measurement model (default: %(default)s; docs/measurement.md)")
     me.add_argument("--certificates", type=Path, help="folder of certificates (default: certificates/ beside each package)")
     me.add_argument("--json", action="store_true", help="print each package's records as JSON")
-    me.add_argument("--verbose", action="store_true", help="report progress within each package")
+    me.add_argument("--verbose", action="store_true",
+                    help="report progress within each package, and the OCR library's own log lines")
     me.set_defaults(func=cmd_measure)
 
     ex = verbs.add_parser("export", help="export the condition log with U95 for asset management (CSV, Parquet, "
@@ -571,6 +598,7 @@ def build_parser() -> argparse.ArgumentParser:
     con.add_argument("certificate", type=Path)
     con.add_argument("--to", choices=("pixel", "opencv"), required=True)
     con.add_argument("--out", type=Path, required=True, help="where to write the converted certificate")
+    con.add_argument("--force", action="store_true", help="allow --out to be the certificate converted (replaced)")
     con.set_defaults(func=cmd_certificate_convert)
     return parser
 

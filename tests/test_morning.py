@@ -220,3 +220,67 @@ def test_the_samples_s01_report_has_no_empty_parts_and_its_crack_over_the_crown(
     spans = sorted((y0, y1) for _, y0, y1 in _range_lines(d))
     assert spans[0][0] == pytest.approx(bottom) and spans[-1][1] == pytest.approx(top)    # across both edges
     assert not any(y0 < (bottom + top) / 2 < y1 for y0, y1 in spans)                      # not over the invert
+
+
+# -- smaller ---------------------------------------------------------------------------------------------------------
+
+def test_certificate_convert_round_trips_to_a_file_its_checker_accepts_and_keeps_its_input(tmp_path, capsys):
+    import shutil
+    from pathlib import Path
+
+    src = tmp_path / "cert.json"
+    shutil.copy(Path(__file__).resolve().parent.parent / "sample_videos" / "certificates" / "SYN-720x576.json", src)
+    assert main(["certificate", "convert", str(src), "--to", "pixel", "--out", str(tmp_path / "pixel.json")]) == 0
+    assert main(["certificate", "convert", str(tmp_path / "pixel.json"), "--to", "opencv",
+                 "--out", str(tmp_path / "back.json")]) == 0
+    capsys.readouterr()
+    assert main(["certificate", "check", str(tmp_path / "back.json")]) == 0, capsys.readouterr().err
+    before = src.read_bytes()
+    assert main(["certificate", "convert", str(src), "--to", "pixel", "--out", str(src)]) == 2
+    assert "is the certificate being converted" in capsys.readouterr().err and src.read_bytes() == before
+    assert main(["certificate", "convert", str(src), "--to", "pixel", "--out", str(src), "--force"]) == 0
+
+
+def test_the_ocr_library_logs_only_its_warnings_unless_verbose(monkeypatch):
+    import logging
+    import sys
+    import types
+
+    from pipeline.vision.video import overlay_ocr
+
+    seen = {}
+
+    class FakeRapidOCR:           # stands for the OCR engine: it sets its logger from its config, as RapidOCR does
+        def __init__(self, params):
+            seen.update(params)
+            logging.getLogger("RapidOCR").setLevel(params.get("Global.log_level", "info").upper())
+
+    monkeypatch.setitem(sys.modules, "rapidocr", types.SimpleNamespace(RapidOCR=FakeRapidOCR))
+    monkeypatch.setattr(overlay_ocr, "_OCR_LOG_LEVEL", "warning")
+    overlay_ocr.OverlayReader()
+    assert not logging.getLogger("RapidOCR").isEnabledFor(logging.INFO)
+    overlay_ocr.ocr_logging(True)
+    overlay_ocr.OverlayReader()
+    assert logging.getLogger("RapidOCR").isEnabledFor(logging.INFO)
+    overlay_ocr.ocr_logging(False)
+
+
+def test_progress_lines_carry_no_host_or_pid_and_the_run_log_does(tmp_path):
+    import json
+
+    from pipeline.app import Layout, log_rows, progress_line
+
+    row = {"package": "S03", "inspection_id": "S03", "status": "ok", "quantities": 7, "seconds": 12.1, "error": "",
+           "processed": True, "refused": False, "worker": "vm:857"}
+    assert progress_line(3, 50, row) == "[3/50] S03: ok (7 quantities, 12.1 s)"
+    path = log_rows([row], Layout(tmp_path), dt.date(2026, 11, 30))
+    logged = json.loads(path.read_text().splitlines()[0])
+    assert (logged["worker"], logged["night"]) == ("vm:857", "2026-11-30")
+
+
+def test_serve_says_a_bad_cron_is_not_a_cron_expression_before_looking_for_a_server(tmp_path, capsys, monkeypatch):
+    monkeypatch.delenv("PREFECT_API_URL", raising=False)
+    (tmp_path / "inbox").mkdir()
+    assert main(["serve", str(tmp_path / "inbox"), "--out", str(tmp_path / "out"), "--cron", "every night"]) == 2
+    err = capsys.readouterr().err
+    assert "--cron 'every night' is not a cron expression" in err and "no Prefect server" not in err

@@ -28,7 +28,7 @@ _HOMES = {
     "Layout": "layout",
     "InspectionResult": "measure", "measure_package": "measure",
     "NightPlan": "night", "finish_night": "night", "measure_packages": "night", "plan_night": "night",
-    "progress_line": "night", "writing": "night",
+    "progress_line": "night", "writing": "night", "log_rows": "night",
     "PackageOutcome": "process", "process_package": "process", "refused_outcome": "process",
     "dataset_summary": "summary", "find_inspection": "summary",
 }

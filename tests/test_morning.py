@@ -284,3 +284,13 @@ def test_serve_says_a_bad_cron_is_not_a_cron_expression_before_looking_for_a_ser
     assert main(["serve", str(tmp_path / "inbox"), "--out", str(tmp_path / "out"), "--cron", "every night"]) == 2
     err = capsys.readouterr().err
     assert "--cron 'every night' is not a cron expression" in err and "no Prefect server" not in err
+
+
+def test_paper_refuses_a_certificate_whose_distortion_is_not_linear_over_its_uncertainty(capsys):
+    """Issue 31: `paper --certificate SYN-720x576.json` printed "U95 of max distortion 5.69745 / 17687.13172 px"."""
+    from pathlib import Path
+
+    cert = Path(__file__).resolve().parent.parent / "sample_videos" / "certificates" / "SYN-720x576.json"
+    assert main(["paper", "--certificate", str(cert), "--no-files"]) == 1
+    captured = capsys.readouterr()
+    assert "its distortion is not linear over its uncertainty" in captured.err and "U95" not in captured.out

@@ -31,7 +31,7 @@ from pipeline.formats.manifest import load_manifest
 from pipeline.formats.tabular import LEVELS, export_table, log_table, write_csv, write_parquet
 from pipeline.formats.vsa_kek import Transfer, read_transfer_log
 from pipeline.formats.vsa_kek.write import VALUES, measured_values
-from pipeline.judgement.grading import SCHEMES, applicable_bands, class_index, scheme
+from pipeline.judgement.grading import SCHEMES, Band, applicable_bands, class_index, scheme
 from pipeline.store import file_stem, read_records, read_table, require_dataset, to_row
 
 __all__ = ["VALUES", "LEVELS", "FILE_SUFFIXES", "export", "check_export_request", "export_frame", "log_frame",
@@ -96,8 +96,8 @@ def decides(m: dict, inspection: dict) -> tuple[bool, str | None]:
     if (m.get("status") != "ok" or m.get("confident") is not True or m.get("below_resolution") is True
             or value is None or U95 is None):
         return False, None
-    bands = []
-    key = m.get("grading_scheme")
+    bands: list[Band] = []
+    key = str(m.get("grading_scheme") or "")
     if m.get("quantity") == "Q1" and key in SCHEMES and not is_missing(inspection.get("height_mm")):
         bands, _ = applicable_bands(scheme(key), m.get("code") or "", m.get("char1"), m.get("unit"),
                                     float(inspection["height_mm"]), inspection.get("material"))

@@ -344,10 +344,10 @@ def _quantity_block(m: dict, thumbnail: bytes | None) -> KeepTogether:
     fact_table.setStyle(TableStyle([("VALIGN", (0, 0), (-1, -1), "TOP"), ("LEFTPADDING", (0, 0), (-1, -1), 0),
                                     ("RIGHTPADDING", (0, 0), (-1, -1), 1), ("TOPPADDING", (0, 0), (-1, -1), 0.3),
                                     ("BOTTOMPADDING", (0, 0), (-1, -1), 0.3)]))
-    points = "points found in the image" if _source(m) == "contour" else "the two marked points"
+    points = "points found" if _source(m) == "contour" else "marked points"
     image = ([Image(io.BytesIO(thumbnail), width=_THUMB, height=_THUMB * 0.8, kind="proportional"),
-              _p(f"Green: the pipe's contour fitted in this frame (dashed where the fit is not trusted); red: {points} "
-                 "and the line measured between them.", "tiny")] if thumbnail
+              _p(f"green: pipe contour (dashed: not trusted); red: {points}, the line measured", "tiny")]
+             if thumbnail
              else _p("(no thumbnail)"))
     budget = list(m["budget"]) if m.get("budget") is not None else []
     top = Table([[image, _budget_table(m, budget), fact_table]],

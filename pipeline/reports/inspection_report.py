@@ -346,7 +346,7 @@ def _quantity_block(m: dict, thumbnail: bytes | None) -> KeepTogether:
                                     ("BOTTOMPADDING", (0, 0), (-1, -1), 0.3)]))
     points = "points found" if _source(m) == "contour" else "marked points"
     image = ([Image(io.BytesIO(thumbnail), width=_THUMB, height=_THUMB * 0.8, kind="proportional"),
-              _p(f"green: pipe contour (dashed: not trusted); red: {points}, the line measured", "tiny")]
+              _p(f"green: pipe contour · red: {points}", "tiny")]
              if thumbnail
              else _p("(no thumbnail)"))
     budget = list(m["budget"]) if m.get("budget") is not None else []
@@ -386,9 +386,8 @@ GLOSSARY = (
 
 def _glossary() -> list:
     """Every symbol of the report defined once, in a box."""
-    rows = [(safe_text(k), safe_text(v)) for k, v in GLOSSARY]
-    return [Spacer(1, 1.5 * mm), KeepTogether([Paragraph("Symbols and words", styles()["h3"]),
-                                              key_value_table(rows, (30 * mm, FRAME_WIDTH - 30 * mm))])]
+    text = "; ".join(f"<b>{safe_text(k)}</b>: {safe_text(v)}" for k, v in GLOSSARY)
+    return [KeepTogether([Paragraph("Symbols and words", styles()["h3"]), Paragraph(text + ".", styles()["tiny"])])]
 
 
 def _more(n: int, what: str, where: str) -> list[Paragraph]:
@@ -467,7 +466,10 @@ def render_inspection_report(data: str | os.PathLike, inspection_id: str, path: 
                             + _input_legend(measurements[:MAX_REPORT_QUANTITIES]) + ". <i>wall</i> and "
                             "<i>certificate</i> are scale factors, 1 at the nominal wall and at the certificate's own "
                             "parameters, their u relative (0.01 = 1 %); <i>across</i> is listed but no part of the "
-                            "value (c_i = 0).", st["small"])]
+                            "value (c_i = 0). Thumbnails: the frame measured, undistorted, with the pipe's contour "
+                            "fitted in it in green (dashed where the fit is not trusted) and in red the two points "
+                            "measured between (marked, or found in the image alone) and the line joining them.",
+                            st["small"])]
         story += [_quantity_block(m, thumbs.get((m["row"], m["quantity"], _source(m))))
                   for m in measurements[:MAX_REPORT_QUANTITIES]]
         story += _more(len(measurements) - MAX_REPORT_QUANTITIES, "measured quantities", "the export")

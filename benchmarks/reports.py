@@ -57,13 +57,14 @@ def write_pages(data: Path, inspections: list[str], folder: Path, *, summary: bo
     summary of those inspections (summary-page-N.png), and the first report's page 1 as text in ``text``."""
     import datetime as dt
 
-    from pipeline.reports import render_night_summary
+    from pipeline.reports import render_night_summary, report_file_name
 
     folder.mkdir(parents=True, exist_ok=True)
     out = []
     with tempfile.TemporaryDirectory() as tmp:
         for k, inspection in enumerate(inspections):
-            pdf_path = render_inspection_report(data, inspection, Path(tmp) / "report.pdf")
+            # named as a run names it, so that the summary's morning list finds each report
+            pdf_path = render_inspection_report(data, inspection, Path(tmp) / report_file_name(inspection))
             out += _png(pdf_path, folder, f"report-{inspection[:3]}", scale)
             if text is not None and k == 0:
                 text.mkdir(parents=True, exist_ok=True)

@@ -95,6 +95,10 @@ def cmd_certificate_check(args: argparse.Namespace) -> int:
 def cmd_certificate_convert(args: argparse.Namespace) -> int:
     from pipeline.formats.certificate import load_certificate
 
+    if args.out.resolve() == args.certificate.resolve() and not args.force:
+        _say(f"pipegauge certificate: error: --out {args.out} is the certificate being converted; write the "
+             "converted one to another file, or pass --force to replace it")
+        return EXIT_USAGE
     cert = load_certificate(args.certificate).in_convention(args.to)
     from pipeline.formats.certificate import save_certificate
 
@@ -178,6 +182,10 @@ def cmd_probe(args: argparse.Namespace) -> int:
 def cmd_measure(args: argparse.Namespace) -> int:
     from pipeline.app import Layout, measure_packages
 
+    if args.verbose:
+        from pipeline.vision.video.overlay_ocr import ocr_logging
+
+        ocr_logging(True)           # the OCR library's own lines too; without --verbose only its warnings
     failed = 0
     layout = Layout.of(args.data)
     # not while a run (or another measure) writes the same dataset: measure_packages holds its lock
@@ -305,10 +313,28 @@ def cmd_run(args: argparse.Namespace) -> int:
     return EXIT_FAILED if counts["failed"] else EXIT_OK
 
 
+def _cron_problem(cron: str) -> str | None:
+    """Why Prefect would refuse ``cron`` as a schedule (None when it takes it): checked before anything starts."""
+    from prefect.client.schemas.schedules import CronSchedule
+    from pydantic import ValidationError
+
+    try:
+        CronSchedule(cron=cron)
+    except ValidationError as exc:
+        return "; ".join(str(e.get("msg", "")).removeprefix("Value error, ") for e in exc.errors()) or str(exc)
+    except ValueError as exc:
+        return str(exc) or type(exc).__name__
+    return None
+
+
 def cmd_serve(args: argparse.Namespace) -> int:
     if (code := _check_inbox(args)) is not None:
         return code
     _quiet_prefect()
+    if (problem := _cron_problem(args.cron)) is not None:
+        _say(f"pipegauge serve: error: --cron {args.cron!r} is not a cron expression ({problem}); give five fields "
+             'minute hour day month weekday, for example "0 2 * * *" (02:00 every night)')
+        return EXIT_USAGE
     if not os.environ.get("PREFECT_API_URL"):
         from prefect.settings import PREFECT_API_URL
 
@@ -334,26 +360,52 @@ def _dataset_of(data: Path) -> Path:
 
 
 def cmd_report(args: argparse.Namespace) -> int:
+    from pipeline.app import find_inspection
     from pipeline.reports import render_inspection_report
 
-    path = render_inspection_report(_dataset_of(args.data), args.inspection_id, args.out)
+    dataset = _dataset_of(args.data)
+    path = render_inspection_report(dataset, find_inspection(dataset, args.inspection_id), args.out)
     _say(f"pipegauge report: {path}")
     return EXIT_OK
 
 
+def cmd_summary(args: argparse.Namespace) -> int:
+    from pipeline.app import dataset_summary
+
+    if args.start and args.end and args.start > args.end:
+        _say(f"pipegauge summary: error: --from {args.start} is after --to {args.end}; swap them")
+        return EXIT_USAGE
+    entries = dataset_summary(args.data, args.start, args.end)
+    if args.json:
+        print(json.dumps([e.as_dict() for e in entries], indent=1))
+    else:
+        for e in entries:
+            print(e.line())
+    _say(f"pipegauge summary: {len(entries)} inspection(s), most in need of a person first")
+    return EXIT_OK
+
+
 def cmd_export(args: argparse.Namespace) -> int:
-    from pipeline.app.export import export
+    from pipeline.app.export import check_export_request, export
     from pipeline.formats import WRITERS
 
-    fmt = args.format or ("parquet" if args.out.suffix.lower() == ".parquet" else "csv")
-    written = export(fmt, _dataset_of(args.data), args.out, args.start, args.end)
+    try:
+        fmt = check_export_request(args.format, args.out, args.start, args.end)
+    except PipegaugeError as exc:
+        _say(f"pipegauge export: error: {exc}")
+        return EXIT_USAGE
+    written = export(fmt, _dataset_of(args.data), args.out, args.start, args.end, values=args.values,
+                     level=args.level)
     if WRITERS[fmt].out == "file":
-        _say(f"pipegauge export: {sum(n for _, n in written)} quantities written to {args.out} ({fmt})")
+        what = "observations" if args.level == "observation" else "quantities"
+        _say(f"pipegauge export: {sum(n for _, n in written)} {what} written to {args.out} ({fmt}, values "
+             f"{args.values})")
     else:
         for path, n in written:
             print(path)
         what = "observations" if WRITERS[fmt].out == "folder" else "rows annotated"
-        _say(f"pipegauge export: {len(written)} file(s) ({fmt}, {sum(n for _, n in written)} {what}) in {args.out}")
+        _say(f"pipegauge export: {len(written)} file(s) ({fmt}, {sum(n for _, n in written)} {what}, values "
+             f"{args.values}) in {args.out}")
     if args.schemas:
         from pipeline.formats import READERS, reader_for
 
@@ -506,11 +558,24 @@ def build_parser() -> argparse.ArgumentParser:
     rp = verbs.add_parser("report", help="render an inspection's PDF condition report from the dataset",
                           description="Re-render the condition report of one inspection from the stored dataset "
                                       "(docs/reports.md).")
-    rp.add_argument("inspection_id", metavar="INSPECTION_ID")
+    rp.add_argument("inspection_id", metavar="INSPECTION_ID",
+                    help="an inspection id, or a section id (its latest inspection), as pipegauge summary lists them")
     rp.add_argument("--data", type=Path, default=Path("reports"),
                     help="a run's output folder or a dataset folder (default: %(default)s)")
     rp.add_argument("--out", type=Path, required=True, help="the PDF to write")
     rp.set_defaults(func=cmd_report)
+
+    su = verbs.add_parser("summary", help="the morning list: sections ranked by grade and by what needs a person",
+                          description="Every stored inspection, most in need of a person first: failed deliveries "
+                                      "with their reason and the fix, then by the section's grade (worst first), then "
+                                      "by contractor's values the measurement contradicts and observations the image "
+                                      "could not decide; each with its grade, counts and report (docs/reports.md).")
+    su.add_argument("--data", type=Path, default=Path("reports"),
+                    help="a run's output folder or a dataset folder (default: %(default)s)")
+    su.add_argument("--from", dest="start", type=_date, help="first inspection date YYYY-MM-DD")
+    su.add_argument("--to", dest="end", type=_date, help="last inspection date YYYY-MM-DD")
+    su.add_argument("--json", action="store_true", help="print JSON, one object per inspection")
+    su.set_defaults(func=cmd_summary)
 
     me = verbs.add_parser("measure", help="measure the logged observations of inspection packages into the dataset",
                           description="Validate each package (manifest, header, log, marks, certificate, video), read "
@@ -523,12 +588,18 @@ def build_parser() -> argparse.ArgumentParser:
                     help="measurement model (default: %(default)s; docs/measurement.md)")
     me.add_argument("--certificates", type=Path, help="folder of certificates (default: certificates/ beside each package)")
     me.add_argument("--json", action="store_true", help="print each package's records as JSON")
-    me.add_argument("--verbose", action="store_true", help="report progress within each package")
+    me.add_argument("--verbose", action="store_true",
+                    help="report progress within each package, and the OCR library's own log lines")
     me.set_defaults(func=cmd_measure)
 
-    ex = verbs.add_parser("export", help="export measured quantities with U95 for asset management (CSV or Parquet)",
-                          description="One row per measured quantity with value, U95, unit and interval, joined with "
-                                      "its observation and section. CSV text cells are safe against spreadsheet "
+    ex = verbs.add_parser("export", help="export the condition log with U95 for asset management (CSV, Parquet, "
+                                         "VSA-KEK)",
+                          description="The condition log: one row per logged observation (nodes and unmeasured rows "
+                                      "included) with its section's header and provenance, the contractor's values "
+                                      "and pipegauge's measurement, U95, log check and grade beside them; --level "
+                                      "quantity gives one row per measured quantity. A contractor's value is never "
+                                      "replaced unless --values measured, and then only by a measurement that "
+                                      "decides it (docs/formats.md). CSV text cells are safe against spreadsheet "
                                       "formula injection.")
     ex.add_argument("--data", type=Path, default=Path("reports/dataset"), help="dataset folder (default: %(default)s)")
     ex.add_argument("--out", type=Path, required=True,
@@ -540,6 +611,13 @@ def build_parser() -> argparse.ArgumentParser:
                     help="validate the files written against their owner's XML schemas in DIR (ISYBAU 2013)")
     ex.add_argument("--from", dest="start", type=_date, help="first inspection date YYYY-MM-DD")
     ex.add_argument("--to", dest="end", type=_date, help="last inspection date YYYY-MM-DD")
+    ex.add_argument("--values", choices=("delivered", "measured"), default="delivered",
+                    help="delivered (default): the contractor's values and classes as delivered, pipegauge's "
+                         "measurement beside them; measured: a logged value replaced by a measurement that decides "
+                         "it (confident, not below resolution, U95 under the logging step or within one class)")
+    ex.add_argument("--level", choices=("observation", "quantity"), default="observation",
+                    help="rows of a CSV/Parquet export: observation (the condition log, default) or quantity "
+                         "(one per measured quantity)")
     ex.set_defaults(func=cmd_export)
 
     dr = verbs.add_parser("doctor", help="check a run's output folder: dataset files, reports and locks against "
@@ -581,6 +659,7 @@ def build_parser() -> argparse.ArgumentParser:
     con.add_argument("certificate", type=Path)
     con.add_argument("--to", choices=("pixel", "opencv"), required=True)
     con.add_argument("--out", type=Path, required=True, help="where to write the converted certificate")
+    con.add_argument("--force", action="store_true", help="allow --out to be the certificate converted (replaced)")
     con.set_defaults(func=cmd_certificate_convert)
     return parser
 

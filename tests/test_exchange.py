@@ -22,7 +22,6 @@ import pytest
 
 import ili_cache
 from flows.cli import main
-from pipeline import __version__
 from pipeline.formats.manifest import load_manifest
 from pipeline.core.errors import PackageError, TransferError
 from pipeline.formats.isybau import FORMAT_NAME as ISYBAU
@@ -209,14 +208,24 @@ def test_writer_keeps_the_contractors_objects_and_grade():
                                     "real")
     inspection = {**header.as_record(), "inspection_id": "real", "inspection_date": header.inspection_date}
     rows = [observation_record(o) for o in reading.observations]
-    measured = {(6, "Q1"): {"quantity": "Q1", "value": 30.14, "U95": 1.04, "unit": "%"}}
+    measured = {(6, "Q1"): {"quantity": "Q1", "value": 30.14, "U95": 1.04, "unit": "%", "confident": True,
+                            "log_check": "disagrees", "grade": "EZ2", "decides": True, "class_written": "EZ2"}}
     text = transfer_text(inspection, rows, "2020", measured=measured, source=reading.source)
     written = read_log_file(_write(text)).sections[0]
     assert [o.ref for o in written.observations] == [o.ref for o in reading.observations]
-    assert [o.grade for o in written.observations] == ["unbekannt"] * 8
+    assert [o.grade for o in written.observations] == ["unbekannt"] * 8    # the contractor's class, by default
     bag = written.observations[6]
-    assert bag.q1 == 30.0
-    assert bag.remark == f"measured Q1 30.1 % U95 1.0 % (pipegauge {__version__}, perspective)"
+    assert bag.q1 == 15.0                                                  # the contractor's value, by default
+    assert bag.remark == "pipegauge Q1 30.1 ± 1.0 % (U95), log disagrees, grade EZ2"
+    assert "values delivered" in read_transfer(_write(text)).path.read_text().split("</COMMENT>")[0]
+    # --values measured: a deciding measurement replaces the value, and the class is the written value's
+    replaced = read_log_file(_write(transfer_text(inspection, rows, "2020", measured=measured, source=reading.source,
+                                                  values="measured", comment="values measured"))).observations[6]
+    assert (replaced.q1, replaced.grade) == (30.0, "EZ2")
+    measured[(6, "Q1")]["decides"] = False
+    kept = read_log_file(_write(transfer_text(inspection, rows, "2020", measured=measured, source=reading.source,
+                                              values="measured"))).observations[6]
+    assert (kept.q1, kept.grade) == (15.0, "unbekannt")
     assert written.source.of("Untersuchung")[0].refs["Ausfuehrende_FirmaRef"] == ("ch20p3q400001729", "Basket1")
     assert len(written.source.of("Datei")) == 5
 
@@ -344,15 +353,80 @@ def test_a_sample_delivered_as_a_transfer_measures_bit_for_bit_as_its_csv_packag
     exported = read_log_file(out / f"{sample}.xtf").sections[0]
     original = read_log_file(good / "inspection.xtf").sections[0]
     assert [o.ref for o in exported.observations] == [o.ref for o in original.observations]   # the contractor's TIDs
-    confident = read_table(data, "measurements").query("status == 'ok' and confident == True and source == 'marks'")
-    assert len(confident) > 0
-    for m in confident.to_dict("records"):
-        o = exported.observations[m["row"]]
-        assert (o.q1 if m["quantity"] == "Q1" else o.q2) == round(m["value"])
-        assert f"measured {m['quantity']} {m['value']:.1f} {m['unit']} U95 {m['U95']:.1f} {m['unit']}" in o.remark
-    graded = read_table(data, "observations").dropna(subset=["grade"])
-    assert len(graded) >= 3         # Einzelschadenklasse is pipegauge's VSA 2023 grade where it has one
-    assert {r: exported.observations[r].grade for r in graded.row} == dict(zip(graded.row, graded.grade))
+    # the default policy: the contractor's values as delivered, the measurement in the remark; the class is the
+    # contractor's where the transfer gave one, else the VSA 2023 class of the logged value
+    assert [(o.q1, o.q2) for o in exported.observations] == [(o.q1, o.q2) for o in original.observations]
+    logged_class = dict(read_table(data, "observations")[["row", "logged_grade"]].itertuples(index=False))
+    assert [o.grade for o in exported.observations] == [
+        o.grade or (logged_class.get(o.row) if isinstance(logged_class.get(o.row), str) else "")
+        for o in original.observations]
+    measured = read_table(data, "measurements").query("status == 'ok' and source == 'marks'")
+    assert len(measured) > 0
+    for m in measured.to_dict("records"):
+        assert f"pipegauge {m['quantity']} " in exported.observations[m["row"]].remark
+
+
+@pytest.mark.slow
+@pytest.mark.slow
+def test_the_samples_exported_by_default_keep_the_contractors_values_and_pass_the_validator(tmp_path, ili_models,
+                                                                                           sample_night):
+    """Issue 31: S02's 5 mm crack was written as the measured 2 mm (U95 13 mm) with pipegauge's EZ0; by default
+    every Quantifizierung is the delivered value, the class that of the delivered value, the measurement in the
+    remark and the sidecar, and the transfer says so in its HEADERSECTION."""
+    out = tmp_path / "transfers"
+    assert main(["export", "--data", str(sample_night / "dataset"), "--format", "vsa-kek-2019", "--out", str(out)]) == 0
+    for sample in SAMPLE_IDS:
+        path = out / f"{sample}.xtf"
+        valid, errors = validate(path, ili_models)
+        assert valid, errors
+        assert "<COMMENT>pipegauge " in path.read_text() and "values delivered" in path.read_text()
+        _, delivered = load_package_log(load_manifest(SAMPLES / sample))
+        exported = read_log_file(path).observations
+        assert [(o.row, o.q1, o.q2) for o in exported] == [(o.row, o.q1, o.q2) for o in delivered]
+        assert any("pipegauge Q1" in o.remark for o in exported)
+        assert (out / f"{sample}.pipegauge.csv").is_file()
+    crack = read_log_file(out / "S02-circular-water-offset.xtf").observations[3]
+    assert (crack.code, crack.q1) == ("BAB", 5.0) and "below resolution" in crack.remark
+    logged_class = {o["row"]: o["logged_grade"] for o in read_records_of(sample_night, "S02-circular-water-offset")}
+    assert crack.grade == logged_class[3]         # the class of the 5 mm written, not pipegauge's grade
+
+
+def read_records_of(night: Path, inspection_id: str) -> list[dict]:
+    from pipeline.store import read_records
+
+    return [r.as_dict() for r in read_records(night / "dataset", "observations", inspection_ids=[inspection_id])]
+
+
+def test_a_measurement_decides_a_logged_value_only_when_confident_resolved_and_narrow():
+    from pipeline.app.export import decides
+
+    pipe = {"height_mm": 300.0, "material": "concrete"}
+    base = {"status": "ok", "confident": True, "below_resolution": False, "quantity": "Q1", "code": "BAB",
+            "char1": "B", "unit": "mm", "grading_scheme": "vsa-2023", "logged_resolution": 1.0}
+    assert decides({**base, "value": 5.26, "U95": 0.81}, pipe)[0]                       # U95 under the 1 mm step
+    assert not decides({**base, "value": 2.3, "U95": 13.2, "below_resolution": True}, pipe)[0]
+    assert not decides({**base, "value": 5.26, "U95": 0.81, "confident": False}, pipe)[0]
+    assert not decides({**base, "value": 2.3, "U95": 13.2, "low": 0.0, "high": 15.5}, pipe)[0]   # spans classes
+    assert not decides({**base, "value": 5.0, "U95": 1.5, "status": "error"}, pipe)[0]
+
+
+def test_export_refuses_unknown_suffixes_reversed_dates_and_a_file_for_a_transfer(tmp_path, capsys):
+    import datetime as dt
+
+    from pipeline.store import write_inspection
+
+    data = tmp_path / "dataset"
+    write_inspection(data, {"inspection_id": "P1", "inspection_date": dt.date(2026, 11, 20), "status": "ok",
+                            "problems": []}, [], [], [])
+    for argv, message in ((["--out", str(tmp_path / "x.xlsx")], "no export format writes files ending '.xlsx'"),
+                          (["--out", str(tmp_path / "y.csv"), "--from", "2026-12-01", "--to", "2026-01-01"],
+                           "--from 2026-12-01 is after --to 2026-01-01"),
+                          (["--format", "vsa-kek-2019", "--out", str(tmp_path / "file.xtf")], "looks like a file"),
+                          (["--format", "csv", "--out", str(tmp_path / "z.parquet")], "written to a file ending .csv")):
+        capsys.readouterr()
+        assert main(["export", "--data", str(data), *argv]) == 2, argv
+        assert message in capsys.readouterr().err, argv
+    assert not (tmp_path / "x.xlsx").exists() and not (tmp_path / "file.xtf").exists()
 
 
 @pytest.mark.slow
@@ -391,16 +465,23 @@ def test_export_verb_writes_csv_through_the_registry_and_one_transfer_per_inspec
                          "q1_unit": "mm", "clock_from": 9, "clock_to": 3, "video_time_s": 12.4, "remark": "=1+1\nsecond\tline",
                          "valid": True}]
         measurements = [{"row": 1, "quantity": "Q1", "source": "marks", "code": "BAB", "unit": "mm", "value": 5.26,
-                         "U95": 0.81, "status": "ok", "confident": True}]
+                         "U95": 0.81, "status": "ok", "confident": True, "logged_value": 4.0, "logged_resolution": 1.0,
+                         "log_check": "disagrees"}]
         write_inspection(data, inspection, observations if status == "ok" else [], measurements if status == "ok" else [], [])
-    assert main(["export", "--data", str(data), "--out", str(tmp_path / "q.csv")]) == 0
+    assert main(["export", "--data", str(data), "--out", str(tmp_path / "q.csv"), "--level", "quantity"]) == 0
     assert "1 quantities written to" in capsys.readouterr().err
     assert main(["export", "--data", str(data), "--format", "vsa-kek-2020", "--out", str(tmp_path / "x")]) == 0
     assert capsys.readouterr().out.split() == [str(tmp_path / "x" / "P1.xtf")]      # not the failed one
     crack = read_log_file(tmp_path / "x" / "P1.xtf").sections[0].observations[1]
     assert (crack.code, crack.char1, crack.char2, crack.q1, crack.clock_from, crack.clock_to, crack.video_time_s) == (
-        "BAB", "B", "B", 5.0, 9, 3, 12.4)
-    assert crack.remark == f"measured Q1 5.3 mm U95 0.8 mm (pipegauge {__version__}, perspective); =1+1 second line"
+        "BAB", "B", "B", 4.0, 9, 3, 12.4)                                        # the contractor's 4 mm
+    assert crack.remark == "=1+1 second line; pipegauge Q1 5.26 ± 0.81 mm (U95), log disagrees"
+    sidecar = (tmp_path / "x" / "P1.pipegauge.csv").read_text().splitlines()
+    assert sidecar[0].startswith("# pipegauge") and "values delivered" in sidecar[0]
+    # --values measured: U95 0.81 mm is under the 1 mm step the value was logged to: the measurement decides it
+    assert main(["export", "--data", str(data), "--format", "vsa-kek-2020", "--out", str(tmp_path / "m"),
+                 "--values", "measured"]) == 0
+    assert read_log_file(tmp_path / "m" / "P1.xtf").observations[1].q1 == 5.0
 
 
 def test_a_transfer_package_takes_the_rest_of_its_header_from_package_json(tmp_path):
@@ -469,3 +550,55 @@ def test_a_transfer_of_several_inspections_is_one_section_each_and_a_delivery(tm
     from pipeline.app.delivery import units_of
 
     assert [u.section for u in units_of(folder)] == ["1.045-1.040", "1.040-1.035"]
+
+
+def test_the_csv_export_is_the_condition_log_with_header_and_provenance(tmp_path, capsys):
+    """Issue 31: the CSV held one row per measured quantity only (20 of the samples' 21 rows, no nodes, no
+    unmeasured rows, no DN, material, site, contractor or SHA-256s). Now one row per logged observation with the
+    section's header and provenance; ``--level quantity`` keeps the old shape; a failed delivery is a row too."""
+    import datetime as dt
+
+    import pandas as pd
+    import pyarrow.parquet as pq
+
+    from pipeline.formats.tabular import EXPORT_COLUMNS
+    from pipeline.store import write_inspection
+
+    data = tmp_path / "dataset"
+    header = {"section_id": "S9", "start_node": "MH1", "finish_node": "MH2", "height_mm": 300.0, "shape": "circular",
+              "material": "concrete", "site": "Main St", "contractor": "ACME", "section_length_m": 12.0,
+              "package_sha256": "a" * 64, "video_sha256": "b" * 64, "certificate_id": "CAL-1",
+              "certificate_valid_until": dt.date(2027, 1, 1), "pipeline_version": "9.9.1", "problems": []}
+    write_inspection(data, {"inspection_id": "P1", "inspection_date": dt.date(2026, 11, 20), "status": "ok", **header},
+                     [{"row": 0, "distance_m": 0.0, "code": "BCD", "valid": True},
+                      {"row": 1, "distance_m": 2.5, "code": "BAB", "char1": "B", "q1": 5.0, "q1_unit": "mm",
+                       "valid": True, "logged_grade": "EZ1", "grading_scheme": "vsa-2023"},
+                      {"row": 2, "distance_m": 3.0, "code": "BBA", "valid": True},
+                      {"row": 3, "distance_m": 12.0, "code": "BCE", "valid": True}],
+                     [{"row": 1, "quantity": "Q1", "source": "marks", "code": "BAB", "unit": "mm", "value": 2.3,
+                       "U95": 13.2, "low": 0.0, "high": 15.5, "below_resolution": True, "status": "ok",
+                       "confident": True, "log_check": "agrees"}], [])
+    write_inspection(data, {"inspection_id": "P2", "inspection_date": dt.date(2026, 11, 21), "status": "failed",
+                            "error": "video.mp4: no such file", "section_id": "S10", "problems": []}, [], [], [])
+    assert main(["export", "--data", str(data), "--out", str(tmp_path / "log.csv")]) == 0
+    assert "5 observations written" in capsys.readouterr().err
+    log = pd.read_csv(tmp_path / "log.csv")
+    assert list(log["code"].fillna("")) == ["BCD", "BAB", "BBA", "BCE", ""]
+    crack = log.iloc[1]
+    assert (crack["q1"], crack["Q1_value"], crack["Q1_result"], crack["Q1_decides"]) == (
+        5.0, 5.0, "< 15.5 mm (below resolution)", False)
+    for column, value in (("height_mm", 300.0), ("shape", "circular"), ("material", "concrete"), ("site", "Main St"),
+                          ("contractor", "ACME"), ("package_sha256", "a" * 64), ("video_sha256", "b" * 64),
+                          ("certificate_id", "CAL-1"), ("certificate_valid_until", "2027-01-01"),
+                          ("pipeline_version", "9.9.1"), ("value_policy", "delivered")):
+        assert crack[column] == value, column
+    failed = log.iloc[4]
+    assert (failed["inspection_id"], failed["inspection_status"], failed["inspection_error"]) == (
+        "P2", "failed", "video.mp4: no such file")
+    assert main(["export", "--data", str(data), "--out", str(tmp_path / "q.csv"), "--level", "quantity"]) == 0
+    quantities = pd.read_csv(tmp_path / "q.csv")
+    assert list(quantities.columns) == EXPORT_COLUMNS and len(quantities) == 1
+    assert pd.isna(quantities.loc[0, "value_display"])      # "< 15.5 mm": no value to display below resolution
+    assert main(["export", "--data", str(data), "--out", str(tmp_path / "log.parquet")]) == 0
+    meta = pq.read_schema(tmp_path / "log.parquet").metadata
+    assert meta[b"pipegauge.values"] == b"delivered" and b"contractor's as delivered" in meta[b"pipegauge.policy"]

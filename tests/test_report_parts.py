@@ -65,8 +65,11 @@ def test_budget_numbers_stay_short(x, text):
 
 
 def test_summary_tags_image_only_rows(tmp_path):
+    """An image-alone twin is tagged "(image)" where it is listed (a contradicted log), and not repeated among the
+    worst observations beside its marked measurement (issue 31)."""
     inspection, observations, measurements, thumbnails = example_inspection("TAG-1", n_observations=2)
-    twin = dict(measurements[1], source="contour", value=measurements[1]["value"] + 1.0)
+    twin = dict(measurements[1], source="contour", value=measurements[1]["value"] + 1.0, log_check="disagrees",
+                logged_value=1.0, log_difference=-5.0, E_n=2.0)
     measurements[1]["source"] = "marks"
     measurements[0]["source"] = "marks"
     write_inspection(tmp_path / "dataset", inspection, observations, measurements + [twin],

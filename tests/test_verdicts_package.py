@@ -96,7 +96,7 @@ def test_grades_are_stored_with_probabilities_summing_to_one_and_the_section_tak
 
 def test_export_and_report_carry_the_verdicts(measured, tmp_path):
     root, records, _ = measured
-    assert main(["export", "--data", str(root / "dataset"), "--out", str(tmp_path / "x.csv")]) == 0
+    assert main(["export", "--data", str(root / "dataset"), "--out", str(tmp_path / "x.csv"), "--level", "quantity"]) == 0
     rows = list(csv.DictReader((tmp_path / "x.csv").open()))
     bag = next(r for r in rows if r["code"] == "BAG")
     assert bag["log_check"] == "disagrees" and float(bag["logged_value"]) == 10.0

@@ -12,7 +12,7 @@ The way of one package, a module per step::
 
 ``night`` is the run policy shared by ``pipegauge run``/``serve`` (the Prefect flow wraps it) and
 ``pipegauge measure``: the lock, the crash clean-up, the plan, the progress lines, the summary.
-``layout`` defines the output folder; ``doctor`` checks and repairs one. The verbs' other procedures: ``export``,
+``layout`` defines the output folder; ``doctor`` checks and repairs one. The verbs' other procedures: ``export``, ``summary`` (the morning list),
 ``probe``, ``calibration``, ``paper``.
 """
 
@@ -29,8 +29,9 @@ _HOMES = {
     "diagnose": "doctor", "repair": "doctor",
     "InspectionResult": "measure", "measure_package": "measure",
     "NightPlan": "night", "finish_night": "night", "measure_packages": "night", "plan_night": "night",
-    "progress_line": "night", "writing": "night",
+    "progress_line": "night", "writing": "night", "log_rows": "night",
     "PackageOutcome": "process", "process_package": "process", "refused_outcome": "process",
+    "dataset_summary": "summary", "find_inspection": "summary",
 }
 __all__ = list(_HOMES)
 

@@ -3,6 +3,7 @@
     OUT/dataset/                  the Parquet dataset (docs/dataset.md)
     OUT/dataset/.pipegauge.lock   held by the one process writing the dataset (pipeline.store.lock)
     OUT/reports/                  one PDF condition report per inspection, summary-YYYY-MM-DD.pdf per night
+    OUT/run-log.jsonl             each night's package rows with the worker (host:pid) that measured them
     OUT/.prefect-server.pid       the embedded Prefect server of the run in progress (pipegauge run)
 
 Every verb takes OUT, or for those that only read or only write the dataset, the dataset folder itself
@@ -48,6 +49,11 @@ class Layout:
     @property
     def reports(self) -> Path | None:
         return self.out / "reports"
+
+    @property
+    def run_log(self) -> Path:
+        """Every night's package rows with the worker (host:pid) that measured each, JSON lines."""
+        return self.out / "run-log.jsonl"
 
     @property
     def server_pid(self) -> Path:

@@ -25,7 +25,7 @@ from pipeline.reports import render_night_summary
 from pipeline.store import TABLES, check_files, quarantine, remove_uncommitted
 from pipeline.store.lock import dataset_lock, remove_stale_temporaries
 
-__all__ = ["writing", "NightPlan", "plan_night", "progress_line", "finish_night", "measure_packages"]
+__all__ = ["writing", "NightPlan", "plan_night", "progress_line", "log_rows", "finish_night", "measure_packages"]
 
 Say = Callable[[str], None]
 
@@ -85,16 +85,32 @@ def plan_night(inbox: str | os.PathLike, certificates: str | os.PathLike | None 
 
 
 def progress_line(k: int, n: int, row: dict) -> str:
-    """One package's line as a night goes: '[3/50] S03: ok (7 quantities, 12.1 s) on host:pid'."""
+    """One package's line as a night goes: '[3/50] S03: ok (7 quantities, 12.1 s)'. The worker (host:pid) that
+    measured it is no part of the user's text: it goes to the run's log (``log_rows``)."""
     detail = ("refused" if row["refused"] else f"{row['quantities']} quantities, {row['seconds']} s"
               if row["processed"] else "unchanged since the last run")
-    return (f"[{k}/{n}] {row['package']}: {row['status']} ({detail})" + (f": {row['error']}" if row["error"] else "")
-            + f" on {row['worker']}")
+    return f"[{k}/{n}] {row['package']}: {row['status']} ({detail})" + (f": {row['error']}" if row["error"] else "")
+
+
+def log_rows(rows: Sequence[dict], layout: Layout, night: dt.date | None = None) -> Path:
+    """Append the night's package rows (with the worker, host:pid, and the seconds each took) to the run log,
+    one JSON object a line (``Layout.run_log``); returns its path."""
+    import json
+
+    path = layout.run_log
+    path.parent.mkdir(parents=True, exist_ok=True)
+    stamp = dt.datetime.now(dt.timezone.utc).isoformat(timespec="seconds")
+    with path.open("a", encoding="utf-8") as fh:
+        for r in rows:
+            fh.write(json.dumps({"logged_at": stamp, "night": (night or dt.date.today()).isoformat(), **r},
+                                default=str) + "\n")
+    return path
 
 
 def finish_night(rows: Sequence[dict], layout: Layout, night: dt.date | None = None, say: Say = _quiet) -> Path:
     """The night's summary: rendered when a package was processed tonight or none exists yet, else kept."""
     path = layout.summary(night or dt.date.today())
+    log_rows(rows, layout, night)
     if any(r["processed"] for r in rows) or not path.is_file():
         try:
             say(f"nightly summary: {render_night_summary(list(rows), layout.dataset, path)}")

@@ -8,10 +8,12 @@ or delivering its certificate, changes the key.
 
 from __future__ import annotations
 
+import datetime as dt
+import json
 import os
 import socket
 import time
-from dataclasses import dataclass, field
+from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Callable
 
@@ -21,7 +23,9 @@ from pipeline.app.inbox import link_out, package_id_of
 from pipeline.app.layout import report_is_current
 from pipeline.app.measure import InspectionResult, measure_package
 from pipeline.core.errors import PackageError, PipegaugeError, StoreError
-from pipeline.formats.manifest import load_manifest
+from pipeline.domain.results import InspectionRecord
+from pipeline.formats.header import load_header
+from pipeline.formats.manifest import DEFAULT_FILES, load_manifest
 from pipeline.reports import render_inspection_report, report_file_name
 from pipeline.store import commit_problem, stored_input_key, write_inspection
 from pipeline.vision.video.overlay_ocr import OverlayReader
@@ -118,6 +122,8 @@ def process_package(folder: str | os.PathLike, dataset: str | os.PathLike, *, mo
                              digests=digests, manifest=manifest, unmeasurable=unmeasurable)
     result.inspection["input_sha256"] = key
     rec = result.inspection
+    if rec.get("inspection_date") is None:
+        _date_from_header(folder, rec)
     try:
         write_inspection(dataset, rec, result.observations, result.measurements, result.thumbnails)
     except StoreError as exc:       # a record the schema refuses: keep the failure, not the records
@@ -133,6 +139,37 @@ def process_package(folder: str | os.PathLike, dataset: str | os.PathLike, *, mo
 # What a failed inspection's record keeps when its full record cannot be stored.
 _FAILED_FIELDS = ("inspection_id", "inspection_date", "processed_at", "package_folder", "package_sha256", "input_sha256",
                   "pipeline_version", "model", "status", "error")
+
+
+def _date_from_header(folder: Path, rec) -> None:
+    """A package that failed before its header was read (a missing video, a bad manifest): its header read on its
+    own, so that the record is partitioned by the inspection's date and says what it can; the processing date
+    only when no header can be read, and the record says so (a warning)."""
+    try:
+        document = json.loads((folder / "package.json").read_text(encoding="utf-8"))
+        name = document.get("header") if isinstance(document, dict) else None
+    except (OSError, ValueError):
+        name = None
+    path = (folder / (name if isinstance(name, str) and name else DEFAULT_FILES["header"])).resolve()
+    if folder.resolve() in path.parents:
+        try:
+            header = load_header(path)
+        except PipegaugeError:
+            header = None
+        if header is not None:
+            rec.update({k: v for k, v in asdict(header).items()
+                        if k in InspectionRecord.field_names() and rec.get(k) is None})
+            return
+        try:     # a header with other problems may still give its date
+            date = dt.date.fromisoformat(str(json.loads(path.read_text(encoding="utf-8"))["inspection_date"]))
+        except (OSError, ValueError, KeyError, TypeError):
+            date = None
+        if date is not None:
+            rec.update(inspection_date=date)
+            return
+    processed = rec.get("processed_at").date() if rec.get("processed_at") else dt.date.today()
+    rec.update(warnings=[*(rec.get("warnings") or []), f"no section header could be read: stored under the processing "
+                                                       f"date {processed.isoformat()}, not the inspection's"])
 
 
 def _other_claimant(stored: dict, folder: Path, package_id: str) -> str | None:

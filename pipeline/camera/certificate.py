@@ -135,6 +135,7 @@ class Certificate:
                 )
             names_out, values, jac = opencv_to_pixel(x, idx)
         cov_out = jac @ self.covariance_matrix(names_in) @ jac.T
+        cov_out = 0.5 * (cov_out + cov_out.T)     # J V J^T is symmetric but for rounding (1e-23 off): the checker asks exact
         u_out = np.sqrt(np.clip(np.diag(cov_out), 0.0, None))
         units = {n: PARAMETERS[convention][n][0] for n in names_out}
         params = {n: Parameter(float(values[i]), float(u_out[i]), units[n]) for i, n in enumerate(names_out)}

@@ -94,14 +94,18 @@ class Writer:
     """An export format: how ``--out`` is taken and the format's writing function, a function of records.
 
     ``out == "file"``: ``write(table, path) -> rows written``, the whole export in one file; ``table`` is the
-    export's table (a pandas DataFrame of ``pipeline.formats.tabular.EXPORT_COLUMNS``, one row per measured
-    quantity).
+    export's table (a pandas DataFrame: the condition log of ``pipeline.formats.tabular.LOG_COLUMNS``, one row per
+    observation, or with ``--level quantity`` ``EXPORT_COLUMNS``, one row per measured quantity), its policy in
+    ``table.attrs``.
 
-    ``out == "folder"``: ``write(folder, stem, inspection, observations, measurements, source) -> (path, records
-    written)``, called once per exported inspection; the writer names the file ``stem`` + its suffix in
-    ``folder``. ``inspection`` is the inspection's row (a dict), ``observations`` and ``measurements`` its rows
-    (lists of dicts, each observation with ``ref``, the contractor's id of the row), ``source`` the parsed
-    transfer the package was delivered as, or None.
+    ``out == "folder"``: ``write(folder, stem, inspection, observations, measurements, source, values=...) ->
+    (path, records written)``, called once per exported inspection; the writer names the file ``stem`` + its
+    suffix in ``folder``. ``inspection`` is the inspection's row (a dict), ``observations`` and ``measurements``
+    its rows (lists of dicts, each observation with ``ref``, the contractor's id of the row; each measurement with
+    ``decides`` and ``class_written``, ``pipeline.app.export.decides``), ``source`` the parsed transfer the
+    package was delivered as, or None. ``values`` is the policy: "delivered" (the contractor's values as
+    delivered, the measurement beside them) or "measured" (a logged value replaced only by a measurement whose
+    ``decides`` is true); the writer states it in the file's own metadata (docs/formats.md, "Exports").
 
     ``out == "delivery"``: ``write(folder, stem, source, sections) -> (path, records written)``, called once per
     delivery: ``source`` the contractor's parsed file when the delivery came in the writer's format (None for the

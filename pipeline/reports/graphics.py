@@ -21,7 +21,7 @@ from pipeline.reports.pdf import FONT, FONT_BOLD, styles
 from pipeline.reports.style import LOGGED, MEASURED
 from pipeline.core.numeric import is_finite
 
-__all__ = ["pipe_strip", "spread_labels", "strip_span"]
+__all__ = ["pipe_strip", "spread_labels", "strip_span", "clock_segments"]
 
 _LABEL_SIZE = 5.5           # [pt]
 _LABEL_GAP = 1.2            # between neighbouring labels [pt]
@@ -31,6 +31,27 @@ _ROW = 7.0                  # height of a row of labels [pt]
 def _clock_y(clock: float, top: float, height: float) -> float:
     """Vertical position of a clock reference on the unrolled wall: 12 at the top and bottom edges, 6 in the middle."""
     return top - height * ((clock % 12) / 12.0)
+
+
+def _stretch_y(clock: float, top: float, height: float) -> float:
+    """Vertical position of a point of a stretch (``clock_segments``): 0 at the top edge, 12 at the bottom edge."""
+    return top - height * (clock / 12.0)
+
+
+def clock_segments(clock_from: float, clock_to: float) -> list[tuple[float, float]]:
+    """The stretches of the unrolled wall a clock range covers, as (from, to) clock positions in 0..12.
+
+    A range runs clockwise from its first position to its second (EN 13508-2, viewed in the direction of
+    survey): 10-2 passes the crown (12) and is drawn as two stretches, 10 to 12 at the strip's bottom edge and 0 to 2
+    at its top edge; 9-3 likewise over the crown; 2-10 passes the invert (6). A range that ends where it starts
+    (12-12, 3-3) is the whole circumference.
+    """
+    a, b = float(clock_from) % 12.0, float(clock_to) % 12.0
+    if math.isclose(a, b):
+        return [(0.0, 12.0)]
+    if a < b:
+        return [(a, b)]
+    return [(a, 12.0)] + ([(0.0, b)] if b > 0 else [])
 
 
 def strip_span(observations: Sequence[dict], survey_start_m, survey_end_m, section_length_m) -> tuple[float, float]:
@@ -75,14 +96,16 @@ def spread_labels(centres: Sequence[float], widths: Sequence[float], lo: float, 
 
 
 def pipe_strip(observations: Sequence[dict], span_m: tuple[float, float], measured_rows: set[int],
-               width: float = 180 * mm, band: float = 34 * mm) -> Drawing:
+               width: float = 180 * mm, band: float = 34 * mm,
+               surveyed_m: tuple[float, float] | None = None) -> Drawing:
     """The surveyed range unrolled: chainage [m] along, clock position (12 crown, 6 invert) across.
 
     Each observation is a mark at its distance and clock position (a bar from
-    its first to its second clock reference, or round the wall when it has
-    none), labelled with its code above the strip, the labels spread into
+    its first to its second clock reference, clockwise: ``clock_segments``; a
+    dashed line round the wall when it has none), labelled with its code above the strip, the labels spread into
     rows with leader lines so none overlaps another; measured observations in
-    red. An observation outside ``span_m`` (logged beyond the surveyed range)
+    red. Where ``surveyed_m`` (the video's first and last chainage [m]) leaves part of ``span_m``
+    unseen, that part is shaded. An observation outside ``span_m`` (logged beyond the surveyed range)
     stands at the strip's edge; one without a usable distance is left out.
     """
     styles()                                 # registers the fonts
@@ -102,6 +125,11 @@ def pipe_strip(observations: Sequence[dict], span_m: tuple[float, float], measur
     d = Drawing(width, height)
     d.add(Rect(left, bottom, right - left, band, fillColor=colors.HexColor("#f4f1ea"), strokeColor=colors.grey,
                strokeWidth=0.5))
+    if surveyed_m is not None and all(is_finite(v) for v in surveyed_m):
+        for a, b in ((start, surveyed_m[0]), (surveyed_m[1], end)):
+            if b - a > 1e-6:
+                d.add(Rect(x_of(a), bottom, x_of(b) - x_of(a), band, fillColor=colors.HexColor("#d9d6cf"),
+                           strokeColor=None))
     for clock in (3, 6, 9):
         y = _clock_y(clock, top, band)
         d.add(Line(left, y, right, y, strokeColor=colors.lightgrey, strokeWidth=0.3))
@@ -114,7 +142,7 @@ def pipe_strip(observations: Sequence[dict], span_m: tuple[float, float], measur
         x = x_of(k * step)
         d.add(Line(x, bottom, x, bottom - 1.5 * mm, strokeColor=colors.grey, strokeWidth=0.4))
         d.add(String(x, bottom - 4.5 * mm, f"{k * step:g}", fontName=FONT, fontSize=6, textAnchor="middle"))
-    d.add(String((left + right) / 2, 1.0, "chainage [m] (the surveyed range)", fontName=FONT, fontSize=6,
+    d.add(String((left + right) / 2, 1.0, "chainage [m]", fontName=FONT, fontSize=6,
                  textAnchor="middle"))
     for o, centre, row in zip(placed, centres, rows):       # leaders first: labels are drawn over them
         x = x_of(float(o["distance_m"]))
@@ -130,7 +158,9 @@ def pipe_strip(observations: Sequence[dict], span_m: tuple[float, float], measur
         else:
             y1 = _clock_y(float(c1), top, band)
             if is_finite(c2):
-                d.add(Line(x, y1, x, _clock_y(float(c2), top, band), strokeColor=colour, strokeWidth=1.6))
+                for a, b in clock_segments(float(c1), float(c2)):       # clockwise, over 12 across the edges
+                    d.add(Line(x, _stretch_y(a, top, band), x, _stretch_y(b, top, band), strokeColor=colour,
+                               strokeWidth=1.6))
             d.add(Circle(x, y1, 1.2, fillColor=colour, strokeColor=None))
         y = top + 3.0 + row * _ROW
         d.add(Rect(centre - w / 2, y, w, _ROW - 0.8, fillColor=colors.white, strokeColor=None))

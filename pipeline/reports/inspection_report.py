@@ -65,12 +65,16 @@ def inspection_warnings(inspection: dict, measurements: list[dict], today: dt.da
     unmeasured quantities (one per observation and problem; the technical reasons stay in the dataset),
     certificate validity."""
     out = []
-    if inspection.get("status") != "ok":
+    if inspection.get("status") not in ("ok", "failed"):      # a failed one says so in its own block
         out.append(f"Status {inspection.get('status')}: {inspection.get('error') or 'see below'}. Action: correct "
                    "the delivery as the problems below say and deliver it again; the next night measures it anew.")
     for problem in inspection.get("problems") if inspection.get("problems") is not None else []:
         out.append(f"Input problem: {problem}. Action: ask the contractor to correct this row or field.")
     for warning in inspection.get("warnings") if inspection.get("warnings") is not None else []:
+        if "no section header could be read" in str(warning):
+            out.append(f"{str(warning)[0].upper()}{str(warning)[1:]}. Action: deliver the package with its header; "
+                       "it is then stored under its inspection date.")
+            continue
         out.append(f"The video's overlay and the section header disagree: {warning}. Action: check which one is "
                    "right; a wrong header (height, shape, material) changes every measured value.")
     out += measurement_warnings(measurements, _name)
@@ -95,30 +99,79 @@ def _name(m: dict) -> str:
     return f"{codes}, {plain_description(m.get('code') or '', m.get('char1'), m.get('char2'))}"
 
 
+def _joined(*parts: str, sep: str = ", ") -> str:
+    return sep.join(p for p in parts if p)
+
+
 def _header_block(i: dict) -> Table:
-    size = f"{i.get('height_mm'):g} mm high" if not is_missing(i.get("height_mm")) else "size not given"
-    if not is_missing(i.get("width_mm")):
+    """The inspection's header, each row only with what is known (a failed delivery's record holds little)."""
+    size = f"{i.get('height_mm'):g} mm high" if not is_missing(i.get("height_mm")) else ""
+    if size and not is_missing(i.get("width_mm")):
         size += f", {i['width_mm']:g} mm wide"
-    if not is_missing(i.get("height_tolerance_mm")):
+    if size and not is_missing(i.get("height_tolerance_mm")):
         size += f", tolerance ± {i['height_tolerance_mm']:g} mm"
+    nodes = (f"{_txt(i.get('start_node'))} → {_txt(i.get('finish_node'))}"
+             if _txt(i.get("start_node")) or _txt(i.get("finish_node")) else "")
+    section = _joined(_joined(_txt(i.get("section_id")), nodes, sep=": "), _txt(i.get("direction")))
+    inspected = (f"inspected {_txt(i.get('inspection_date'))} (the header's inspection date)"
+                 if _txt(i.get("inspection_date")) and not _header_unread(i)
+                 else "inspection date unknown (no section header could be read)")
+    processed = (f"processed {_txt(str(i.get('processed_at'))[:16])} UTC" if not is_missing(i.get("processed_at"))
+                 else "")
+    length = f"section length {_txt(i.get('section_length_m'))} m" if _txt(i.get("section_length_m")) else ""
+    certificate = (_joined(f"calibration certificate {_txt(i.get('certificate_id'))}",
+                           f"valid until {_txt(i.get('certificate_valid_until'))}"
+                           if _txt(i.get("certificate_valid_until")) else "")
+                   if _txt(i.get("certificate_id")) else "")
+    video = ""
+    if _txt(i.get("video_file")) or not is_missing(i.get("video_frames")):
+        size_px = (f"{_txt(i.get('video_width_px'))}×{_txt(i.get('video_height_px'))} px"
+                   if not is_missing(i.get("video_width_px")) else "")
+        frames = f"{_txt(i.get('video_frames'))} frames" if not is_missing(i.get("video_frames")) else ""
+        rate = (f"chainage read on {100 * i['chainage_read_rate']:.0f} % of sampled frames"
+                if not is_missing(i.get("chainage_read_rate")) else "")
+        video = _joined(_joined(_txt(i.get("video_file")), size_px, frames), rate, sep="; ")
     rows = [
-        ("Section", f"{_txt(i.get('section_id'))}: {_txt(i.get('start_node'))} → {_txt(i.get('finish_node'))}, "
-                    f"{_txt(i.get('direction'))}"),
-        ("Inspection", f"{_txt(i.get('inspection_date'))}, {_txt(i.get('contractor'))}; site {_txt(i.get('site'))}"),
-        ("Pipe", f"{_txt(i.get('shape'))}, {size}, {_txt(i.get('material'))}; section length "
-                 f"{_txt(i.get('section_length_m'))} m"),
-        ("Camera", f"{_txt(i.get('camera')) or 'camera not named'}; calibration certificate {_txt(i.get('certificate_id'))}, "
-                   f"valid until {_txt(i.get('certificate_valid_until'))}"),
-        ("Video", f"{_txt(i.get('video_file'))}, {_txt(i.get('video_width_px'))}×{_txt(i.get('video_height_px'))} px, "
-                  f"{_txt(i.get('video_frames'))} frames; chainage read on "
-                  + (f"{100 * i['chainage_read_rate']:.0f} %" if not is_missing(i.get("chainage_read_rate")) else "-")
-                  + " of sampled frames"),
-        ("Measurement", f"{_txt(i.get('model'))} model; pipegauge {_txt(i.get('pipeline_version'))}, processed "
-                        f"{_txt(str(i.get('processed_at'))[:19])} UTC; status {_txt(i.get('status'))}"),
+        ("Section", section),
+        ("Dates", _joined(inspected, processed, sep="; ")),
+        ("Inspection", _joined(_txt(i.get("contractor")), f"site {_txt(i.get('site'))}" if _txt(i.get("site")) else "")),
+        ("Pipe", _joined(_joined(_txt(i.get("shape")), size, _txt(i.get("material"))), length, sep="; ")),
+        ("Camera", _joined(_txt(i.get("camera")), certificate, sep="; ")),
+        ("Video", video),
+        ("Measurement", _joined(f"{_txt(i.get('model'))} model" if _txt(i.get("model")) else "",
+                                f"pipegauge {_txt(i.get('pipeline_version'))}", f"status {_txt(i.get('status'))}",
+                                sep="; ")),
         ("Package", f"{_txt(i.get('inspection_id'))}, SHA-256 "
                     + (f"{_txt(i['package_sha256'][:16])}…" if isinstance(i.get("package_sha256"), str) else "not computed")),
     ]
-    return key_value_table(rows)
+    return key_value_table([(k, v) for k, v in rows if v])
+
+
+def _header_unread(i: dict) -> bool:
+    """The record says it is stored under the processing date: no section header could be read."""
+    return any("no section header could be read" in str(w) for w in (i.get("warnings") or []))
+
+
+def _title(i: dict) -> str:
+    """'Condition report: section S01 (MH101 → MH102)', or the inspection id where no header was read."""
+    section = _txt(i.get("section_id"))
+    nodes = (f" ({_txt(i.get('start_node'))} → {_txt(i.get('finish_node'))})"
+             if _txt(i.get("start_node")) or _txt(i.get("finish_node")) else "")
+    what = f"section {section}{nodes}" if section else f"inspection {_txt(i.get('inspection_id'), 80)}"
+    return f"Condition report: {what}" + (", not measured" if i.get("status") == "failed" else "")
+
+
+def _failure_block(i: dict) -> list:
+    """A failed delivery's page 1: what failed, what to do, and what could be read."""
+    read = [name for name, key in (("the section header", "section_id"), ("the camera's certificate", "certificate_id"),
+                                   ("the video", "video_frames")) if not is_missing(i.get(key))]
+    could = ("What could be read: " + ", ".join(read) + " (below)." if read
+             else "Nothing of the delivery could be read beyond its folder.")
+    return [Paragraph("What failed", styles()["h2"]),
+            Paragraph(f"Status failed: {safe_text(i.get('error') or 'no reason was stored', 800)}.", styles()["warning"]),
+            Paragraph("What to do: correct the delivery as the reason says (the file and field it names) and deliver "
+                      "it again with the same package id; the next night measures it anew. Nothing of this inspection "
+                      "was measured, so no observation, grade or log check is reported. " + could, styles()["body"])]
 
 
 def _verdict_block(i: dict, measurements: list[dict]) -> list:
@@ -148,6 +201,20 @@ def _scheme_sentence(i) -> str:
             "class from the measurement's distribution.")
 
 
+_DIRECTIONS = {"along": "along the pipe", "around": "around the pipe", "tangent": "on the wall",
+               "section": "in the cross-section"}
+
+
+def resolution_note(m: dict) -> str:
+    """For a quantity below resolution, the scale in its own direction: 'along the pipe 1 px ≈ 8.4 mm at this
+    distance' (value / p_X: the marks' separation in the image along the measured extent [px]); "" otherwise."""
+    if m.get("below_resolution") is not True or not is_finite(m.get("p_X_px")) or not is_finite(m.get("value")) \
+            or float(m["p_X_px"]) <= 0:
+        return ""
+    where = _DIRECTIONS.get(str(m.get("extent") or ""), "in its direction")
+    return f"{where} 1 px ≈ {float(m['value']) / float(m['p_X_px']):.2g} {m.get('unit') or 'mm'} at this distance"
+
+
 def _delivered(o: dict) -> str:
     parts = []
     for q, unit in (("q1", "q1_unit"), ("q2", "q2_unit")):
@@ -167,9 +234,12 @@ def _observation_table(observations: list[dict], by_row: dict[int, list[dict]]) 
             checks.append(f"{_label(m)}: {safe_text(log_check_text(m), 200)}")
             if m["status"] == "ok":
                 flag = "" if m.get("confident") else " ⚠"
-                measured.append(f"{_label(m)}: {safe_text(format_record(m))}{flag}")
+                note = resolution_note(m)
+                measured.append(f"{_label(m)}: {safe_text(format_record(m))}{flag}"
+                                + (f"; {safe_text(note)}" if note else ""))
             else:
                 measured.append(f"{_label(m)}: not measured")
+        # the column fits "12–12" on one line (a narrower one split the word: "12–1 / 2")
         clock = "" if is_missing(o.get("clock_from")) else f"{int(o['clock_from'])}" + (
             "" if is_missing(o.get("clock_to")) else f"–{int(o['clock_to'])}")
         codes = " ".join(_txt(v) for v in (o.get("code"), o.get("char1"), o.get("char2")) if not is_missing(v) and v)
@@ -187,7 +257,7 @@ def _observation_table(observations: list[dict], by_row: dict[int, list[dict]]) 
     extra = [("TOPPADDING", (0, 0), (-1, -1), 1.2), ("BOTTOMPADDING", (0, 0), (-1, -1), 1.8)]
     for r in spans:
         extra += [("SPAN", (1, r), (-1, r)), ("LINEABOVE", (1, r), (-1, r), 0.25, colors.white)]
-    return grid_table(rows, [8 * mm, 10 * mm, 15 * mm, 28 * mm, 9 * mm, 15 * mm, 36 * mm, 31 * mm, 28 * mm], extra,
+    return grid_table(rows, [8 * mm, 10 * mm, 15 * mm, 25 * mm, 12 * mm, 15 * mm, 36 * mm, 31 * mm, 28 * mm], extra,
                       split_rows=True)
 
 
@@ -259,7 +329,8 @@ def _quantity_block(m: dict, thumbnail: bytes | None) -> KeepTogether:
     if m["status"] != "ok":
         return KeepTogether([title, _p(f"Not measured: {_txt(m.get('error'))}", "warning"), Spacer(1, 3 * mm)])
     facts = [
-        ("Result", safe_text(format_record(m)) + " (95 %)"),
+        ("Result", safe_text(format_record(m)) + " (95 %)"
+         + (f"; {safe_text(resolution_note(m))}" if resolution_note(m) else "")),
         ("u", f"{m['u']:.3g} {m['unit']} (standard)"),
         ("Logged", "-" if is_missing(m.get("operator_value")) else f"{m['operator_value']:g} {m['unit']} (contractor)"),
         ("Coverage", _coverage(m)),
@@ -273,7 +344,10 @@ def _quantity_block(m: dict, thumbnail: bytes | None) -> KeepTogether:
     fact_table.setStyle(TableStyle([("VALIGN", (0, 0), (-1, -1), "TOP"), ("LEFTPADDING", (0, 0), (-1, -1), 0),
                                     ("RIGHTPADDING", (0, 0), (-1, -1), 1), ("TOPPADDING", (0, 0), (-1, -1), 0.3),
                                     ("BOTTOMPADDING", (0, 0), (-1, -1), 0.3)]))
-    image = (Image(io.BytesIO(thumbnail), width=_THUMB, height=_THUMB * 0.8, kind="proportional") if thumbnail
+    points = "points found" if _source(m) == "contour" else "marked points"
+    image = ([Image(io.BytesIO(thumbnail), width=_THUMB, height=_THUMB * 0.8, kind="proportional"),
+              _p(f"green: pipe contour · red: {points}", "tiny")]
+             if thumbnail
              else _p("(no thumbnail)"))
     budget = list(m["budget"]) if m.get("budget") is not None else []
     top = Table([[image, _budget_table(m, budget), fact_table]],
@@ -292,6 +366,30 @@ def _source(record: dict) -> str:
     return record.get("source") or "marks"
 
 
+GLOSSARY = (
+    ("U95", "expanded uncertainty at 95 % coverage: the true value lies within value ± U95 with 95 % probability"),
+    ("u, u_c", "standard uncertainty of an input, and of the result (combined)"),
+    ("E_n", "|logged − measured| / √(U95² + U_res²): the contractor's value against the measurement; ≤ 1 agrees"),
+    ("U_res", "the step the contractor logged to (e.g. 1 mm, 5 %) taken as an uncertainty of the logged value"),
+    ("outline not trusted", "the pipe's outline (contour) in the frame could not be fixed well, so the scale is "
+                            "uncertain: a check is then undecided unless E_n > 2"),
+    ("grade, worst likely", "the most probable condition class; the worst class with probability ≥ 5 % (it may be "
+                            "worse than the grade)"),
+    ("SC, p_H", "the scale [mm/px] across the pipe at the observation: the pipe's height H over its height p_H in "
+                "the image [px]"),
+    ("c_i, |c_i| u", "the sensitivity of the result to an input, and that input's contribution to u_c"),
+    ("k", "the coverage factor of a linear interval (1.96 for 95 %); Monte Carlo intervals have none"),
+    ("across, nuisance", "the marks' separation across the measured extent: listed in the budget, no part of the "
+                         "value (c_i = 0)"),
+)
+
+
+def _glossary() -> list:
+    """Every symbol of the report defined once, in a box."""
+    text = "; ".join(f"<b>{safe_text(k)}</b>: {safe_text(v)}" for k, v in GLOSSARY)
+    return [KeepTogether([Paragraph("Symbols and words", styles()["h3"]), Paragraph(text + ".", styles()["tiny"])])]
+
+
 def _more(n: int, what: str, where: str) -> list[Paragraph]:
     """A line saying how many items a bounded report leaves out (pipeline.core.limits), and where they are."""
     if n <= 0:
@@ -307,8 +405,8 @@ def render_inspection_report(data: str | os.PathLike, inspection_id: str, path: 
     tables = {t: read_records(data, t, inspection_ids=[inspection_id])
               for t in ("inspections", "observations", "measurements", "thumbnails")}
     if not tables["inspections"]:
-        raise StoreError(f"{data}: no inspection {inspection_id!r} in the dataset; list them with "
-                         "pipegauge export or check the id")
+        raise StoreError(f"{data}: no inspection {inspection_id!r} in the dataset; pipegauge summary lists the "
+                         "inspections and their sections")
     inspection = tables["inspections"][0]
     observations = sorted(tables["observations"], key=lambda o: (o["row"]))
     measurements = sorted(tables["measurements"], key=lambda m: (m["row"], m["quantity"], _source(m) != "marks"))
@@ -318,22 +416,34 @@ def render_inspection_report(data: str | os.PathLike, inspection_id: str, path: 
         by_row.setdefault(m["row"], []).append(m)
 
     st = styles()
-    story = [Paragraph(f"Condition report: section {_txt(inspection.get('section_id'))} "
-                       f"({_txt(inspection.get('start_node'))} → {_txt(inspection.get('finish_node'))})", st["title"]),
-             *_verdict_block(inspection, measurements), Paragraph("Inspection", st["h2"]), _header_block(inspection)]
+    failed = inspection.get("status") == "failed"
+    story = [Paragraph(safe_text(_title(inspection), 300), st["title"]),
+             *(_failure_block(inspection) if failed else _verdict_block(inspection, measurements)),
+             Paragraph("Inspection", st["h2"]), _header_block(inspection)]
     warnings = inspection_warnings(inspection, measurements, today)
-    story += [Paragraph("Warnings", st["h2"])]
-    story += [Paragraph("• " + safe_text(w, 600), st["warning"]) for w in warnings[:MAX_REPORT_WARNINGS]] or [
-        Paragraph("None.", st["body"])]
-    story += _more(len(warnings) - MAX_REPORT_WARNINGS, "warnings", "the inspection's problems in the dataset")
+    if warnings or not failed:
+        story += [Paragraph("Warnings", st["h2"])]
+        story += [Paragraph("• " + safe_text(w, 600), st["warning"]) for w in warnings[:MAX_REPORT_WARNINGS]] or [
+            Paragraph("None.", st["body"])]
+        story += _more(len(warnings) - MAX_REPORT_WARNINGS, "warnings", "the inspection's problems in the dataset")
+    if failed and not observations:
+        return build_pdf(story, path, title=f"Condition report {inspection_id}",
+                         footer=f"pipegauge {__version__} · inspection {inspection_id[:60]} · "
+                                f"rendered {today.isoformat()} from the dataset")
     span = strip_span(observations, inspection.get("survey_start_m"), inspection.get("survey_end_m"),
                       inspection.get("section_length_m"))
     beyond = [o["row"] for o in observations if is_finite(o.get("distance_m"))
               and not span[0] - 1e-9 <= o["distance_m"] <= span[1] + 1e-9]
+    s0, s1 = inspection.get("survey_start_m"), inspection.get("survey_end_m")
+    surveyed = (float(s0), float(s1)) if is_finite(s0) and is_finite(s1) else None
+    where = (f"surveyed {surveyed[0]:.2f}-{surveyed[1]:.2f} m" + (", the part not seen shaded" if
+                                                                   surveyed[0] > span[0] + 1e-6 else "")
+             if surveyed else "no surveyed range known")
     story += [Paragraph("Observations along the section", st["h2"]),
-              pipe_strip(observations, span, set(by_row)),
-              Paragraph(f"Unrolled wall over the surveyed range {span[0]:g}-{span[1]:g} m: clock position 12 (crown) "
-                        "at the top, 6 (invert) in the middle; measured observations in red"
+              pipe_strip(observations, span, set(by_row), surveyed_m=surveyed),
+              Paragraph(f"Unrolled wall {span[0]:g}-{span[1]:g} m ({where}): 12 (crown) at the top and bottom "
+                        "edges, 6 (invert) in the middle; a clock range runs clockwise (10–2 over the crown, across "
+                        "the edges; 12–12 all round); measured observations in red"
                         + (f"; {'rows' if len(beyond) > 1 else 'row'} {', '.join(map(str, beyond))} "
                            f"{'lie' if len(beyond) > 1 else 'lies'} outside this range and stand at its edge"
                            if beyond else "") + ".", st["small"]),
@@ -342,9 +452,12 @@ def render_inspection_report(data: str | os.PathLike, inspection_id: str, path: 
               *_more(len(observations) - MAX_REPORT_OBSERVATIONS, "observations", "the export"),
               Paragraph("Every measured value is given as value ± U95 (expanded uncertainty, 95 % coverage) with its "
                         "unit, or as value [low, high] when its 95 % interval lies unevenly about it, or as "
-                        "&lt; high when the feature spans under 2 px in the image (below resolution: only its upper "
-                        "bound is measured); ⚠ marks a low-confidence measurement (see Warnings); \"(image)\": "
-                        "measured from the image alone, without the contractor's marks.", st["small"])]
+                        "&lt; high when the feature spans under 2 px in the image in the quantity's own direction "
+                        "(below resolution: only its upper bound is measured; the row says how much a pixel covers in "
+                        "that direction, along the pipe far more than the scale SC across it); ⚠ marks a "
+                        "low-confidence measurement (see Warnings); \"(image)\": measured from the image alone, "
+                        "without the contractor's marks (source contour in the dataset and the export).", st["small"]),
+              *_glossary()]
     if measurements:
         story += [Paragraph("Measured quantities and their uncertainty budgets", st["h2"]),
                   Paragraph("Each budget lists its inputs with estimate and standard uncertainty u in the unit "
@@ -353,7 +466,10 @@ def render_inspection_report(data: str | os.PathLike, inspection_id: str, path: 
                             + _input_legend(measurements[:MAX_REPORT_QUANTITIES]) + ". <i>wall</i> and "
                             "<i>certificate</i> are scale factors, 1 at the nominal wall and at the certificate's own "
                             "parameters, their u relative (0.01 = 1 %); <i>across</i> is listed but no part of the "
-                            "value (c_i = 0).", st["small"])]
+                            "value (c_i = 0). Thumbnails: the frame measured, undistorted, with the pipe's contour "
+                            "fitted in it in green (dashed where the fit is not trusted) and in red the two points "
+                            "measured between (marked, or found in the image alone) and the line joining them.",
+                            st["small"])]
         story += [_quantity_block(m, thumbs.get((m["row"], m["quantity"], _source(m))))
                   for m in measurements[:MAX_REPORT_QUANTITIES]]
         story += _more(len(measurements) - MAX_REPORT_QUANTITIES, "measured quantities", "the export")

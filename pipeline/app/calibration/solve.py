@@ -43,8 +43,8 @@ class Calibration:
     values : parameter -> estimate (fx, fy, cx, cy [px]; k1, k2, p1, p2, k3 [1])
     u_solver, u_bootstrap, u_pattern, u : parameter -> standard uncertainty
     covariance : covariance of PARAMETERS in that order, with diagonal u^2
-    rms_px : RMS reprojection error over all corners [px]
-    view_rms_px : source -> RMS reprojection error of that view [px]
+    rms_px : RMS reprojection error over all corners, sqrt(mean |r|^2) of each corner's residual r [px]
+    view_rms_px : source -> RMS reprojection error of that view, the same over its corners [px]
     rejected : (source, reason) for every image not used
     residuals : (n, 2) reprojection residuals of all corners used [px]
     """
@@ -161,6 +161,9 @@ def calibrate(views: list[View], pattern: Pattern, *, rejected: list[tuple[str, 
         residuals.append(r)
         view_rms[v.source] = float(np.sqrt(np.mean(np.sum(r * r, axis=1))))
     residuals = np.concatenate(residuals)
+    # the RMS the report states, over every corner as the per-view values are (a corner's distance |r| [px]):
+    # OpenCV's returned value divides by the number of coordinates, not corners, so it lay below 12 of 14 views'
+    rms = float(np.sqrt(np.mean(np.sum(residuals * residuals, axis=1))))
     n_obs, n_par = residuals.size, len(PARAMETERS) + 6 * len(used)
     coord_u = float(np.sqrt(np.sum(residuals**2) / max(n_obs - n_par, 1)))
 

@@ -17,6 +17,7 @@ from typing import Any
 import numpy as np
 
 from pipeline import __version__
+from pipeline.core.errors import PipegaugeError
 from pipeline.camera import Certificate
 from pipeline.camera.lens import distortion_uncertainty
 from pipeline.camera.orthographic import (
@@ -274,9 +275,31 @@ def figure10_relative_uncertainty(
             "assumptions": {"u_p_X": "equal to u(p_H) in each case (not stated in the paper)", "k": _K95}}
 
 
+LINEAR_RATIO = 2.0   # Monte Carlo and linear U95 at the corners within this factor: the paper's linear figures apply
+
+
+def _check_linear(cert: Certificate, table1: dict[str, Any]) -> None:
+    """Refuse a certificate whose distortion is far from linear over its uncertainty at the image's corners.
+
+    The paper's figures propagate the distortion coefficients' uncertainty linearly; where Monte Carlo and the
+    linear U95 differ by more than ``LINEAR_RATIO`` (a strongly distorting lens whose coefficients' covariance,
+    converted to the pixel convention, reaches far), those figures would print numbers that mean nothing
+    (5.7 / 17687 px).
+    """
+    for c in table1["corners"]:
+        lin, mc = c["U95_linear_px"], c["U95_monte_carlo_px"]
+        if not (lin > 0 and mc > 0 and 1 / LINEAR_RATIO <= mc / lin <= LINEAR_RATIO):
+            raise PipegaugeError(
+                f"certificate {cert.certificate_id}: at the image corner ({c['x_px']:.0f}, {c['y_px']:.0f}) px the "
+                f"distortion's U95 is {lin:.3g} px linearly but {mc:.3g} px by Monte Carlo: its distortion is not "
+                f"linear over its uncertainty, so the paper's figures (linear propagation) do not apply to this "
+                f"camera; run pipegauge paper without --certificate for the paper's own camera")
+
+
 def reproduce(cert: Certificate, *, seed: int = 1) -> dict[str, Any]:
     """Every reproduced figure of the paper, as JSON-ready data."""
     table1 = table1_distortion(cert, seed=seed)
+    _check_linear(cert, table1)
     fov = field_of_view(cert)
     return {
         "pipegauge_version": __version__,

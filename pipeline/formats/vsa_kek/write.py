@@ -21,8 +21,18 @@ from pipeline.core.numeric import is_missing
 from pipeline.formats.vsa_kek.model import (ANMERKUNG_CHARS, ATTRIBUTE_ORDER, EINZELSCHADENKLASSEN, FPS, GRADING_SCHEME,
                                             ILI_NS, MODELS, QUANTITY_RANGE, ROLES_AFTER, Transfer, TransferObject, vsa_code)
 
-__all__ = ["transfer_text", "write_transfer", "package_transfer", "measured_values", "inspection_transfer",
-           "write_2019", "write_2020"]
+__all__ = ["VALUES", "transfer_text", "write_transfer", "package_transfer", "measured_values", "inspection_transfer",
+           "write_2019", "write_2020", "policy_text", "sidecar_name"]
+
+# What a transfer's Quantifizierung and Einzelschadenklasse hold (``pipegauge export --values``, docs/formats.md):
+# "delivered" (the default) the contractor's as delivered, pipegauge's measurement beside them in the remark and
+# the sidecar; "measured" a measurement that decides the value (``decides`` on the measurement, worked out by
+# pipeline.app.export) in place of the logged value, and the class of the value written.
+VALUES = ("delivered", "measured")
+SIDECAR_SUFFIX = ".pipegauge.csv"
+SIDECAR_COLUMNS = ("tid", "row", "code", "quantity", "logged", "logged_unit", "written", "written_by", "measured",
+                   "U95", "unit", "result", "confident", "below_resolution", "decides", "log_check", "E_n", "grade",
+                   "class_written")
 
 _CONTROL = re.compile(r"[\x00-\x1f\x7f]")
 
@@ -98,26 +108,62 @@ def _ref(role: str, ref: tuple[str, str | None]) -> str:
 
 
 def _measured_note(measured: dict) -> str:
-    """'measured Q1 30.1 % U95 1.0 %' for one quantity."""
-    unit = measured["unit"]
-    return f"measured {measured['quantity']} {measured['value']:.1f} {unit} U95 {measured['U95']:.1f} {unit}"
+    """'Q1 30.1 ± 1.0 % (U95), log agrees, grade EZ2' for one quantity: pipegauge's value, U95, log check and grade."""
+    from pipeline.domain.value_text import format_record
+
+    text = f"{measured['quantity']} {format_record(measured)}"
+    if not text.endswith("(below resolution)"):
+        text += " (U95)"
+    if measured.get("confident") is not True:
+        text += " low confidence"
+    for key, word in (("log_check", "log"), ("grade", "grade")):
+        if isinstance(measured.get(key), str) and measured[key] and measured[key] != "not checked":
+            text += f", {word} {measured[key]}"
+    return text
+
+
+def sidecar_name(stem: str) -> str:
+    """The file beside ``<stem>.xtf`` that holds every measurement in full (the remark has 100 characters)."""
+    return stem + SIDECAR_SUFFIX
+
+
+def policy_text(values: str, sidecar: str = "") -> str:
+    """The export's policy in words, written in the transfer's HEADERSECTION COMMENT."""
+    where = f" and in {sidecar}" if sidecar else ""
+    if values == "measured":
+        return (f"pipegauge {__version__}, values measured: a Quantifizierung is pipegauge's measurement only where "
+                "it decides the value (confident, not below resolution, U95 under the logging step or the 95 % "
+                "interval within one class), and Einzelschadenklasse is then the class of the value written; "
+                f"elsewhere the contractor's coding as delivered; measurements in Anmerkung where it fits{where}")
+    return (f"pipegauge {__version__}, values delivered: Quantifizierung and Einzelschadenklasse are the "
+            f"contractor's as delivered; pipegauge's measurement, U95, log check and grade are in Anmerkung where "
+            f"it fits{where}")
 
 
 def transfer_text(inspection: dict, observations: list[dict], version: str, *, measured: dict | None = None,
-                  source: Transfer | None = None, video_file: str = "") -> str:
+                  source: Transfer | None = None, video_file: str = "", values: str = "delivered",
+                  sidecar: list | None = None, comment: str | None = None) -> str:
     """One inspection as a VSA-KEK transfer (XML text).
 
     inspection : section_id, start_node, finish_node, inspection_date (date), section_length_m [m], contractor,
     inspection_id, model (the measurement model, for the remark)
     observations : log rows as the dataset stores them (row, distance_m [m], code, char1, char2, q1, q2, clock_from,
     clock_to, at_joint, continuous, video_time_s [s], photo, remark)
-    measured : (row, "Q1"|"Q2") -> the measurement record (value, U95, unit) pipegauge measured confidently
+    measured : (row, "Q1"|"Q2") -> the measurement record pipegauge measured (value, U95, unit, low, high,
+    below_resolution, confident, log_check, grade; ``decides`` and ``class_written`` for ``values="measured"``)
     source : the contractor's transfer when the package came as one: its objects, TIDs and values are kept
+    values : "delivered" (the contractor's values and class, the measurement in the remark) or "measured" (a
+    deciding measurement in place of the logged value, and its class); ``VALUES``
+    sidecar : a list that receives one row per measured quantity (``SIDECAR_COLUMNS``), when given
+    comment : the HEADERSECTION's COMMENT: the export's policy (default ``policy_text(values)``)
     """
     if version not in MODELS:
         raise ValueError(f"unknown VSA-KEK version {version!r}; one of {', '.join(MODELS)}")
+    if values not in VALUES:
+        raise ValueError(f"unknown value policy {values!r}; one of {', '.join(VALUES)}")
     model, model_version = MODELS[version]
     measured = measured or {}
+    comment = policy_text(values) if comment is None else comment
     key = inspection["inspection_id"]
     date = inspection["inspection_date"]
     last_change = date.strftime("%Y%m%d")
@@ -145,12 +191,20 @@ def transfer_text(inspection: dict, observations: list[dict], version: str, *, m
         a["Distanz"] = _metres(obs["distance_m"])
         a["KanalSchadencode"] = vsa_code(obs["code"], obs.get("char1") or "", obs.get("char2") or "")
         notes = []
+        replaced_class = None
         for q in ("1", "2"):
             m = measured.get((obs["row"], f"Q{q}"))
-            value = m["value"] if m else obs.get(f"q{q}")
+            logged = obs.get(f"q{q}")
+            value = logged
+            if m and values == "measured" and m.get("decides") is True:
+                value = m["value"]          # a measurement that decides the value, and the class of what is written
+                if q == "1":
+                    replaced_class = m.get("class_written")
             a[f"Quantifizierung{q}"] = "" if value is None or math.isnan(value) else _quantity(value)
             if m:
                 notes.append(_measured_note(m))
+                if sidecar is not None:
+                    sidecar.append(_sidecar_row(k.tid, obs, m, q, value, values))
         a["SchadenlageAnfang"] = str(int(obs["clock_from"])) if not is_missing(obs.get("clock_from")) else "0"
         a["SchadenlageEnde"] = str(int(obs["clock_to"])) if not is_missing(obs.get("clock_to")) else "0"
         a["Verbindung"] = "ja" if obs.get("at_joint") else "nein"
@@ -158,14 +212,22 @@ def transfer_text(inspection: dict, observations: list[dict], version: str, *, m
         a["Videozaehlerstand"] = _time_to_counter(obs["video_time_s"]) if not is_missing(obs.get("video_time_s")) else ""
         remark = _text(obs.get("remark"))
         if notes:
-            note = "; ".join(notes) + f" (pipegauge {__version__}, {inspection.get('model') or 'perspective'})"
-            remark = f"{note}; {remark}" if remark else note
+            # the contractor's remark first and whole; pipegauge's note after it where the 100 characters allow
+            # (the sidecar holds every measurement in full)
+            note = "pipegauge " + "; ".join(notes)
+            joined = f"{remark}; {note}" if remark else note
+            remark = joined if len(joined) <= ANMERKUNG_CHARS else remark
         a["Anmerkung"] = remark[:ANMERKUNG_CHARS]
-        ours = obs.get("grade") if obs.get("grading_scheme") == GRADING_SCHEME else None
-        if isinstance(ours, str) and ours in EINZELSCHADENKLASSEN:
-            a["Einzelschadenklasse"] = ours      # pipegauge's VSA 2023 grade (docs/verdicts.md) over the contractor's
-        elif not k_src:
-            a.pop("Einzelschadenklasse", None)   # no grade of ours: only a contractor's class is passed on
+        ours = replaced_class if replaced_class in EINZELSCHADENKLASSEN else None
+        logged_class = obs.get("logged_grade") if obs.get("grading_scheme") == GRADING_SCHEME else None
+        if ours:
+            a["Einzelschadenklasse"] = ours      # the class of the measured value written (--values measured)
+        elif k_src and k_src.attrs.get("Einzelschadenklasse"):
+            pass                                 # the contractor's class as delivered
+        elif isinstance(logged_class, str) and logged_class in EINZELSCHADENKLASSEN:
+            a["Einzelschadenklasse"] = logged_class     # the VSA 2023 class of the contractor's logged value
+        else:
+            a.pop("Einzelschadenklasse", None)   # no class for the value written: left out (the model allows it)
         objects.append(k)
     if source:
         used = {o.tid for o in objects} | {o.tid for o in source.of("Datentraeger")}
@@ -198,9 +260,38 @@ def transfer_text(inspection: dict, observations: list[dict], version: str, *, m
             f'<TRANSFER xmlns="{ILI_NS}">\n'
             f'<HEADERSECTION VERSION="2.3" SENDER={quoteattr("pipegauge " + __version__)}>\n'
             f'<MODELS><MODEL NAME="{model}" VERSION="{model_version}" URI="http://www.vsa.ch/models"/></MODELS>\n'
-            '</HEADERSECTION>\n<DATASECTION>\n'
+            + (f'<COMMENT>{escape(_text(comment))}</COMMENT>\n' if comment else '')
+            + '</HEADERSECTION>\n<DATASECTION>\n'
             f'<{model}.KEK BID={quoteattr(bid)}>\n{body}\n</{model}.KEK>\n'
             '</DATASECTION>\n</TRANSFER>\n')
+
+
+def _sidecar_row(tid: str, obs: dict, m: dict, q: str, written, values: str) -> dict:
+    from pipeline.domain.value_text import format_record
+
+    by_us = values == "measured" and m.get("decides") is True
+    return {"tid": tid, "row": obs["row"], "code": vsa_code(obs["code"], obs.get("char1") or "", obs.get("char2") or ""),
+            "quantity": f"Q{q}", "logged": obs.get(f"q{q}"), "logged_unit": obs.get(f"q{q}_unit"),
+            "written": None if written is None or math.isnan(written) else _quantity(written),
+            "written_by": "pipegauge" if by_us else "contractor", "measured": m.get("value"), "U95": m.get("U95"),
+            "unit": m.get("unit"), "result": format_record(m), "confident": m.get("confident"),
+            "below_resolution": m.get("below_resolution"), "decides": m.get("decides"),
+            "log_check": m.get("log_check"), "E_n": m.get("E_n"), "grade": m.get("grade"),
+            "class_written": m.get("class_written") if by_us and q == "1" else obs.get("logged_grade")}
+
+
+def write_sidecar(path: str | os.PathLike, rows: list[dict], policy: str) -> Path:
+    """The measurements of one transfer in full, as CSV (first line ``# `` and the policy), atomically."""
+    import csv
+
+    path = Path(path)
+    with atomic_path(path) as tmp, Path(tmp).open("w", newline="", encoding="utf-8") as fh:
+        fh.write(f"# {policy}\n")
+        w = csv.DictWriter(fh, SIDECAR_COLUMNS)
+        w.writeheader()
+        for r in rows:
+            w.writerow({k: "" if is_missing(r.get(k)) else r.get(k) for k in SIDECAR_COLUMNS})
+    return path
 
 
 def write_transfer(path: str | os.PathLike, inspection: dict, observations: list[dict], version: str, **kwargs) -> Path:
@@ -228,7 +319,7 @@ def package_transfer(folder: str | os.PathLike, path: str | os.PathLike, version
 
 
 def measured_values(measurements: list[dict]) -> dict[tuple[int, str], dict]:
-    """The quantities a transfer writes as pipegauge measured them (docs/formats.md, "Exports", Values).
+    """The measurement a transfer notes beside each logged quantity (docs/formats.md, "Exports", Values).
 
     Parameters
     ----------
@@ -239,18 +330,20 @@ def measured_values(measurements: list[dict]) -> dict[tuple[int, str], dict]:
     Returns
     -------
     dict
-        (row, "Q1"|"Q2") -> the measurement with status ok and a confident contour; the marked points' one
-        where there are both, the image-alone measurement otherwise.
+        (row, "Q1"|"Q2") -> the measurement with status ok: the marked points' one where there are both, the
+        image-alone measurement otherwise, a confident one before one that is not. Whether it replaces the
+        logged value is the policy's (``values``) and the measurement's ``decides``.
     """
-    ok = [m for m in measurements if m.get("status") == "ok" and m.get("confident") == True]  # noqa: E712 (also numpy's bool)
+    ok = [m for m in measurements if m.get("status") == "ok"]
     measured: dict = {}
-    for m in sorted(ok, key=lambda m: m["source"] != "marks"):     # marks before contour
+    for m in sorted(ok, key=lambda m: (m["source"] != "marks", m.get("confident") != True)):  # noqa: E712 (numpy's bool)
         measured.setdefault((m["row"], m["quantity"]), m)
     return measured
 
 
 def inspection_transfer(folder: str | os.PathLike, stem: str, inspection: dict, observations: list[dict],
-                        measurements: list[dict], source: Transfer | None, version: str) -> tuple[Path, int]:
+                        measurements: list[dict], source: Transfer | None, version: str,
+                        values: str = "delivered") -> tuple[Path, int]:
     """One stored inspection as the transfer ``folder/<stem>.xtf`` (a ``folder`` writer, pipeline.formats.WRITERS).
 
     Parameters
@@ -269,23 +362,33 @@ def inspection_transfer(folder: str | os.PathLike, stem: str, inspection: dict, 
         The contractor's transfer when the package came as one: its objects, TIDs and values are kept.
     version : str
         "2019" or "2020" (a key of ``MODELS``).
+    values : str
+        The value policy (``VALUES``): "delivered" keeps the contractor's values and class, "measured" writes a
+        measurement where it decides the value (its ``decides``) and the class of the value written.
 
     Returns
     -------
     (pathlib.Path, int)
-        The file written and the Kanalschaden in it.
+        The file written and the Kanalschaden in it. Beside it, ``<stem>.pipegauge.csv`` holds every
+        measurement in full (``sidecar_name``) when there is one.
     """
-    path = write_transfer(Path(folder) / f"{stem}.xtf", inspection, observations, version,
-                          measured=measured_values(measurements), source=source,
-                          video_file=inspection.get("video_file") or "")
+    sidecar: list[dict] = []
+    measured = measured_values(measurements)
+    name = sidecar_name(stem) if measured else ""
+    policy = policy_text(values, name)
+    path = write_transfer(Path(folder) / f"{stem}.xtf", inspection, observations, version, measured=measured,
+                          source=source, video_file=inspection.get("video_file") or "", values=values,
+                          sidecar=sidecar, comment=policy)
+    if measured:
+        write_sidecar(Path(folder) / name, sidecar, policy)
     return path, len(observations)
 
 
-def write_2019(folder, stem, inspection, observations, measurements, source=None) -> tuple[Path, int]:
+def write_2019(folder, stem, inspection, observations, measurements, source=None, values="delivered") -> tuple[Path, int]:
     """``inspection_transfer`` in model VSA_KEK_2019_LV95."""
-    return inspection_transfer(folder, stem, inspection, observations, measurements, source, "2019")
+    return inspection_transfer(folder, stem, inspection, observations, measurements, source, "2019", values)
 
 
-def write_2020(folder, stem, inspection, observations, measurements, source=None) -> tuple[Path, int]:
+def write_2020(folder, stem, inspection, observations, measurements, source=None, values="delivered") -> tuple[Path, int]:
     """``inspection_transfer`` in model VSA_KEK_2020_1_LV95."""
-    return inspection_transfer(folder, stem, inspection, observations, measurements, source, "2020")
+    return inspection_transfer(folder, stem, inspection, observations, measurements, source, "2020", values)

@@ -16,7 +16,7 @@ import numpy as np
 
 from pipeline.core.errors import OverlayError
 
-__all__ = ["parse_chainage", "OverlayReader", "OverlayRead", "CHAINAGE_PATTERN"]
+__all__ = ["parse_chainage", "OverlayReader", "OverlayRead", "CHAINAGE_PATTERN", "ocr_logging"]
 
 # Forms seen in real overlays: "5.52m", "24.5 M", "12,34 m" (decimal comma), "0.00m".
 CHAINAGE_PATTERN = re.compile(r"^\s*(\d{1,4})\s*[.,]\s*(\d{1,3})\s*[mM]\s*$")
@@ -42,6 +42,16 @@ class OverlayRead:
     score: float
 
 
+_OCR_LOG_LEVEL = "warning"
+
+
+def ocr_logging(verbose: bool) -> None:
+    """The OCR library's own log lines: shown with ``verbose`` (``--verbose``), else only its warnings."""
+    global _OCR_LOG_LEVEL
+    _OCR_LOG_LEVEL = "info" if verbose else "warning"
+    logging.getLogger("RapidOCR").setLevel(_OCR_LOG_LEVEL.upper())
+
+
 class OverlayReader:
     """Finds and reads the chainage of an on-screen display.
 
@@ -52,11 +62,14 @@ class OverlayReader:
     """
 
     def __init__(self, threads: int = 1) -> None:
-        logging.getLogger("RapidOCR").setLevel(logging.WARNING)
+        logging.getLogger("RapidOCR").setLevel(_OCR_LOG_LEVEL.upper())
         from rapidocr import RapidOCR  # heavy import, only when reading overlays
 
+        # RapidOCR sets its logger's level from its own config at every construction (nine coloured INFO lines
+        # on stderr, and in every log file): its level is ours, warnings only unless ``ocr_logging(True)``
         self.engine = RapidOCR(params={"EngineConfig.onnxruntime.intra_op_num_threads": threads,
-                                       "EngineConfig.onnxruntime.inter_op_num_threads": threads})
+                                       "EngineConfig.onnxruntime.inter_op_num_threads": threads,
+                                       "Global.log_level": _OCR_LOG_LEVEL})
 
     def lines(self, frame: np.ndarray) -> list[tuple[str, tuple[int, int, int, int], float]]:
         """All text in a frame: (text, box (x0, y0, x1, y1) [px], score), top to bottom."""

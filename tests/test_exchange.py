@@ -220,11 +220,11 @@ def test_writer_keeps_the_contractors_objects_and_grade():
     assert "values delivered" in read_transfer(_write(text)).path.read_text().split("</COMMENT>")[0]
     # --values measured: a deciding measurement replaces the value, and the class is the written value's
     replaced = read_log_file(_write(transfer_text(inspection, rows, "2020", measured=measured, source=reading.source,
-                                                  values="measured", comment="values measured"))).observations[6]
+                                                  values="measured", comment="values measured"))).sections[0].observations[6]
     assert (replaced.q1, replaced.grade) == (30.0, "EZ2")
     measured[(6, "Q1")]["decides"] = False
     kept = read_log_file(_write(transfer_text(inspection, rows, "2020", measured=measured, source=reading.source,
-                                              values="measured"))).observations[6]
+                                              values="measured"))).sections[0].observations[6]
     assert (kept.q1, kept.grade) == (15.0, "unbekannt")
     assert written.source.of("Untersuchung")[0].refs["Ausfuehrende_FirmaRef"] == ("ch20p3q400001729", "Basket1")
     assert len(written.source.of("Datei")) == 5
@@ -381,11 +381,11 @@ def test_the_samples_exported_by_default_keep_the_contractors_values_and_pass_th
         assert valid, errors
         assert "<COMMENT>pipegauge " in path.read_text() and "values delivered" in path.read_text()
         _, delivered = load_package_log(load_manifest(SAMPLES / sample))
-        exported = read_log_file(path).observations
+        exported = read_log_file(path).sections[0].observations
         assert [(o.row, o.q1, o.q2) for o in exported] == [(o.row, o.q1, o.q2) for o in delivered]
         assert any("pipegauge Q1" in o.remark for o in exported)
         assert (out / f"{sample}.pipegauge.csv").is_file()
-    crack = read_log_file(out / "S02-circular-water-offset.xtf").observations[3]
+    crack = read_log_file(out / "S02-circular-water-offset.xtf").sections[0].observations[3]
     assert (crack.code, crack.q1) == ("BAB", 5.0) and "below resolution" in crack.remark
     logged_class = {o["row"]: o["logged_grade"] for o in read_records_of(sample_night, "S02-circular-water-offset")}
     assert crack.grade == logged_class[3]         # the class of the 5 mm written, not pipegauge's grade
@@ -481,7 +481,7 @@ def test_export_verb_writes_csv_through_the_registry_and_one_transfer_per_inspec
     # --values measured: U95 0.81 mm is under the 1 mm step the value was logged to: the measurement decides it
     assert main(["export", "--data", str(data), "--format", "vsa-kek-2020", "--out", str(tmp_path / "m"),
                  "--values", "measured"]) == 0
-    assert read_log_file(tmp_path / "m" / "P1.xtf").observations[1].q1 == 5.0
+    assert read_log_file(tmp_path / "m" / "P1.xtf").sections[0].observations[1].q1 == 5.0
 
 
 def test_a_transfer_package_takes_the_rest_of_its_header_from_package_json(tmp_path):

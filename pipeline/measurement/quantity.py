@@ -59,6 +59,7 @@ __all__ = ["MarkedQuantity", "QuantityResult", "BudgetEntry", "measure_quantity"
 
 MODELS = ("orthographic", "perspective")
 CERTIFICATE_DRAWS = 200
+MAX_TRIALS = 400_000    # cap of the adaptive Monte Carlo: a run stopped by it is stated as not converged
 RESOLUTION_PX = 2.0     # an extent under about 2 px is not resolved: a blurred edge spreads over 1-2 px
 
 INPUT_DESCRIPTIONS = {
@@ -146,6 +147,9 @@ class QuantityResult:
     budget: list[BudgetEntry] = field(default_factory=list)
     extent: str = "section"           # which extent was measured (methods.Method.extent)
     below_resolution: bool = False    # the extent spans under RESOLUTION_PX in the image: report its upper bound
+    mc_converged: bool = True         # the adaptive Monte Carlo met its tolerance before the trial cap (JCGM 101 7.9)
+    class_edges: list[float] = field(default_factory=list)        # the grading scheme's class edges asked for [unit]
+    class_edges_cdf: list[float] = field(default_factory=list)    # share of the Monte Carlo draws below each [1]
 
 
 def certificate_scale_u(cert: Certificate, K: np.ndarray, ideal_points: np.ndarray, reference: np.ndarray,
@@ -232,12 +236,14 @@ def _h_input(H: float, tolerance: float):
 
 
 def measure_quantity(q: MarkedQuantity, contour: PipeContour, cert: Certificate, *, H: float, tolerance: float,
-                     model: str = "perspective", seed: int = 1) -> QuantityResult:
+                     model: str = "perspective", seed: int = 1, edges: tuple[float, ...] = ()) -> QuantityResult:
     """Measure one marked quantity with ``model`` ("orthographic" or "perspective").
 
     contour : the pipe contour of the marks' frame (``pipeline.vision.video.pipe_contour``)
     H, tolerance : the header's nominal height and the half-width of its tolerance [mm]
     seed : seed of the Monte Carlo runs (recorded in the result)
+    edges : class edges of the grading scheme [unit of the quantity]; the result gives the share of the
+        Monte Carlo draws below each (``class_edges_cdf``), from which the class probabilities are computed
     Raises MeasurementError when the marks cannot be placed on the pipe.
     """
     if model not in MODELS:
@@ -318,7 +324,11 @@ def measure_quantity(q: MarkedQuantity, contour: PipeContour, cert: Certificate,
         fn = perspective
         nuisance = None if across_from_points(q.method, np.zeros(3), np.zeros(3), H) is None else (across, inputs)
     lin = propagate_linear(fn, inputs, name=q.quantity)
-    mc = propagate_monte_carlo(fn, inputs, seed=seed, name=q.quantity, max_trials=400_000)
+    # the stopping rule checks the interval reported: the shortest for the perspective model, the symmetric one
+    # (the one the clause 8 check compares) for the orthographic
+    mc = propagate_monte_carlo(fn, inputs, seed=seed, name=q.quantity, max_trials=MAX_TRIALS, keep_samples=bool(edges),
+                               interval="shortest" if model == "perspective" else "symmetric")
+    edges_cdf = [float(np.mean(mc.samples < e)) for e in edges] if mc.samples is not None else []
     check = validate_linear(lin, mc)
     bound_low, bound_high = method.domain
     crosses = lin.interval.low < bound_low or lin.interval.high > bound_high
@@ -344,6 +354,9 @@ def measure_quantity(q: MarkedQuantity, contour: PipeContour, cert: Certificate,
     if below_resolution:
         reasons.append(f"below the image's resolution: the marks are {p_X:.2g} px apart along the measured extent "
                        f"(under {RESOLUTION_PX:g} px); only the upper bound {high:.3g} {method.unit} is measured")
+    if not mc.converged:
+        reasons.append(f"Monte Carlo not converged: the interval's endpoints were not stable to 2 significant digits "
+                       f"of u within {mc.trials} trials (JCGM 101 7.9); their last digit is uncertain")
     budget = _budget(lin, q.origin) + ([] if nuisance is None else [_across_line(*nuisance, model)])
     return QuantityResult(
         model=model, method=q.method, unit=method.unit, value=float(value), u=float(u), U95=float(max(high - value, value - low)),
@@ -352,4 +365,5 @@ def measure_quantity(q: MarkedQuantity, contour: PipeContour, cert: Certificate,
         p_H_px=plane.p_H, u_p_H_px=plane.u_p_H, SC_mm_per_px=H / plane.p_H, p_X_px=p_X,
         plane_depth_mm=plane.depth * H, orthographic_value=v_ortho, perspective_value=v_persp,
         confident=plane.confident and contour.confident, reasons=tuple(dict.fromkeys(reasons)), budget=budget,
-        extent=method.extent, below_resolution=below_resolution)
+        extent=method.extent, below_resolution=below_resolution, mc_converged=mc.converged,
+        class_edges=[float(e) for e in edges], class_edges_cdf=edges_cdf)

@@ -76,6 +76,9 @@ def grade_text(r: Mapping) -> str:
         return text
     if status == "logged only":
         return f"{r['grade']} from the log only ({r.get('grade_reason')})"
+    if status == "not decidable from the image":
+        # the reason starts with these words already
+        return (f"{r['grade']} from the log: " if not is_missing(r.get("grade")) else "") + f"{r.get('grade_reason')}"
     return f"{status}: {r.get('grade_reason')}"
 
 
@@ -91,7 +94,9 @@ def verdict_lines(inspection: Mapping) -> list[tuple[str, str]]:
                                    f"outline not trusted: undecided unless E_n > 2)"))
     grade = inspection.get("section_grade")
     scheme = inspection.get("grading_scheme")
-    if not is_missing(grade):
+    if not is_missing(grade) and not is_missing(inspection.get("section_grade_statement")):
+        lines.append(("Section grade", f"{grade}: {inspection['section_grade_statement']}"))
+    elif not is_missing(grade):          # a record written before the worst class's distribution was stored
         lines.append(("Section grade", f"{grade} ({scheme}, the worst single grade); probability "
                                        f"{100 * float(inspection['section_grade_probability']):.0f} % that at least one "
                                        f"observation is {grade} or worse"))

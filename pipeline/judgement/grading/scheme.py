@@ -65,8 +65,9 @@ class Grade:
 
     status : "graded" (from the measurement's distribution), "logged only" (no measurement: the class of the
              logged value), "not decidable from the image" (the measurement is below the image's resolution and
-             its upper bound spans several classes: the class of the logged value), "ungraded" (the scheme has no threshold for it), "unmeasured" (neither a measurement
-             nor a logged value); reason says why when not "graded"
+             its upper bound spans several classes: the class of the logged value), "ungraded" (the scheme has
+             no threshold for it), "unmeasured" (neither a measurement nor a logged value); reason says why when
+             not "graded"
     probabilities : class -> probability (sum 1) when graded
     most_probable, worst_likely : the most probable class and the worst class with probability >= LIKELY
     logged_class : the class of the contractor's logged value; disagrees : it is not among the likely classes

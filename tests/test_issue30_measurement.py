@@ -1,0 +1,57 @@
+"""Issue 30 at measurement time: the Monte Carlo's stopping rule checks the interval reported, its
+non-convergence is stated, the draws' shares below the class edges are kept."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from pipeline.domain.results import MeasurementRecord
+from pipeline.maths.metrology import Normal, propagate_monte_carlo
+from pipeline.maths.metrology.intervals import shortest_interval
+from pipeline.measurement import quantity as quantity_module
+from pipeline.measurement import measure_quantity
+from tests.test_measurement import _contour, _marked, _truth
+
+
+def _skewed(x):
+    return np.exp(x)
+
+
+def test_the_adaptive_stopping_rule_checks_the_shortest_interval_when_that_is_reported():
+    mc = propagate_monte_carlo(_skewed, {"x": Normal(0.0, 0.8)}, seed=4, keep_samples=True, interval="shortest",
+                               max_trials=200_000)
+    M = 10_000
+    blocks = mc.samples.reshape(mc.blocks, M)
+    lows = [shortest_interval(np.sort(b)).low for b in blocks]
+    assert mc.stability.s_low == pytest.approx(np.std(lows, ddof=1) / math.sqrt(mc.blocks))
+    symmetric = propagate_monte_carlo(_skewed, {"x": Normal(0.0, 0.8)}, seed=4, max_trials=200_000)
+    assert symmetric.stability.s_low != pytest.approx(mc.stability.s_low)
+    with pytest.raises(ValueError, match="interval"):
+        propagate_monte_carlo(_skewed, {"x": Normal(0.0, 0.8)}, seed=4, interval="widest")
+
+
+def _bdd():
+    truth, cert, und, view = _truth("S02-circular-water-offset")
+    obs = next(o for o in truth["observations"] if o["code"] == "BDD")
+    return _marked(und, obs["quantities"][0], "BDD", "A"), _contour(view), cert
+
+
+def test_a_run_stopped_by_the_trial_cap_is_stored_as_not_converged_with_a_warning(monkeypatch):
+    marked, contour, cert = _bdd()
+    monkeypatch.setattr(quantity_module, "MAX_TRIALS", 30_000)      # fewer than the 10 blocks the rule needs
+    r = measure_quantity(marked, contour, cert, H=400.0, tolerance=4.0, model="perspective", seed=11)
+    assert r.mc_converged is False and r.mc_trials == 30_000
+    assert any("Monte Carlo not converged" in reason and "JCGM 101 7.9" in reason for reason in r.reasons)
+    assert MeasurementRecord(mc_converged=r.mc_converged).mc_converged is False      # a stored field
+
+
+def test_the_draws_share_below_each_class_edge_is_kept():
+    marked, contour, cert = _bdd()
+    edges = (10.0, 29.5, 30.5, 50.0)
+    r = measure_quantity(marked, contour, cert, H=400.0, tolerance=4.0, model="perspective", seed=11, edges=edges)
+    assert r.class_edges == list(edges)
+    assert r.class_edges_cdf[0] == 0.0 and r.class_edges_cdf[-1] == 1.0
+    assert 0.0 < r.class_edges_cdf[1] < r.class_edges_cdf[2] < 1.0                # the level is near 30 %

@@ -55,3 +55,18 @@ def test_the_draws_share_below_each_class_edge_is_kept():
     assert r.class_edges == list(edges)
     assert r.class_edges_cdf[0] == 0.0 and r.class_edges_cdf[-1] == 1.0
     assert 0.0 < r.class_edges_cdf[1] < r.class_edges_cdf[2] < 1.0                # the level is near 30 %
+
+
+def test_the_height_tolerance_enters_once_as_H_and_not_again_as_the_wall():
+    from dataclasses import replace
+
+    from pipeline.vision.contour.detect import wall_u_from_tolerance
+
+    marked, contour, cert = _bdd()
+    contour = replace(contour, wall_u=wall_u_from_tolerance(400.0, 4.0))       # as pipe_contour gives it
+    r = measure_quantity(marked, contour, cert, H=400.0, tolerance=4.0, model="perspective", seed=11)
+    wall = next(line for line in r.budget if line.label == "wall")
+    assert wall.u < 1e-9                                # the old code said u(wall) = 2 wall_u = tol / (sqrt(3) H)
+    stepped = replace(contour, wall_u=math.hypot(contour.wall_u, 0.01))        # a displaced joint before it
+    s = measure_quantity(marked, stepped, cert, H=400.0, tolerance=4.0, model="perspective", seed=11)
+    assert next(line for line in s.budget if line.label == "wall").u == pytest.approx(0.02)

@@ -2,7 +2,10 @@
 
 Inputs of both models, each with a label that names its budget line:
 
-* ``H``: the header's nominal height, rectangular over its tolerance [mm];
+* ``H``: the header's nominal height, rectangular over its tolerance [mm]:
+  the one place the tolerance enters (the pose is fitted in units of the
+  pipe's own height, so a scale error of the pipe is all in H;
+  ``_without_tolerance`` takes it out of the wall's departure);
 * ``certificate``: relative change of the image length against the pipe's
   image height when the certificate's parameters vary within their
   uncertainty (``certificate_scale_u``) [1];
@@ -10,14 +13,18 @@ Inputs of both models, each with a label that names its budget line:
   between the undistorted marks [px], and ``approximation``, the
   orthographic model's own error: normal, u the difference between the
   orthographic and the perspective value of the same extent at the
-  estimates (the paper leaves this error as future work); for an extent
-  off a cross-section plane (along the axis, the whole distance on the
-  wall), combined with the perspective value's own u, which that
-  difference inherits;
+  estimates (the paper leaves this error as future work). The model
+  refuses an extent off a cross-section plane (along the axis, the whole
+  distance on the wall): there the difference is a known foreshortening
+  (a median -68 % along the axis), a bias to correct rather than an
+  uncertainty to carry (JCGM 100 3.2.4), and the perspective model
+  corrects it;
 * perspective (eqs. 1-11): the camera pose from the contour fit, jointly
   normal (``ox``, ``oy`` [H], ``yaw``, ``pitch``, ``roll`` [rad]), the marks
   ``xa``, ``ya``, ``xb``, ``yb`` [px], and ``wall``, the wall's radial
-  position against the nominal profile [1].
+  position against the nominal profile [1] beyond a change of scale (a
+  displaced joint logged before the observation; 0 otherwise: the
+  header states no out-of-roundness).
 
 Each method measures one extent (``methods.Method.extent``): around the
 pipe, the orthographic p_X is the marks' image separation along the
@@ -39,13 +46,14 @@ upper bound says something.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import cv2
 import numpy as np
 
 from pipeline.camera import Certificate
 from pipeline.vision.contour import PipeContour
+from pipeline.vision.contour.detect import wall_u_from_tolerance
 from pipeline.core.errors import MeasurementError
 from pipeline.maths.metrology import InputSet, JointNormal, Normal, Rectangular, propagate_linear, propagate_monte_carlo, validate_linear
 from pipeline.maths.profiles import level_tables, wall_point
@@ -231,6 +239,20 @@ def _across_line(fn, inputs, model: str) -> BudgetEntry:
                        "nuisance", 0.0, 0.0, 0.0)
 
 
+def _without_tolerance(contour: PipeContour, H: float, tolerance: float) -> PipeContour:
+    """The contour with the wall's departure from the nominal profile less the share of H's tolerance.
+
+    The pose is fitted in units of the pipe's own height, so a pipe larger than nominal within its tolerance looks
+    the same in the image: that error is all in the ``H`` input. The contour's ``wall_u`` also holds it
+    (``wall_u_from_tolerance``, used by the ring fits); counted again in the ``wall`` input and u(p_H) it entered
+    twice. What stays is the departure that is not a change of scale: a displaced joint logged before the
+    observation (``measurement.wall``).
+    """
+    shared = wall_u_from_tolerance(H, tolerance) if H > 0 and tolerance > 0 else 0.0
+    rest = math.sqrt(max(contour.wall_u ** 2 - shared ** 2, 0.0))
+    return contour if rest == contour.wall_u else replace(contour, wall_u=rest)
+
+
 def _h_input(H: float, tolerance: float):
     return Rectangular(H, tolerance) if tolerance > 0 else H
 
@@ -249,6 +271,14 @@ def measure_quantity(q: MarkedQuantity, contour: PipeContour, cert: Certificate,
     if model not in MODELS:
         raise ValueError(f"unknown model {model!r}; use one of {', '.join(MODELS)}")
     method = METHODS[q.method]
+    if model == "orthographic" and method.extent not in IN_SECTION:
+        # eqs. 12-15 scale an image length in a cross-section plane square to the camera; an extent leaving that
+        # plane is foreshortened by a known amount (a median -68 % along the axis), a bias to correct, not an
+        # uncertainty to carry (JCGM 100 3.2.4): the perspective model corrects it
+        where = "along the pipe" if method.extent == "along" else "between two wall points off the cross-section"
+        raise MeasurementError(f"{q.code} {q.quantity}: the orthographic model measures in a cross-section plane "
+                               f"only; {q.method} measures {where} (use the perspective model)")
+    contour = _without_tolerance(contour, H, tolerance)
     shape, view = contour.view.shape, contour.view
     on_wall = [p for p, s in zip((q.a, q.b), method.surfaces) if s == "wall"] or [q.anchor]
     if on_wall == [None]:
@@ -310,10 +340,6 @@ def measure_quantity(q: MarkedQuantity, contour: PipeContour, cert: Certificate,
         joint=[JointNormal(names, [pose[n] for n in names], cov[np.ix_(free, free)])] if names else [])
     if model == "orthographic":
         delta_ortho = abs(v_ortho - v_persp)
-        if method.extent not in IN_SECTION:
-            # off a cross-section plane the difference is estimated with the perspective value's own
-            # uncertainty (click noise along the axis), which the orthographic inputs do not see
-            delta_ortho = math.hypot(delta_ortho, propagate_linear(perspective, perspective_inputs).u)
         inputs = InputSet({"p_X": Normal(p_X, math.hypot(q.u_a, q.u_b)), "p_H": Normal(plane.p_H, plane.u_p_H),
                            "approximation": Normal(0.0, delta_ortho) if delta_ortho > 0 else 0.0, **common})
         fn = orthographic

@@ -55,7 +55,7 @@ def test_two_observations_each_45_percent_ez0_make_the_section_ez0_at_70_percent
     assert (i.section_grade_at_least_low, i.section_grade_at_least_high) == pytest.approx((0.45, 0.90), abs=1e-3)
     assert "independent" in i.section_grade_statement and "[45 %, 90 %]" in i.section_grade_statement
     label, text = next(line for line in verdict_lines(i) if line[0] == "Section grade")
-    assert text.startswith("EZ0: worst class EZ0 with probability 70 %")
+    assert text.startswith("EZ0: the section's worst class is EZ0 with probability 70 %")
 
 
 def test_three_observations_each_30_percent_ez1_make_the_section_ez1_at_66_percent():
@@ -103,3 +103,19 @@ def test_a_bound_inside_one_class_still_grades_from_the_measurement():
     r = _judge([below], [2.0])
     assert r.observations[0].grade_status == "graded" and r.observations[0].grade == "EZ4"
     assert scheme().classes[-1] == "EZ4"
+
+
+def test_a_log_under_a_below_resolution_bound_is_undecided_and_one_above_it_disagrees():
+    from pipeline.reports.verdict_text import log_check_text
+
+    def below(row):
+        m = _linear(row, 1.2, 4.0, below_resolution=True)         # "< 9.0 mm"
+        m.update(low=0.0, high=9.0, k=float("nan"))
+        return m
+
+    r = _judge([below(1), below(2)], [5.0, 20.0])
+    under, over = r.measurements
+    assert under.log_check == "undecided" and "below the image's resolution" in under.log_check_reason
+    assert "below resolution: consistent, not confirmed" in log_check_text(under)
+    assert over.log_check == "disagrees"                         # 20 mm against < 9 mm
+    assert r.inspection.log_undecided == 1 and r.inspection.log_disagrees == 1

@@ -61,7 +61,8 @@ def add_verdicts(result, header, observations, track, scheme_key: str | None = N
         logged = o.q1 if m["quantity"] == "Q1" else o.q2
         logged_unit = (o.q1_unit if m["quantity"] == "Q1" else o.q2_unit) or None
         c = check_logged(logged, logged_unit, value=m.get("value"), U95=m.get("U95"), unit=m.get("unit"),
-                         confident=m.get("confident"), status=m.get("status", "error"))
+                         confident=m.get("confident"), status=m.get("status", "error"),
+                         upper_bound=m.get("high") if m.get("below_resolution") is True else None)
         m.update(logged_value=c.logged, logged_resolution=c.resolution, log_check=c.verdict,
                  log_check_reason=c.reason, log_difference=c.difference, E_n=c.E_n)
         if m["quantity"] == "Q1":

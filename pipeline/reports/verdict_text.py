@@ -47,9 +47,10 @@ def log_check_text(m: Mapping) -> str:
         return "not checked"
     unit = m.get("unit") or ""
     if verdict in ("disagrees", "agrees", "undecided") and not is_missing(m.get("E_n")):
-        untrusted = verdict == "undecided" or (verdict == "disagrees" and not is_missing(m.get("confident"))
-                                                and not bool(m.get("confident")))
-        why = "contour not trusted; " if untrusted else ""
+        below = verdict == "undecided" and m.get("below_resolution") is True
+        untrusted = (verdict == "undecided" and not below) or (
+            verdict == "disagrees" and not is_missing(m.get("confident")) and not bool(m.get("confident")))
+        why = "below resolution: consistent, not confirmed; " if below else "contour not trusted; " if untrusted else ""
         return (f"{verdict} ({why}logged {float(m['logged_value']):g} {unit}, {float(m['log_difference']):+.3g} {unit}, "
                 f"E_n {float(m['E_n']):.2f})")
     return f"{verdict} ({m.get('log_check_reason') or ''})"
@@ -91,7 +92,8 @@ def verdict_lines(inspection: Mapping) -> list[tuple[str, str]]:
         lines.append(("Log check", f"{int(inspection['log_agrees'])} agree, {int(inspection['log_disagrees'])} disagree, "
                                    f"{int(inspection['log_undecided'])} undecided, "
                                    f"{int(inspection['log_not_checked'])} not checked (E_n <= 1 agrees; "
-                                   f"outline not trusted: undecided unless E_n > 2)"))
+                                   f"outline not trusted: undecided unless E_n > 2; below resolution: "
+                                   f"undecided unless the log exceeds the bound)"))
     grade = inspection.get("section_grade")
     scheme = inspection.get("grading_scheme")
     if not is_missing(grade) and not is_missing(inspection.get("section_grade_statement")):

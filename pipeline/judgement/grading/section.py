@@ -32,8 +32,7 @@ from pipeline.judgement.grading.scheme import FROM_LOG, Grade, Scheme
 
 __all__ = ["SectionGrade", "section_grade", "INDEPENDENCE"]
 
-INDEPENDENCE = ("observations taken as independent; they share H, the certificate and often the pose, so "
-                "P(that class or worse) lies between the Fréchet bounds given")
+INDEPENDENCE = "observations taken as independent (they share H, the certificate and often the pose)"
 
 
 @dataclass(frozen=True)
@@ -59,11 +58,11 @@ class SectionGrade:
         if self.grade is None:
             return None
         dist = ", ".join(f"{c} {100 * p:.0f} %" for c, p in self.distribution.items() if p >= 0.005)
-        text = (f"worst class {self.grade} with probability {100 * (self.probability or 0):.0f} % ({scheme_name}; "
-                f"worst class: {dist}; {INDEPENDENCE}: P({self.grade} or worse) in "
-                f"[{100 * (self.at_least_low or 0):.0f} %, {100 * (self.at_least_high or 0):.0f} %])")
+        text = (f"the section's worst class is {self.grade} with probability {100 * (self.probability or 0):.0f} % "
+                f"({scheme_name}); its distribution: {dist}; {INDEPENDENCE}: for any dependence P({self.grade} or "
+                f"worse) is in [{100 * (self.at_least_low or 0):.0f} %, {100 * (self.at_least_high or 0):.0f} %]")
         if self.from_log:
-            text += "; from the log, not measured: " + ", ".join(self.from_log)
+            text += "; from the log, not measured: " + "; ".join(self.from_log)
         return text
 
 

@@ -21,6 +21,11 @@ The factor is pipegauge's choice, checked by ``benchmarks/verdicts.py``
 (docs/verdicts.md: among the benchmark's measurements that were not
 confident, the largest |error| / U95 was 1.4).
 
+A measurement below the image's resolution gives only an upper bound
+(``upper_bound``, its interval's high end): a logged value under it is
+consistent with the image but not confirmed by it, ``undecided``; one above
+it is judged by E_n as any other.
+
 A logged value that is absent, not a number, or of another unit than the
 measurement gives ``not checked`` with the reason.
 
@@ -79,8 +84,11 @@ class LogCheck:
 
 
 def check_logged(logged, logged_unit: str | None, *, value, U95, unit: str | None, confident: bool | None = True,
-                 status: str = "ok") -> LogCheck:
-    """Check a logged value against a measured one (module docstring); never raises for bad input."""
+                 status: str = "ok", upper_bound: float | None = None) -> LogCheck:
+    """Check a logged value against a measured one (module docstring); never raises for bad input.
+
+    upper_bound : for a measurement below the image's resolution, the bound it gives [unit]; None otherwise
+    """
     if status != "ok":
         return LogCheck("not checked", "the quantity was not measured")
     if logged is None or (isinstance(logged, float) and math.isnan(logged)) or logged == "":
@@ -97,6 +105,10 @@ def check_logged(logged, logged_unit: str | None, *, value, U95, unit: str | Non
     u_res = U_RES_FACTOR * r
     diff = lv - mv
     en = abs(diff) / math.hypot(U, u_res) if math.hypot(U, u_res) > 0 else math.inf
+    bound = finite_number(upper_bound)
+    if bound is not None and lv <= bound:
+        return LogCheck("undecided", f"below the image's resolution: the measurement says only < {bound:.3g} {unit}, "
+                                     f"which the logged {lv:g} {unit} is under (E_n = {en:.2f})", lv, r, u_res, diff, en)
     untrusted = confident is False
     if untrusted and en <= UNTRUSTED_GUARD:
         return LogCheck("undecided", f"the measurement is not confident (contour not trusted at its plane) and "

@@ -9,6 +9,10 @@ whole chain) are given logs whose operator behaviour is known:
 * wrong: the true value plus an error of s x max(U95, resolution), s in
   ``ERROR_SIZES``, random sign, then rounded to the resolution.
 
+Each log is decided as ``pipeline.app.judge`` decides it (the conformity
+probability from the stored result's distribution, the logged value's class
+for a graded quantity; ``pipeline.judgement.verdicts.log_check``).
+
 Prints the false-alarm rate on honest logs (target <= 5 %), the detection
 rate of logged errors larger than 2 U95 and larger than the resolution
 (target >= 90 %), and per size; then, for the graded quantities (VSA 2023),
@@ -33,9 +37,9 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from pipeline.judgement.grading import LIKELY, applicable_bands, class_index, grade, scheme  # noqa: E402
+from pipeline.judgement.grading import LIKELY, applicable_bands, class_index, class_range, grade, scheme  # noqa: E402
 from pipeline.judgement.grading.probability import result_cdf  # noqa: E402
-from pipeline.judgement.verdicts.log_check import RESOLUTION, UNTRUSTED_GUARD, check_logged  # noqa: E402
+from pipeline.judgement.verdicts.log_check import P_AGREE, P_DISAGREE, RESOLUTION, check_logged  # noqa: E402
 
 ERROR_SIZES = (0.5, 1.0, 2.0, 3.0, 5.0)
 _FIELDS = ("unit", "value", "u", "U95", "low", "high", "k", "mc_trials", "confident")
@@ -79,39 +83,54 @@ def _round(x: float, r: float) -> float:
 def log_checks(cases, rng) -> None:
     """False alarms on honest logs, detections of wrong ones (module docstring)."""
     honest, wrong = [], []          # (case, LogCheck, |logged - truth|, size)
+    s = scheme()
+
+    def check(c, lv, confident):
+        # as app.judge decides: the stored result's distribution, the logged value's class for a graded quantity
+        bands, _ = applicable_bands(s, c["code"], c["char1"], c["unit"], c["height_mm"], c["material"])
+        return check_logged(lv, c["unit"], value=c["value"], U95=c["U95"], unit=c["unit"], confident=confident,
+                            cdf=result_cdf(c["value"], c["u"], c["low"], c["high"], c["k"]),
+                            class_range=class_range(bands, lv, len(s.classes)) if bands else None)
+
     for c in cases:
         r = RESOLUTION[c["unit"]]
-        kw = dict(value=c["value"], U95=c["U95"], unit=c["unit"], confident=c["confident"])
         logged = _round(c["truth"], r)
-        honest.append((c, check_logged(logged, c["unit"], **kw)))
+        honest.append((c, check(c, logged, c["confident"])))
         for size in ERROR_SIZES:
             e = rng.choice((-1.0, 1.0)) * size * max(c["U95"], r)
             bad = _round(c["truth"] + e, r)
             if c["unit"] == "%":
                 bad = min(max(bad, 0.0), 100.0)
-            wrong.append((c, check_logged(bad, c["unit"], **kw), bad, size, bad != logged))
+            wrong.append((c, check(c, bad, c["confident"]), bad, size, bad != logged))
     alarms = [ch.verdict == "disagrees" for _, ch in honest]
     conf = [ch.verdict == "disagrees" for c, ch in honest if c["confident"]]
     print(f"honest logs (truth rounded: mm to {RESOLUTION['mm']:g} mm, % to {RESOLUTION['%']:g} %): "
           f"{len(honest)} quantities of {len(set((c['code'], c['char1']) for c in cases))} code/characterisations; "
           f"false alarms {100 * np.mean(alarms):.1f} % (target <= 5 %); among the {len(conf)} confident "
-          f"{100 * np.mean(conf):.1f} %; undecided {sum(ch.verdict == 'undecided' for _, ch in honest)}")
+          f"{100 * np.mean(conf):.1f} %; agrees {sum(ch.verdict == 'agrees' for _, ch in honest)}, "
+          f"undecided {sum(ch.verdict == 'undecided' for _, ch in honest)} (agrees: P(right) >= {P_AGREE:g}; "
+          f"disagrees: P(right) <= {P_DISAGREE:g} and E_n > 1)")
+    agreed = [ch.risk for _, ch in honest + [(c, ch) for c, ch, *_ in wrong] if ch.verdict == "agrees"]
+    wrongly = [differs for c, ch, bad, size, differs in wrong if ch.verdict == "agrees"]
+    if agreed:
+        print(f"  'agrees' on {len(agreed)} logs (honest and wrong): stated false-acceptance risk mean "
+              f"{np.mean(agreed):.3f}; of the wrong logs, {sum(wrongly)} accepted")
     untrusted = np.array([abs(c["value"] - c["truth"]) / c["U95"] for c in cases if not c["confident"]])
     if untrusted.size:
         print(f"  the {untrusted.size} measurements not confident: truth inside U95 {100 * np.mean(untrusted <= 1):.1f} %, "
               f"largest |measured - truth| / U95 {untrusted.max():.2f}; their honest logs called wrong "
               f"{sum(ch.verdict == 'disagrees' for c, ch in honest if not c['confident'])} "
-              f"(they say 'disagrees' only beyond E_n > {UNTRUSTED_GUARD:g})")
+              f"(their verdicts are withheld)")
     big = [(c, ch) for c, ch, bad, size, differs in wrong
            if differs and abs(bad - c["truth"]) > 2 * c["U95"] + RESOLUTION[c["unit"]] / 2]
     big_conf = [ch for c, ch in big if c["confident"]]
     print(f"wrong logs, |logged - truth| > 2 U95 + r/2 (beyond the rounding): {len(big)}; detected (disagrees) "
           f"{100 * np.mean([ch.verdict == 'disagrees' for _, ch in big]):.1f} % (target >= 90 %); among the "
           f"{len(big_conf)} confident {100 * np.mean([ch.verdict == 'disagrees' for ch in big_conf]):.1f} %")
-    # The same logs if the measurements not confident were trusted like the others (E_n > 1, no guard band).
+    # The same logs if the measurements not confident were decided like the others.
     def as_trusted(c, lv):
-        return check_logged(lv, c["unit"], value=c["value"], U95=c["U95"], unit=c["unit"]).verdict
-    print(f"  were the measurements not confident decided at E_n > 1: false alarms on their honest logs "
+        return check(c, lv, True).verdict
+    print(f"  were the measurements not confident decided like the others: false alarms on their honest logs "
           f"{100 * np.mean([as_trusted(c, ch.logged) == 'disagrees' for c, ch in honest if not c['confident']]):.1f} %, "
           f"detection {100 * np.mean([as_trusted(c, ch.logged) == 'disagrees' for c, ch in big]):.1f} %")
     plain = [ch for c, ch, bad, size, differs in wrong if differs and abs(bad - c["truth"]) > 2 * c["U95"]]

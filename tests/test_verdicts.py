@@ -38,17 +38,41 @@ def test_bad_logged_values_are_not_checked_with_the_reason(logged, unit, why):
     assert c.verdict == "not checked" and why in c.reason
 
 
-def test_a_measurement_that_is_not_confident_vouches_for_no_log_and_disagrees_only_beyond_the_guard_band():
+def test_a_measurement_that_is_not_confident_vouches_for_no_log_and_its_verdict_is_withheld():
     # U95 3 mm, logged in whole mm: U_res = 0.475 mm, sqrt(U95^2 + U_res^2) = 3.0374 mm
     near = check_logged(25.0, "mm", value=20.0, U95=3.0, unit="mm", confident=False)       # E_n 1.65
     assert near.verdict == "undecided" and near.E_n == pytest.approx(5.0 / 3.0374, abs=1e-4)
     same = check_logged(20.0, "mm", value=20.0, U95=3.0, unit="mm", confident=False)       # E_n 0: still no "agrees"
     assert same.verdict == "undecided"
-    far = check_logged(27.0, "mm", value=20.0, U95=3.0, unit="mm", confident=False)        # E_n 2.30
-    assert far.verdict == "disagrees" and far.E_n == pytest.approx(7.0 / 3.0374, abs=1e-4)
-    assert "guard band" in far.reason
-    trusted = check_logged(25.0, "mm", value=20.0, U95=3.0, unit="mm", confident=True)
-    assert trusted.verdict == "disagrees" and "guard band" not in trusted.reason
+    far = check_logged(40.0, "mm", value=20.0, U95=3.0, unit="mm", confident=False)        # E_n 6.6: withheld too
+    assert far.verdict == "undecided" and "verdict withheld" in far.reason and far.risk is None
+    assert far.conformity == pytest.approx(0.0, abs=1e-12) and far.E_n == pytest.approx(20.0 / 3.0374, abs=1e-4)
+    trusted = check_logged(40.0, "mm", value=20.0, U95=3.0, unit="mm", confident=True)
+    assert trusted.verdict == "disagrees" and trusted.risk == pytest.approx(0.0, abs=1e-12)
+
+
+def test_the_log_check_is_a_conformity_decision_with_its_specific_risk():
+    # issue 30 (JCGM 106): the verdict is the probability that the log is right within its step (T = 1 mm)
+    broad = check_logged(5.0, "mm", value=5.1, U95=3.0, unit="mm")        # E_n 0.03: the old rule said "agrees"
+    sigma = 3.0 / Z95
+    p = norm_cdf((6.0 - 5.1) / sigma) - norm_cdf((4.0 - 5.1) / sigma)
+    assert broad.verdict == "undecided" and broad.conformity == pytest.approx(p) and broad.tolerance == 1.0
+    precise = check_logged(5.0, "mm", value=5.1, U95=0.5, unit="mm")
+    assert precise.verdict == "agrees" and precise.risk == pytest.approx(1 - precise.conformity) and precise.risk < 0.05
+    wrong = check_logged(1.0, "mm", value=20.0, U95=14.0, unit="mm")      # E_n 1.36, P(0..2 mm) tiny
+    assert wrong.verdict == "disagrees" and wrong.risk == wrong.conformity < 0.05
+    # a narrow tolerance against a broad measurement: p small, but the log is inside the interval: no accusation
+    guarded = check_logged(20.0, "mm", value=10.0, U95=14.0, unit="mm")
+    assert guarded.conformity < 0.05 and guarded.E_n < 1 and guarded.verdict == "undecided"
+    # the logged value's class counts: 5 mm logged at the edge of [5, 8) against 5.0 +- 0.3 mm
+    edge = check_logged(5.0, "mm", value=5.0, U95=0.3, unit="mm", class_range=(5.0, 8.0))
+    assert edge.conformity == pytest.approx(0.5, abs=0.01) and edge.verdict == "undecided"
+    plain = check_logged(5.0, "mm", value=5.0, U95=0.3, unit="mm")
+    assert plain.verdict == "agrees"
+
+
+def norm_cdf(z: float) -> float:
+    return 0.5 * math.erfc(-z / math.sqrt(2.0))
 
 
 def test_a_survey_that_stops_early_gives_its_range_and_flags_the_rows_beyond_it():
@@ -161,9 +185,12 @@ def test_the_nightly_summary_ranks_defects_by_grade_not_by_size_and_lists_contra
 
 def test_the_reports_log_check_text_says_why_a_check_is_undecided():
     from pipeline.reports.verdict_text import log_check_text
-    row = {"unit": "mm", "logged_value": 25.0, "log_difference": 5.0, "E_n": 1.65}
-    assert log_check_text({**row, "log_check": "undecided"}) == \
-        "undecided (contour not trusted; logged 25 mm, +5 mm, E_n 1.65)"
-    assert log_check_text({**row, "log_check": "disagrees"}) == "disagrees (logged 25 mm, +5 mm, E_n 1.65)"
-    assert log_check_text({**row, "log_check": "disagrees", "E_n": 2.5, "confident": False}) == \
-        "disagrees (contour not trusted; logged 25 mm, +5 mm, E_n 2.50)"
+    row = {"unit": "mm", "logged_value": 25.0, "log_difference": 5.0, "E_n": 1.65, "log_conformity": 0.31}
+    assert log_check_text({**row, "log_check": "undecided", "confident": False}) == \
+        "undecided (contour not trusted: verdict withheld; P(right) 0.31; logged 25 mm, +5 mm, E_n 1.65)"
+    assert log_check_text({**row, "log_check": "undecided", "confident": True}) == \
+        "undecided (P(right) 0.31; logged 25 mm, +5 mm, E_n 1.65)"
+    assert log_check_text({**row, "log_check": "disagrees", "log_conformity": 0.01}) == \
+        "disagrees (P(right) 0.01; logged 25 mm, +5 mm, E_n 1.65)"
+    assert log_check_text({**row, "log_check": "undecided", "below_resolution": True}).startswith(
+        "undecided (below resolution: consistent, not confirmed; ")

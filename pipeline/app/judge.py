@@ -19,8 +19,9 @@ and the observations whose class comes from the log.
 from __future__ import annotations
 
 from pipeline.domain.results import ClassProbability
-from pipeline.judgement.grading import Grade, class_edges, grade, scheme, section_grade
-from pipeline.judgement.grading.probability import draws_cdf, result_cdf
+from pipeline.judgement.grading import (Grade, applicable_bands, class_edges, class_range, grade, scheme,
+                                        section_grade)
+from pipeline.judgement.grading.probability import draws_cdf, measurement_cdf, result_cdf
 from pipeline.judgement.verdicts.log_check import check_logged
 from pipeline.core.numeric import finite_number as _f
 from pipeline.judgement.verdicts.survey import survey_verdict
@@ -36,6 +37,23 @@ def _grade_fields(g: Grade) -> dict:
             "grade_probability": probs[g.most_probable] if probs and g.most_probable else None, "grade_worst_likely": g.worst_likely,
             "logged_grade": g.logged_class, "grade_disagrees": g.disagrees,
             "grade_probabilities": [ClassProbability(grade=c, probability=p) for c, p in probs.items()] if probs else None}
+
+
+def _distribution(m):
+    """The measurement's distribution function: its draws' shares where stored, the stored interval's elsewhere."""
+    if m.get("status") != "ok":
+        return None
+    fallback = result_cdf(_f(m.get("value")), _f(m.get("u")), _f(m.get("low")), _f(m.get("high")), _f(m.get("k")))
+    return measurement_cdf(m.get("class_edges"), m.get("class_edges_cdf"), fallback)
+
+
+def _class_range(s, m, header, logged) -> tuple[float, float] | None:
+    """[low, high) of the logged value's class for a graded Q1, else None."""
+    lv = _f(logged)
+    if m["quantity"] != "Q1" or lv is None:
+        return None
+    bands, _ = applicable_bands(s, m["code"], m.get("char1"), m.get("unit"), header.height_mm, header.material)
+    return class_range(bands, lv, len(s.classes)) if bands else None
 
 
 def _measurement_grade(s, m, header, logged, logged_unit) -> Grade:
@@ -62,9 +80,11 @@ def add_verdicts(result, header, observations, track, scheme_key: str | None = N
         logged_unit = (o.q1_unit if m["quantity"] == "Q1" else o.q2_unit) or None
         c = check_logged(logged, logged_unit, value=m.get("value"), U95=m.get("U95"), unit=m.get("unit"),
                          confident=m.get("confident"), status=m.get("status", "error"),
-                         upper_bound=m.get("high") if m.get("below_resolution") is True else None)
+                         upper_bound=m.get("high") if m.get("below_resolution") is True else None,
+                         cdf=_distribution(m), class_range=_class_range(s, m, header, logged))
         m.update(logged_value=c.logged, logged_resolution=c.resolution, log_check=c.verdict,
-                 log_check_reason=c.reason, log_difference=c.difference, E_n=c.E_n)
+                 log_check_reason=c.reason, log_difference=c.difference, E_n=c.E_n, log_tolerance=c.tolerance,
+                 log_conformity=c.conformity, log_check_risk=c.risk)
         if m["quantity"] == "Q1":
             m.update(_grade_fields(_measurement_grade(s, m, header, _f(logged), logged_unit)))
         else:

@@ -35,7 +35,9 @@ from pipeline.measurement.automatic import measurable_automatically, measure_aut
 from pipeline.measurement.marked import marked_quantity
 from pipeline.measurement.quantity import MODELS, MarkedQuantity, QuantityResult, measure_quantity
 from pipeline.measurement.wall import contour_under
+from pipeline.core.numeric import finite_number
 from pipeline.judgement.grading import class_edges, scheme as grading_scheme
+from pipeline.judgement.verdicts.log_check import conformity_interval, logging_resolution
 from pipeline.app.judge import add_verdicts
 from pipeline.app.load import load_delivery
 from pipeline.app.locate import locate
@@ -128,10 +130,15 @@ def measure_package(folder: str | os.PathLike, *, certificates: str | os.PathLik
                              height_mm=header.height_mm)
 
     def edges(obs: Observation, quantity: str) -> tuple[float, ...]:
-        # the class edges of the grading scheme judge applies: the draws' share below each is kept (Q1 is graded)
-        if quantity != "Q1":
-            return ()
-        return class_edges(grading_scheme(), obs.code, obs.char1, header.height_mm, header.material)
+        # where judge reads the draws' distribution function: the grading scheme's class edges (Q1 is graded) and
+        # the ends of the logged value's tolerance (the log check's conformity probability)
+        graded = class_edges(grading_scheme(), obs.code, obs.char1, header.height_mm, header.material) \
+            if quantity == "Q1" else ()
+        logged = finite_number(obs.q1 if quantity == "Q1" else obs.q2)
+        spec = obs.quantification(quantity)
+        unit = (obs.q1_unit if quantity == "Q1" else obs.q2_unit) or (spec.unit if spec else "")
+        ends = conformity_interval(logged, logging_resolution(logged, unit)) if logged is not None else ()
+        return tuple(sorted({*graded, *ends}))
 
     def ideal(frame: int) -> np.ndarray:
         if frame not in ideal_frames:        # kept by the contours' pass; a seek only for a frame it did not reach

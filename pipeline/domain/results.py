@@ -311,6 +311,12 @@ class MeasurementRecord(Record):
     class_edges: list[float] | None = column("list<float64>", "unit", "the grading scheme's class edges for this code")
     class_edges_cdf: list[float] | None = column(
         "list<float64>", "1", "share of the Monte Carlo draws below each class edge (the class probabilities' source)")
+    log_tolerance: float | None = column("float64", "unit", "the logging tolerance T: a log within T of the truth is right")
+    log_conformity: float | None = column(
+        "float64", "1", "probability from the measurement's draws that the logged value is right within T and its class")
+    log_check_risk: float | None = column(
+        "float64", "1", "specific risk of the verdict: false acceptance (agrees) 1 - conformity, false rejection "
+                        "(disagrees) conformity")
 
 
 @dataclass

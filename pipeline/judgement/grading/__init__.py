@@ -28,12 +28,12 @@ from __future__ import annotations
 from typing import Callable
 
 from pipeline.judgement.grading.scheme import (FROM_LOG, LIKELY, NOT_DECIDABLE, Band, Grade, Scheme,
-                                                applicable_bands, class_index, class_probabilities, classes_below,
-                                                grade)
+                                                applicable_bands, class_index, class_probabilities, class_range,
+                                                classes_below, grade)
 from pipeline.judgement.grading.section import SectionGrade, section_grade
 
 __all__ = ["Band", "Scheme", "Grade", "SCHEMES", "DEFAULT_SCHEME", "scheme", "applicable_bands", "class_index",
-           "class_probabilities", "classes_below", "grade", "LIKELY", "NOT_DECIDABLE", "FROM_LOG", "SectionGrade",
+           "class_probabilities", "class_range", "classes_below", "grade", "LIKELY", "NOT_DECIDABLE", "FROM_LOG", "SectionGrade",
            "section_grade", "class_edges"]
 
 

@@ -29,7 +29,7 @@ import math
 from typing import Callable
 from pipeline.maths.metrology import K95 as Z95
 
-__all__ = ["result_cdf", "draws_cdf", "Z95"]
+__all__ = ["result_cdf", "draws_cdf", "measurement_cdf", "Z95"]
 
 
 def _phi(z: float) -> float:
@@ -72,4 +72,19 @@ def draws_cdf(edges, shares, needed) -> Callable[[float], float] | None:
 
     def cdf(x: float) -> float:
         return next(p for e, p in table.items() if math.isclose(x, e, rel_tol=1e-12, abs_tol=1e-12))
+    return cdf
+
+
+def measurement_cdf(edges, shares, fallback: Callable[[float], float] | None) -> Callable[[float], float] | None:
+    """The draws' distribution function where it was stored (``draws_cdf``), ``fallback`` elsewhere [unit -> 1]."""
+    table = {} if edges is None or shares is None or len(edges) != len(shares) else dict(zip(map(float, edges),
+                                                                                             map(float, shares)))
+    if not table:
+        return fallback
+
+    def cdf(x: float) -> float:
+        hit = next((p for e, p in table.items() if math.isclose(x, e, rel_tol=1e-12, abs_tol=1e-12)), None)
+        if hit is not None:
+            return hit
+        return fallback(x) if fallback is not None else math.nan
     return cdf

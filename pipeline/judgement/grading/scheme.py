@@ -10,7 +10,7 @@ from dataclasses import dataclass, field
 from typing import Callable, Mapping
 
 __all__ = ["Band", "Scheme", "Grade", "applicable_bands", "class_index", "class_probabilities", "classes_below",
-           "grade", "LIKELY", "NOT_DECIDABLE", "FROM_LOG"]
+           "class_range", "grade", "LIKELY", "NOT_DECIDABLE", "FROM_LOG"]
 
 LIKELY = 0.05       # a class with at least this probability is reported as possible ("worst class with p >= 5 %")
 NOT_DECIDABLE = "not decidable from the image"     # status of a grade whose measurement only bounds the value
@@ -121,6 +121,19 @@ def class_probabilities(bands: list[Band], cdf: Callable[[float], float], classe
         probs[classes[class_index(bands, at, len(classes))]] += max(mass, 0.0)
     total = sum(probs.values())
     return {c: p / total for c, p in probs.items()}
+
+
+def class_range(bands: list[Band], value: float, n_classes: int) -> tuple[float, float]:
+    """[low, high) [unit] of the values that have the class of ``value`` around it (bounds are ">=")."""
+    c = class_index(bands, value, n_classes)
+    edges = sorted({bound for b in bands for bound, _ in b.steps})
+    lo = max((e for e in edges if e <= value), default=-math.inf)
+    hi = min((e for e in edges if e > value), default=math.inf)
+    while lo > -math.inf and class_index(bands, lo - 1e-9 * max(1.0, abs(lo)), n_classes) == c:
+        lo = max((e for e in edges if e < lo), default=-math.inf)
+    while hi < math.inf and class_index(bands, hi, n_classes) == c:
+        hi = min((e for e in edges if e > hi), default=math.inf)
+    return lo, hi
 
 
 def classes_below(bands: list[Band], bound: float, classes: tuple[str, ...], floor: float = 0.0) -> list[str]:

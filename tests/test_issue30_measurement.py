@@ -12,7 +12,7 @@ from pipeline.domain.results import MeasurementRecord
 from pipeline.maths.metrology import Normal, propagate_monte_carlo
 from pipeline.maths.metrology.intervals import shortest_interval
 from pipeline.measurement import quantity as quantity_module
-from pipeline.measurement import measure_quantity
+from pipeline.measurement import MarkedQuantity, measure_quantity
 from tests.test_measurement import _contour, _marked, _truth
 
 
@@ -70,3 +70,25 @@ def test_the_height_tolerance_enters_once_as_H_and_not_again_as_the_wall():
     stepped = replace(contour, wall_u=math.hypot(contour.wall_u, 0.01))        # a displaced joint before it
     s = measure_quantity(marked, stepped, cert, H=400.0, tolerance=4.0, model="perspective", seed=11)
     assert next(line for line in s.budget if line.label == "wall").u == pytest.approx(0.02)
+
+
+@pytest.mark.parametrize("method, extent", [("axial", "along"), ("around", "around")])
+def test_the_predicted_U95_of_a_marked_extent_is_the_measured_one_where_the_marks_dominate(method, extent):
+    from pipeline.measurement.predict import predicted_U95
+    from pipeline.vision.contour import PipeView
+
+    truth, cert, und, _ = _truth("S01-circular-clean")
+    K, H, Z, u = und.K, 300.0, 500.0, 0.7                        # DN300, marks 0.5 m ahead, 0.7 px each
+    view = PipeView("circular", K[0, 0], K[1, 1], K[0, 2], K[1, 2], 0.0, 0.0, 0.0, 0.0, 0.0)
+    theta, t = math.radians(200), Z / H
+    if extent == "along":
+        pts = [[0.5 * math.cos(theta), 0.5 * math.sin(theta), t + s] for s in (-0.05, 0.05)]      # a 30 mm gap
+    else:
+        pts = [[0.5 * math.cos(theta + s), 0.5 * math.sin(theta + s), t] for s in (-0.05, 0.05)]  # a 30 mm chord
+    a, b = view.project(np.array(pts))
+    q = MarkedQuantity("BAJ", "A", "Q1", method, tuple(a), tuple(b), u, u)
+    r = measure_quantity(q, _contour(view, u_pose=(1e-5,) * 5), cert, H=H, tolerance=0.0, model="perspective",
+                         seed=5)
+    predicted = predicted_U95(extent, Z, H, float(K[0, 0]), u)
+    assert r.U95 == pytest.approx(predicted, rel=0.25)
+    assert r.U95 >= 0.9 * predicted                             # the marks' share only: a lower bound

@@ -39,7 +39,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from pipeline.judgement.grading import LIKELY, applicable_bands, class_index, class_range, grade, scheme  # noqa: E402
 from pipeline.judgement.grading.probability import result_cdf  # noqa: E402
-from pipeline.judgement.verdicts.log_check import P_AGREE, P_DISAGREE, RESOLUTION, check_logged  # noqa: E402
+from pipeline.judgement.verdicts.log_check import (P_AGREE, P_DISAGREE, RESOLUTION, UNTRUSTED_INFLATION,  # noqa: E402
+                                                    check_logged)
 
 ERROR_SIZES = (0.5, 1.0, 2.0, 3.0, 5.0)
 _FIELDS = ("unit", "value", "u", "U95", "low", "high", "k", "mc_trials", "confident")
@@ -111,23 +112,26 @@ def log_checks(cases, rng) -> None:
           f"undecided {sum(ch.verdict == 'undecided' for _, ch in honest)} (agrees: P(right) >= {P_AGREE:g}; "
           f"disagrees: P(right) <= {P_DISAGREE:g} and E_n > 1)")
     agreed = [ch.risk for _, ch in honest + [(c, ch) for c, ch, *_ in wrong] if ch.verdict == "agrees"]
-    wrongly = [differs for c, ch, bad, size, differs in wrong if ch.verdict == "agrees"]
+    accepted = [abs(bad - c["truth"]) / RESOLUTION[c["unit"]] for c, ch, bad, size, differs in wrong
+                if ch.verdict == "agrees" and differs]
     if agreed:
         print(f"  'agrees' on {len(agreed)} logs (honest and wrong): stated false-acceptance risk mean "
-              f"{np.mean(agreed):.3f}; of the wrong logs, {sum(wrongly)} accepted")
+              f"{np.mean(agreed):.3f}; of the wrong logs (not the honest rounding), {len(accepted)} accepted, "
+              f"{sum(a <= 1.0 for a in accepted)} of them within the tolerance (one step) of the truth, the largest "
+              f"{max(accepted, default=0.0):.2f} steps off")
     untrusted = np.array([abs(c["value"] - c["truth"]) / c["U95"] for c in cases if not c["confident"]])
     if untrusted.size:
         print(f"  the {untrusted.size} measurements not confident: truth inside U95 {100 * np.mean(untrusted <= 1):.1f} %, "
               f"largest |measured - truth| / U95 {untrusted.max():.2f}; their honest logs called wrong "
               f"{sum(ch.verdict == 'disagrees' for c, ch in honest if not c['confident'])} "
-              f"(their verdicts are withheld)")
+              f"(their u is widened x{UNTRUSTED_INFLATION:g} first)")
     big = [(c, ch) for c, ch, bad, size, differs in wrong
            if differs and abs(bad - c["truth"]) > 2 * c["U95"] + RESOLUTION[c["unit"]] / 2]
     big_conf = [ch for c, ch in big if c["confident"]]
     print(f"wrong logs, |logged - truth| > 2 U95 + r/2 (beyond the rounding): {len(big)}; detected (disagrees) "
           f"{100 * np.mean([ch.verdict == 'disagrees' for _, ch in big]):.1f} % (target >= 90 %); among the "
           f"{len(big_conf)} confident {100 * np.mean([ch.verdict == 'disagrees' for ch in big_conf]):.1f} %")
-    # The same logs if the measurements not confident were decided like the others.
+    # The same logs if the measurements not confident were decided like the others, their u as stated.
     def as_trusted(c, lv):
         return check(c, lv, True).verdict
     print(f"  were the measurements not confident decided like the others: false alarms on their honest logs "

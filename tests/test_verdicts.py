@@ -38,17 +38,18 @@ def test_bad_logged_values_are_not_checked_with_the_reason(logged, unit, why):
     assert c.verdict == "not checked" and why in c.reason
 
 
-def test_a_measurement_that_is_not_confident_vouches_for_no_log_and_its_verdict_is_withheld():
-    # U95 3 mm, logged in whole mm: U_res = 0.475 mm, sqrt(U95^2 + U_res^2) = 3.0374 mm
-    near = check_logged(25.0, "mm", value=20.0, U95=3.0, unit="mm", confident=False)       # E_n 1.65
-    assert near.verdict == "undecided" and near.E_n == pytest.approx(5.0 / 3.0374, abs=1e-4)
-    same = check_logged(20.0, "mm", value=20.0, U95=3.0, unit="mm", confident=False)       # E_n 0: still no "agrees"
+def test_a_measurement_that_is_not_confident_has_its_u_widened_before_the_decision():
+    # U95 3 mm, logged in whole mm: U_res = 0.475 mm; not confident: U95 widened x1.5 to 4.5 mm
+    trusted = check_logged(24.0, "mm", value=20.0, U95=3.0, unit="mm", confident=True)     # E_n 1.32, p 0.02
+    assert trusted.verdict == "disagrees" and trusted.E_n == pytest.approx(4.0 / math.hypot(3.0, 0.475))
+    near = check_logged(24.0, "mm", value=20.0, U95=3.0, unit="mm", confident=False)
+    assert near.E_n == pytest.approx(4.0 / math.hypot(4.5, 0.475)) and near.E_n < 1
+    assert near.verdict == "undecided" and "u widened x1.5" in near.reason
+    assert near.conformity > trusted.conformity
+    far = check_logged(40.0, "mm", value=20.0, U95=3.0, unit="mm", confident=False)        # 20 mm off: still wrong
+    assert far.verdict == "disagrees" and "u widened x1.5" in far.reason and far.risk == far.conformity < 1e-6
+    same = check_logged(20.0, "mm", value=20.0, U95=3.0, unit="mm", confident=False)       # broad: not confirmed
     assert same.verdict == "undecided"
-    far = check_logged(40.0, "mm", value=20.0, U95=3.0, unit="mm", confident=False)        # E_n 6.6: withheld too
-    assert far.verdict == "undecided" and "verdict withheld" in far.reason and far.risk is None
-    assert far.conformity == pytest.approx(0.0, abs=1e-12) and far.E_n == pytest.approx(20.0 / 3.0374, abs=1e-4)
-    trusted = check_logged(40.0, "mm", value=20.0, U95=3.0, unit="mm", confident=True)
-    assert trusted.verdict == "disagrees" and trusted.risk == pytest.approx(0.0, abs=1e-12)
 
 
 def test_the_log_check_is_a_conformity_decision_with_its_specific_risk():
@@ -187,7 +188,7 @@ def test_the_reports_log_check_text_says_why_a_check_is_undecided():
     from pipeline.reports.verdict_text import log_check_text
     row = {"unit": "mm", "logged_value": 25.0, "log_difference": 5.0, "E_n": 1.65, "log_conformity": 0.31}
     assert log_check_text({**row, "log_check": "undecided", "confident": False}) == \
-        "undecided (contour not trusted: verdict withheld; P(right) 0.31; logged 25 mm, +5 mm, E_n 1.65)"
+        "undecided (contour not trusted: u widened; P(right) 0.31; logged 25 mm, +5 mm, E_n 1.65)"
     assert log_check_text({**row, "log_check": "undecided", "confident": True}) == \
         "undecided (P(right) 0.31; logged 25 mm, +5 mm, E_n 1.65)"
     assert log_check_text({**row, "log_check": "disagrees", "log_conformity": 0.01}) == \

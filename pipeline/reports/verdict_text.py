@@ -23,7 +23,7 @@ LOG_CHECK_RULE = (
     "logging step of the contractor's value and in its class; agrees when it is at least 0.95, disagrees when it is "
     "at most 0.05 and the log lies outside the measurement's 95 % interval (E_n = |logged − measured| / "
     "√(U95² + U_res²) > 1, U_res from the logged value's step), else undecided. Where the pipe's outline is not "
-    "trusted the verdict is withheld (undecided).")
+    "trusted its u is widened 1.5 times first.")
 
 
 def json_safe(x: Any) -> Any:
@@ -58,8 +58,8 @@ def log_check_text(m: Mapping) -> str:
     if verdict in ("disagrees", "agrees", "undecided") and not is_missing(m.get("E_n")):
         if verdict == "undecided" and m.get("below_resolution") is True:
             why = "below resolution: consistent, not confirmed; "
-        elif verdict == "undecided" and not is_missing(m.get("confident")) and not bool(m.get("confident")):
-            why = "contour not trusted: verdict withheld; "
+        elif not is_missing(m.get("confident")) and not bool(m.get("confident")):
+            why = "contour not trusted: u widened; "
         else:
             why = ""
         p = m.get("log_conformity")
@@ -105,7 +105,7 @@ def verdict_lines(inspection: Mapping) -> list[tuple[str, str]]:
         lines.append(("Log check", f"{int(inspection['log_agrees'])} agree, {int(inspection['log_disagrees'])} disagree, "
                                    f"{int(inspection['log_undecided'])} undecided, "
                                    f"{int(inspection['log_not_checked'])} not checked (agrees: P(log right) >= 0.95; "
-                                   f"disagrees: P(log right) <= 0.05 and E_n > 1; outline not trusted: withheld; "
+                                   f"disagrees: P(log right) <= 0.05 and E_n > 1; outline not trusted: u x1.5; "
                                    f"below resolution: undecided unless the log exceeds the bound)"))
     grade = inspection.get("section_grade")
     scheme = inspection.get("grading_scheme")

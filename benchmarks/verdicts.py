@@ -39,8 +39,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from pipeline.judgement.grading import LIKELY, applicable_bands, class_index, class_range, grade, scheme  # noqa: E402
 from pipeline.judgement.grading.probability import result_cdf  # noqa: E402
-from pipeline.judgement.verdicts.log_check import (P_AGREE, P_DISAGREE, RESOLUTION, UNTRUSTED_INFLATION,  # noqa: E402
-                                                    check_logged)
+from pipeline.judgement.verdicts.log_check import (P_AGREE, P_DISAGREE, RESOLUTION, TOLERANCE_STEPS,  # noqa: E402
+                                                    UNTRUSTED_INFLATION, check_logged)
 
 ERROR_SIZES = (0.5, 1.0, 2.0, 3.0, 5.0)
 _FIELDS = ("unit", "value", "u", "U95", "low", "high", "k", "mc_trials", "confident")
@@ -117,7 +117,7 @@ def log_checks(cases, rng) -> None:
     if agreed:
         print(f"  'agrees' on {len(agreed)} logs (honest and wrong): stated false-acceptance risk mean "
               f"{np.mean(agreed):.3f}; of the wrong logs (not the honest rounding), {len(accepted)} accepted, "
-              f"{sum(a <= 1.0 for a in accepted)} of them within the tolerance (one step) of the truth, the largest "
+              f"{sum(a <= TOLERANCE_STEPS for a in accepted)} of them within the tolerance of the truth, the largest "
               f"{max(accepted, default=0.0):.2f} steps off")
     untrusted = np.array([abs(c["value"] - c["truth"]) / c["U95"] for c in cases if not c["confident"]])
     if untrusted.size:

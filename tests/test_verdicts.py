@@ -53,22 +53,22 @@ def test_a_measurement_that_is_not_confident_has_its_u_widened_before_the_decisi
 
 
 def test_the_log_check_is_a_conformity_decision_with_its_specific_risk():
-    # issue 30 (JCGM 106): the verdict is the probability that the log is right within its step (T = 1 mm)
+    # issue 30 (JCGM 106): the verdict is the probability that the log is right within its rounding (T = 0.5 mm)
     broad = check_logged(5.0, "mm", value=5.1, U95=3.0, unit="mm")        # E_n 0.03: the old rule said "agrees"
     sigma = 3.0 / Z95
-    p = norm_cdf((6.0 - 5.1) / sigma) - norm_cdf((4.0 - 5.1) / sigma)
-    assert broad.verdict == "undecided" and broad.conformity == pytest.approx(p) and broad.tolerance == 1.0
-    precise = check_logged(5.0, "mm", value=5.1, U95=0.5, unit="mm")
+    p = norm_cdf((5.5 - 5.1) / sigma) - norm_cdf((4.5 - 5.1) / sigma)
+    assert broad.verdict == "undecided" and broad.conformity == pytest.approx(p) and broad.tolerance == 0.5
+    precise = check_logged(5.0, "mm", value=5.05, U95=0.3, unit="mm")
     assert precise.verdict == "agrees" and precise.risk == pytest.approx(1 - precise.conformity) and precise.risk < 0.05
-    wrong = check_logged(1.0, "mm", value=20.0, U95=14.0, unit="mm")      # E_n 1.36, P(0..2 mm) tiny
+    wrong = check_logged(1.0, "mm", value=20.0, U95=14.0, unit="mm")      # E_n 1.36, P(0.5..1.5 mm) tiny
     assert wrong.verdict == "disagrees" and wrong.risk == wrong.conformity < 0.05
     # a narrow tolerance against a broad measurement: p small, but the log is inside the interval: no accusation
     guarded = check_logged(20.0, "mm", value=10.0, U95=14.0, unit="mm")
     assert guarded.conformity < 0.05 and guarded.E_n < 1 and guarded.verdict == "undecided"
-    # the logged value's class counts: 5 mm logged at the edge of [5, 8) against 5.0 +- 0.3 mm
-    edge = check_logged(5.0, "mm", value=5.0, U95=0.3, unit="mm", class_range=(5.0, 8.0))
+    # the logged value's class counts: 5 mm logged at the edge of [5, 8) against 5.0 +- 0.2 mm
+    edge = check_logged(5.0, "mm", value=5.0, U95=0.2, unit="mm", class_range=(5.0, 8.0))
     assert edge.conformity == pytest.approx(0.5, abs=0.01) and edge.verdict == "undecided"
-    plain = check_logged(5.0, "mm", value=5.0, U95=0.3, unit="mm")
+    plain = check_logged(5.0, "mm", value=5.0, U95=0.2, unit="mm")
     assert plain.verdict == "agrees"
 
 

@@ -19,8 +19,8 @@ __all__ = ["LOG_CHECK_RULE", "json_safe", "log_check_text", "grade_text", "proba
 
 # the log check's rule in words, under the report's verdict block (pipeline.judgement.verdicts.log_check)
 LOG_CHECK_RULE = (
-    "Log check: P(log right) is the probability, from the measurement's draws, that the true value lies within one "
-    "logging step of the contractor's value and in its class; agrees when it is at least 0.95, disagrees when it is "
+    "Log check: P(log right) is the probability, from the measurement's draws, that the true value rounds to the "
+    "contractor's value (within half its step) and lies in its class; agrees when it is at least 0.95, disagrees when it is "
     "at most 0.05 and the log lies outside the measurement's 95 % interval (E_n = |logged − measured| / "
     "√(U95² + U_res²) > 1, U_res from the logged value's step), else undecided. Where the pipe's outline is not "
     "trusted its u is widened 1.5 times first.")

@@ -17,8 +17,8 @@ interval has half-width U_res = 0.95 r / 2 (JCGM 100 4.3.7, F.2.2.1).
 right, computed from the measurement's distribution (its Monte Carlo draws'
 distribution function, ``cdf``): the probability that the measurand lies
 within the logging tolerance of the logged value, [logged - T, logged + T]
-with T = ``TOLERANCE_STEPS`` x r (one step: the rounding and one step of
-reading), and, for a graded quantity, in the logged value's class
+with T = ``TOLERANCE_STEPS`` x r = r / 2 (what a value rounded to its step
+claims), and, for a graded quantity, in the logged value's class
 (``class_range``). Then
 
 * ``agrees`` when p >= ``P_AGREE`` (0.95): the measurement confirms the log;
@@ -77,7 +77,7 @@ __all__ = ["RESOLUTION", "LogCheck", "logging_resolution", "check_logged", "U_RE
 
 RESOLUTION = {"mm": 1.0, "%": 5.0, "deg": 1.0, "count": 1.0}     # default logging step per unit
 U_RES_FACTOR = 0.95 / 2          # U_res = 0.95 r / 2: 95 % half-width of a rectangular error over +-r/2
-TOLERANCE_STEPS = 1.0            # the logging tolerance T in steps r: a log within one step of the truth is right
+TOLERANCE_STEPS = 0.5            # the logging tolerance T in steps r: a value logged to r claims the truth within r/2
 P_AGREE = 0.95                   # conformity probability at or above which the log agrees
 P_DISAGREE = 0.05                # at or below which (and E_n > 1) it disagrees
 UNTRUSTED_INFLATION = 1.5        # u of a measurement whose contour is not trusted, widened by this factor

@@ -92,3 +92,12 @@ def test_the_predicted_U95_of_a_marked_extent_is_the_measured_one_where_the_mark
     predicted = predicted_U95(extent, Z, H, float(K[0, 0]), u)
     assert r.U95 == pytest.approx(predicted, rel=0.25)
     assert r.U95 >= 0.9 * predicted                             # the marks' share only: a lower bound
+
+
+def test_the_report_says_a_monte_carlo_that_did_not_converge_in_one_warning_with_its_action():
+    from pipeline.reports.warning_text import plain_warnings
+
+    technical = ("Monte Carlo not converged: the interval's endpoints were not stable to 2 significant digits of u "
+                 "within 400000 trials (JCGM 101 7.9), so their last digit is uncertain")
+    [(sentence, action)] = plain_warnings(technical)
+    assert "trial cap" in sentence and action == "read the interval to one digit less"

@@ -81,7 +81,7 @@ INPUT_DESCRIPTIONS = {
     "xa": "mark a, x (marking, certificate residual)", "ya": "mark a, y (marking, certificate residual)",
     "xb": "mark b, x (marking, certificate residual)", "yb": "mark b, y (marking, certificate residual)",
     "xo": "anchor on the wall, x (marking, certificate residual)", "yo": "anchor on the wall, y (marking, certificate residual)",
-    "wall": "wall position against the nominal profile (tolerance, displaced joints logged before it)",
+    "wall": "wall position against the nominal profile (displaced joints logged before it; the tolerance is in H)",
     "across": "the marks' separation across the measured extent (nuisance, not part of the value)",
 }
 
@@ -381,8 +381,9 @@ def measure_quantity(q: MarkedQuantity, contour: PipeContour, cert: Certificate,
         reasons.append(f"below the image's resolution: the marks are {p_X:.2g} px apart along the measured extent "
                        f"(under {RESOLUTION_PX:g} px); only the upper bound {high:.3g} {method.unit} is measured")
     if not mc.converged:
+        # one warning: the warnings column joins reasons with "; "
         reasons.append(f"Monte Carlo not converged: the interval's endpoints were not stable to 2 significant digits "
-                       f"of u within {mc.trials} trials (JCGM 101 7.9); their last digit is uncertain")
+                       f"of u within {mc.trials} trials (JCGM 101 7.9), so their last digit is uncertain")
     budget = _budget(lin, q.origin) + ([] if nuisance is None else [_across_line(*nuisance, model)])
     return QuantityResult(
         model=model, method=q.method, unit=method.unit, value=float(value), u=float(u), U95=float(max(high - value, value - low)),

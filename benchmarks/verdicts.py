@@ -147,6 +147,58 @@ def log_checks(cases, rng) -> None:
               f"of the {len(conf)} confident {100 * np.mean(conf):5.1f} %")
 
 
+FIXED_ERRORS = {"mm": (2.0, 5.0, 10.0), "%": (5.0, 10.0)}       # operator errors of a fixed size, per unit
+
+
+def operator_errors(cases, rng) -> None:
+    """Logs wrong in ways that are not multiples of the measurement's U95: one class off, off by a fixed amount."""
+    s = scheme()
+
+    def check(c, lv):
+        bands, _ = applicable_bands(s, c["code"], c["char1"], c["unit"], c["height_mm"], c["material"])
+        return check_logged(lv, c["unit"], value=c["value"], U95=c["U95"], unit=c["unit"], confident=c["confident"],
+                            cdf=result_cdf(c["value"], c["u"], c["low"], c["high"], c["k"]),
+                            class_range=class_range(bands, lv, len(s.classes)) if bands else None).verdict
+
+    print("\noperator errors not tied to U95 (verdict shares over the logs; disagrees is a detection):")
+    one_class = []
+    for c in cases:
+        bands, _ = applicable_bands(s, c["code"], c["char1"], c["unit"], c["height_mm"], c["material"])
+        if not bands:
+            continue
+        r = RESOLUTION[c["unit"]]
+        lo, hi = class_range(bands, c["truth"], len(s.classes))
+        # the value just across the nearer class edge, rounded to the step away from the truth's class
+        side = hi if (hi - c["truth"]) < (c["truth"] - lo) or not math.isfinite(lo) else lo
+        if not math.isfinite(side):
+            continue
+        lv = r * math.ceil(side / r) if side == hi else r * math.floor((side - 1e-9) / r)
+        if class_index(bands, lv, len(s.classes)) == class_index(bands, c["truth"], len(s.classes)):
+            continue
+        one_class.append(check(c, lv))
+    _shares("one class off (the nearest value across a class edge, rounded)", one_class)
+    for unit, sizes in FIXED_ERRORS.items():
+        for size in sizes:
+            got = []
+            for c in cases:
+                if c["unit"] != unit:
+                    continue
+                r = RESOLUTION[unit]
+                lv = _round(c["truth"] + rng.choice((-1.0, 1.0)) * size, r)
+                if unit == "%":
+                    lv = min(max(lv, 0.0), 100.0)
+                if lv != _round(c["truth"], r):
+                    got.append(check(c, lv))
+            _shares(f"off by {size:g} {unit}, rounded", got)
+
+
+def _shares(label: str, verdicts: list[str]) -> None:
+    n = len(verdicts)
+    if n:
+        print(f"  {label}: {n} logs; disagrees {100 * verdicts.count('disagrees') / n:.1f} %, undecided "
+              f"{100 * verdicts.count('undecided') / n:.1f} %, agrees {100 * verdicts.count('agrees') / n:.1f} %")
+
+
 def grade_checks(cases) -> None:
     """Grade probabilities against the true class."""
     s = scheme()
@@ -195,6 +247,7 @@ def report(cases, rng) -> None:
     print(f"{len(cases)} measured quantities ({sum(c['set'] == 'logged' for c in cases)} logged in the samples), "
           "perspective model")
     log_checks(cases, rng)
+    operator_errors(cases, rng)
     grade_checks(cases)
 
 

@@ -25,7 +25,7 @@ claims), and, for a graded quantity, in the logged value's class
   the specific risk of that decision, a false acceptance, is 1 - p;
 * ``disagrees`` when p <= ``P_DISAGREE`` (0.05) *and* E_n > 1: the
   probability that the log is right is under 5 % and the log lies outside
-  the measurement's 95 % interval (guarded rejection, JCGM 106 8.3: protect
+  the measurement's 95 % interval (guarded rejection, JCGM 106:2012 clause 8: protect
   the contractor from a false accusation); the specific risk, a false
   rejection, is p. The E_n condition is the guard: a tolerance narrow against
   a broad measurement gives a small p even for a right log (1 mm against

@@ -9,6 +9,10 @@ whole chain) are given logs whose operator behaviour is known:
 * wrong: the true value plus an error of s x max(U95, resolution), s in
   ``ERROR_SIZES``, random sign, then rounded to the resolution.
 
+Each log is decided as ``pipeline.app.judge`` decides it (the conformity
+probability from the stored result's distribution, the logged value's class
+for a graded quantity; ``pipeline.judgement.verdicts.log_check``).
+
 Prints the false-alarm rate on honest logs (target <= 5 %), the detection
 rate of logged errors larger than 2 U95 and larger than the resolution
 (target >= 90 %), and per size; then, for the graded quantities (VSA 2023),
@@ -33,9 +37,10 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from pipeline.judgement.grading import LIKELY, applicable_bands, class_index, grade, scheme  # noqa: E402
+from pipeline.judgement.grading import LIKELY, applicable_bands, class_index, class_range, grade, scheme  # noqa: E402
 from pipeline.judgement.grading.probability import result_cdf  # noqa: E402
-from pipeline.judgement.verdicts.log_check import RESOLUTION, UNTRUSTED_GUARD, check_logged  # noqa: E402
+from pipeline.judgement.verdicts.log_check import (P_AGREE, P_DISAGREE, RESOLUTION, TOLERANCE_STEPS,  # noqa: E402
+                                                    UNTRUSTED_INFLATION, check_logged)
 
 ERROR_SIZES = (0.5, 1.0, 2.0, 3.0, 5.0)
 _FIELDS = ("unit", "value", "u", "U95", "low", "high", "k", "mc_trials", "confident")
@@ -79,39 +84,57 @@ def _round(x: float, r: float) -> float:
 def log_checks(cases, rng) -> None:
     """False alarms on honest logs, detections of wrong ones (module docstring)."""
     honest, wrong = [], []          # (case, LogCheck, |logged - truth|, size)
+    s = scheme()
+
+    def check(c, lv, confident):
+        # as app.judge decides: the stored result's distribution, the logged value's class for a graded quantity
+        bands, _ = applicable_bands(s, c["code"], c["char1"], c["unit"], c["height_mm"], c["material"])
+        return check_logged(lv, c["unit"], value=c["value"], U95=c["U95"], unit=c["unit"], confident=confident,
+                            cdf=result_cdf(c["value"], c["u"], c["low"], c["high"], c["k"]),
+                            class_range=class_range(bands, lv, len(s.classes)) if bands else None)
+
     for c in cases:
         r = RESOLUTION[c["unit"]]
-        kw = dict(value=c["value"], U95=c["U95"], unit=c["unit"], confident=c["confident"])
         logged = _round(c["truth"], r)
-        honest.append((c, check_logged(logged, c["unit"], **kw)))
+        honest.append((c, check(c, logged, c["confident"])))
         for size in ERROR_SIZES:
             e = rng.choice((-1.0, 1.0)) * size * max(c["U95"], r)
             bad = _round(c["truth"] + e, r)
             if c["unit"] == "%":
                 bad = min(max(bad, 0.0), 100.0)
-            wrong.append((c, check_logged(bad, c["unit"], **kw), bad, size, bad != logged))
+            wrong.append((c, check(c, bad, c["confident"]), bad, size, bad != logged))
     alarms = [ch.verdict == "disagrees" for _, ch in honest]
     conf = [ch.verdict == "disagrees" for c, ch in honest if c["confident"]]
     print(f"honest logs (truth rounded: mm to {RESOLUTION['mm']:g} mm, % to {RESOLUTION['%']:g} %): "
           f"{len(honest)} quantities of {len(set((c['code'], c['char1']) for c in cases))} code/characterisations; "
           f"false alarms {100 * np.mean(alarms):.1f} % (target <= 5 %); among the {len(conf)} confident "
-          f"{100 * np.mean(conf):.1f} %; undecided {sum(ch.verdict == 'undecided' for _, ch in honest)}")
+          f"{100 * np.mean(conf):.1f} %; agrees {sum(ch.verdict == 'agrees' for _, ch in honest)}, "
+          f"undecided {sum(ch.verdict == 'undecided' for _, ch in honest)} (agrees: P(right) >= {P_AGREE:g}; "
+          f"disagrees: P(right) <= {P_DISAGREE:g} and E_n > 1)")
+    agreed = [ch.risk for _, ch in honest + [(c, ch) for c, ch, *_ in wrong] if ch.verdict == "agrees"]
+    accepted = [abs(bad - c["truth"]) / RESOLUTION[c["unit"]] for c, ch, bad, size, differs in wrong
+                if ch.verdict == "agrees" and differs]
+    if agreed:
+        print(f"  'agrees' on {len(agreed)} logs (honest and wrong): stated false-acceptance risk mean "
+              f"{np.mean(agreed):.3f}; of the wrong logs (not the honest rounding), {len(accepted)} accepted, "
+              f"{sum(a <= TOLERANCE_STEPS for a in accepted)} of them within the tolerance of the truth, the largest "
+              f"{max(accepted, default=0.0):.2f} steps off")
     untrusted = np.array([abs(c["value"] - c["truth"]) / c["U95"] for c in cases if not c["confident"]])
     if untrusted.size:
         print(f"  the {untrusted.size} measurements not confident: truth inside U95 {100 * np.mean(untrusted <= 1):.1f} %, "
               f"largest |measured - truth| / U95 {untrusted.max():.2f}; their honest logs called wrong "
               f"{sum(ch.verdict == 'disagrees' for c, ch in honest if not c['confident'])} "
-              f"(they say 'disagrees' only beyond E_n > {UNTRUSTED_GUARD:g})")
+              f"(their u is widened x{UNTRUSTED_INFLATION:g} first)")
     big = [(c, ch) for c, ch, bad, size, differs in wrong
            if differs and abs(bad - c["truth"]) > 2 * c["U95"] + RESOLUTION[c["unit"]] / 2]
     big_conf = [ch for c, ch in big if c["confident"]]
     print(f"wrong logs, |logged - truth| > 2 U95 + r/2 (beyond the rounding): {len(big)}; detected (disagrees) "
           f"{100 * np.mean([ch.verdict == 'disagrees' for _, ch in big]):.1f} % (target >= 90 %); among the "
           f"{len(big_conf)} confident {100 * np.mean([ch.verdict == 'disagrees' for ch in big_conf]):.1f} %")
-    # The same logs if the measurements not confident were trusted like the others (E_n > 1, no guard band).
+    # The same logs if the measurements not confident were decided like the others, their u as stated.
     def as_trusted(c, lv):
-        return check_logged(lv, c["unit"], value=c["value"], U95=c["U95"], unit=c["unit"]).verdict
-    print(f"  were the measurements not confident decided at E_n > 1: false alarms on their honest logs "
+        return check(c, lv, True).verdict
+    print(f"  were the measurements not confident decided like the others: false alarms on their honest logs "
           f"{100 * np.mean([as_trusted(c, ch.logged) == 'disagrees' for c, ch in honest if not c['confident']]):.1f} %, "
           f"detection {100 * np.mean([as_trusted(c, ch.logged) == 'disagrees' for c, ch in big]):.1f} %")
     plain = [ch for c, ch, bad, size, differs in wrong if differs and abs(bad - c["truth"]) > 2 * c["U95"]]
@@ -122,6 +145,58 @@ def log_checks(cases, rng) -> None:
         conf = [d for d, confident in got if confident]
         print(f"  error {size:3.1f} x max(U95, r): detected {100 * np.mean([d for d, _ in got]):5.1f} % of {len(got)}; "
               f"of the {len(conf)} confident {100 * np.mean(conf):5.1f} %")
+
+
+FIXED_ERRORS = {"mm": (2.0, 5.0, 10.0), "%": (5.0, 10.0)}       # operator errors of a fixed size, per unit
+
+
+def operator_errors(cases, rng) -> None:
+    """Logs wrong in ways that are not multiples of the measurement's U95: one class off, off by a fixed amount."""
+    s = scheme()
+
+    def check(c, lv):
+        bands, _ = applicable_bands(s, c["code"], c["char1"], c["unit"], c["height_mm"], c["material"])
+        return check_logged(lv, c["unit"], value=c["value"], U95=c["U95"], unit=c["unit"], confident=c["confident"],
+                            cdf=result_cdf(c["value"], c["u"], c["low"], c["high"], c["k"]),
+                            class_range=class_range(bands, lv, len(s.classes)) if bands else None).verdict
+
+    print("\noperator errors not tied to U95 (verdict shares over the logs; disagrees is a detection):")
+    one_class = []
+    for c in cases:
+        bands, _ = applicable_bands(s, c["code"], c["char1"], c["unit"], c["height_mm"], c["material"])
+        if not bands:
+            continue
+        r = RESOLUTION[c["unit"]]
+        lo, hi = class_range(bands, c["truth"], len(s.classes))
+        # the value just across the nearer class edge, rounded to the step away from the truth's class
+        side = hi if (hi - c["truth"]) < (c["truth"] - lo) or not math.isfinite(lo) else lo
+        if not math.isfinite(side):
+            continue
+        lv = r * math.ceil(side / r) if side == hi else r * math.floor((side - 1e-9) / r)
+        if class_index(bands, lv, len(s.classes)) == class_index(bands, c["truth"], len(s.classes)):
+            continue
+        one_class.append(check(c, lv))
+    _shares("one class off (the nearest value across a class edge, rounded)", one_class)
+    for unit, sizes in FIXED_ERRORS.items():
+        for size in sizes:
+            got = []
+            for c in cases:
+                if c["unit"] != unit:
+                    continue
+                r = RESOLUTION[unit]
+                lv = _round(c["truth"] + rng.choice((-1.0, 1.0)) * size, r)
+                if unit == "%":
+                    lv = min(max(lv, 0.0), 100.0)
+                if lv != _round(c["truth"], r):
+                    got.append(check(c, lv))
+            _shares(f"off by {size:g} {unit}, rounded", got)
+
+
+def _shares(label: str, verdicts: list[str]) -> None:
+    n = len(verdicts)
+    if n:
+        print(f"  {label}: {n} logs; disagrees {100 * verdicts.count('disagrees') / n:.1f} %, undecided "
+              f"{100 * verdicts.count('undecided') / n:.1f} %, agrees {100 * verdicts.count('agrees') / n:.1f} %")
 
 
 def grade_checks(cases) -> None:
@@ -172,6 +247,7 @@ def report(cases, rng) -> None:
     print(f"{len(cases)} measured quantities ({sum(c['set'] == 'logged' for c in cases)} logged in the samples), "
           "perspective model")
     log_checks(cases, rng)
+    operator_errors(cases, rng)
     grade_checks(cases)
 
 

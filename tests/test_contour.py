@@ -1,6 +1,7 @@
 """Pipe contour: the camera-in-pipe model against the renderer's truth, and detection on a sample video."""
 
 import csv
+import math
 import json
 from pathlib import Path
 
@@ -120,14 +121,25 @@ def test_windows_of_one_video_are_checked_against_one_another():
     assert out[224].confident and out[398].confident
     assert np.allclose(out[224].view.pose, contours[224].view.pose)
     assert out[900] is contours[900]
-    # with a third agreeing window, their scatter enters every covariance; the held roll stays held
+    # with a third agreeing window, their scatter beyond their own fit noise enters every covariance (issue 30:
+    # the windows share frames, so the fit noise expected in their scatter is (1 - rho) C); the held roll stays held
     contours[300] = _fit([-0.001, -0.172, -0.0004, 0.016, 0.0], sd, rms=0.56)
     windows[300] = list(range(12, 52))
     out = reconcile_windows(contours, windows)
-    poses = np.array([contours[f].view.pose for f in (224, 398, 300)])
-    expected = contours[398].covariance + np.cov(poses.T, ddof=1) * (np.arange(5) < 4)[:, None] * (np.arange(5) < 4)
-    assert np.allclose(out[398].covariance, expected)
+    group = (224, 398, 300)
+    poses = np.array([contours[f].view.pose for f in group])
+    sets = [set(windows[f]) for f in group]
+    rho = np.mean([len(a & b) / math.sqrt(len(a) * len(b)) for i, a in enumerate(sets) for b in sets[i + 1:]])
+    excess = np.cov(poses.T, ddof=1) - (1 - rho) * contours[398].covariance
+    w, v = np.linalg.eigh(excess)
+    excess = (v * np.clip(w, 0, None)) @ v.T * (np.arange(5) < 4)[:, None] * (np.arange(5) < 4)
+    assert np.allclose(out[398].covariance, contours[398].covariance + excess)
     assert out[398].covariance[4, 4] == 0.0
+    assert not np.allclose(excess, np.cov(poses.T, ddof=1) * (np.arange(5) < 4)[:, None] * (np.arange(5) < 4))
+    # a scatter no larger than the fits' own noise adds nothing: it was counted twice before
+    quiet = {f: _fit(np.asarray(good) + 0.1 * k * np.asarray(sd), sd, rms=0.5) for k, f in enumerate((224, 300, 398))}
+    calm = reconcile_windows(quiet, {f: windows[f] for f in quiet})
+    assert all(np.allclose(calm[f].covariance, quiet[f].covariance, rtol=0, atol=1e-15) for f in quiet)
 
 
 def test_an_untrusted_window_borrows_the_pose_of_a_trusted_overlapping_one():

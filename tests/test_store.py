@@ -109,7 +109,7 @@ def test_measure_a_sample_and_a_broken_package_in_one_run(tmp_path):
     assert not m.duplicated(["inspection_id", "row", "quantity", "source"]).any()
     inside = [r.low <= true[(r.row, r.quantity)] <= r.high for r in m.itertuples()]
     assert sum(inside) >= len(inside) - 1
-    lines = [line for line in proc.stdout.splitlines() if " row " in line]
+    lines = [line for line in proc.stdout.splitlines() if line.split(" ")[1:2] == ["row"]]   # not the verdict lines
     assert len(lines) == len(m)       # each as value +- U95, value [low, high], or < high (below resolution)
     assert all("+-" in line or "] (" in line or "(below resolution)" in line for line in lines), lines
     # measure stores the input key a run checks: the run that follows skips the package as unchanged

@@ -38,17 +38,42 @@ def test_bad_logged_values_are_not_checked_with_the_reason(logged, unit, why):
     assert c.verdict == "not checked" and why in c.reason
 
 
-def test_a_measurement_that_is_not_confident_vouches_for_no_log_and_disagrees_only_beyond_the_guard_band():
-    # U95 3 mm, logged in whole mm: U_res = 0.475 mm, sqrt(U95^2 + U_res^2) = 3.0374 mm
-    near = check_logged(25.0, "mm", value=20.0, U95=3.0, unit="mm", confident=False)       # E_n 1.65
-    assert near.verdict == "undecided" and near.E_n == pytest.approx(5.0 / 3.0374, abs=1e-4)
-    same = check_logged(20.0, "mm", value=20.0, U95=3.0, unit="mm", confident=False)       # E_n 0: still no "agrees"
+def test_a_measurement_that_is_not_confident_has_its_u_widened_before_the_decision():
+    # U95 3 mm, logged in whole mm: U_res = 0.475 mm; not confident: U95 widened x1.5 to 4.5 mm
+    trusted = check_logged(24.0, "mm", value=20.0, U95=3.0, unit="mm", confident=True)     # E_n 1.32, p 0.02
+    assert trusted.verdict == "disagrees" and trusted.E_n == pytest.approx(4.0 / math.hypot(3.0, 0.475))
+    near = check_logged(24.0, "mm", value=20.0, U95=3.0, unit="mm", confident=False)
+    assert near.E_n == pytest.approx(4.0 / math.hypot(4.5, 0.475)) and near.E_n < 1
+    assert near.verdict == "undecided" and "u widened x1.5" in near.reason
+    assert near.conformity > trusted.conformity
+    far = check_logged(40.0, "mm", value=20.0, U95=3.0, unit="mm", confident=False)        # 20 mm off: still wrong
+    assert far.verdict == "disagrees" and "u widened x1.5" in far.reason and far.risk == far.conformity < 1e-6
+    same = check_logged(20.0, "mm", value=20.0, U95=3.0, unit="mm", confident=False)       # broad: not confirmed
     assert same.verdict == "undecided"
-    far = check_logged(27.0, "mm", value=20.0, U95=3.0, unit="mm", confident=False)        # E_n 2.30
-    assert far.verdict == "disagrees" and far.E_n == pytest.approx(7.0 / 3.0374, abs=1e-4)
-    assert "guard band" in far.reason
-    trusted = check_logged(25.0, "mm", value=20.0, U95=3.0, unit="mm", confident=True)
-    assert trusted.verdict == "disagrees" and "guard band" not in trusted.reason
+
+
+def test_the_log_check_is_a_conformity_decision_with_its_specific_risk():
+    # issue 30 (JCGM 106): the verdict is the probability that the log is right within its rounding (T = 0.5 mm)
+    broad = check_logged(5.0, "mm", value=5.1, U95=3.0, unit="mm")        # E_n 0.03: the old rule said "agrees"
+    sigma = 3.0 / Z95
+    p = norm_cdf((5.5 - 5.1) / sigma) - norm_cdf((4.5 - 5.1) / sigma)
+    assert broad.verdict == "undecided" and broad.conformity == pytest.approx(p) and broad.tolerance == 0.5
+    precise = check_logged(5.0, "mm", value=5.05, U95=0.3, unit="mm")
+    assert precise.verdict == "agrees" and precise.risk == pytest.approx(1 - precise.conformity) and precise.risk < 0.05
+    wrong = check_logged(1.0, "mm", value=20.0, U95=14.0, unit="mm")      # E_n 1.36, P(0.5..1.5 mm) tiny
+    assert wrong.verdict == "disagrees" and wrong.risk == wrong.conformity < 0.05
+    # a narrow tolerance against a broad measurement: p small, but the log is inside the interval: no accusation
+    guarded = check_logged(20.0, "mm", value=10.0, U95=14.0, unit="mm")
+    assert guarded.conformity < 0.05 and guarded.E_n < 1 and guarded.verdict == "undecided"
+    # the logged value's class counts: 5 mm logged at the edge of [5, 8) against 5.0 +- 0.2 mm
+    edge = check_logged(5.0, "mm", value=5.0, U95=0.2, unit="mm", class_range=(5.0, 8.0))
+    assert edge.conformity == pytest.approx(0.5, abs=0.01) and edge.verdict == "undecided"
+    plain = check_logged(5.0, "mm", value=5.0, U95=0.2, unit="mm")
+    assert plain.verdict == "agrees"
+
+
+def norm_cdf(z: float) -> float:
+    return 0.5 * math.erfc(-z / math.sqrt(2.0))
 
 
 def test_a_survey_that_stops_early_gives_its_range_and_flags_the_rows_beyond_it():
@@ -161,9 +186,12 @@ def test_the_nightly_summary_ranks_defects_by_grade_not_by_size_and_lists_contra
 
 def test_the_reports_log_check_text_says_why_a_check_is_undecided():
     from pipeline.reports.verdict_text import log_check_text
-    row = {"unit": "mm", "logged_value": 25.0, "log_difference": 5.0, "E_n": 1.65}
-    assert log_check_text({**row, "log_check": "undecided"}) == \
-        "undecided (contour not trusted; logged 25 mm, +5 mm, E_n 1.65)"
-    assert log_check_text({**row, "log_check": "disagrees"}) == "disagrees (logged 25 mm, +5 mm, E_n 1.65)"
-    assert log_check_text({**row, "log_check": "disagrees", "E_n": 2.5, "confident": False}) == \
-        "disagrees (contour not trusted; logged 25 mm, +5 mm, E_n 2.50)"
+    row = {"unit": "mm", "logged_value": 25.0, "log_difference": 5.0, "E_n": 1.65, "log_conformity": 0.31}
+    assert log_check_text({**row, "log_check": "undecided", "confident": False}) == \
+        "undecided (contour not trusted: u widened; P(right) 0.31; logged 25 mm, +5 mm, E_n 1.65)"
+    assert log_check_text({**row, "log_check": "undecided", "confident": True}) == \
+        "undecided (P(right) 0.31; logged 25 mm, +5 mm, E_n 1.65)"
+    assert log_check_text({**row, "log_check": "disagrees", "log_conformity": 0.01}) == \
+        "disagrees (P(right) 0.01; logged 25 mm, +5 mm, E_n 1.65)"
+    assert log_check_text({**row, "log_check": "undecided", "below_resolution": True}).startswith(
+        "undecided (below resolution: consistent, not confirmed; ")

@@ -81,7 +81,7 @@ def test_json_holds_null_for_nan_and_the_survey_flags_the_finish_node_beyond_the
     assert {o["row"]: o["outside_survey"] for o in records["observations"]}[bce] is True
 
 
-def test_grades_are_stored_with_probabilities_summing_to_one_and_the_section_takes_the_worst(measured):
+def test_grades_are_stored_with_probabilities_summing_to_one_and_the_section_grade_is_its_worst_class(measured):
     root, _, _ = measured
     obs = read_table(root / "dataset", "observations")
     graded = obs[obs.grade_status == "graded"]
@@ -90,8 +90,11 @@ def test_grades_are_stored_with_probabilities_summing_to_one_and_the_section_tak
         assert sum(p["probability"] for p in probs) == pytest.approx(1.0)
     assert set(obs[obs.code.isin(["BCD", "BCE"])].grade_status) == {"ungraded"}
     insp = read_table(root / "dataset", "inspections").iloc[0]
-    assert insp.section_grade == min(graded.grade)          # EZ0 is the worst: the smallest name
-    assert 0 < insp.section_grade_probability <= 1
+    worst = {p["grade"]: p["probability"] for p in insp.section_grade_probabilities}    # the worst class's law
+    assert sum(worst.values()) == pytest.approx(1.0)
+    assert insp.section_grade == max(worst, key=worst.get)
+    assert insp.section_grade_probability == pytest.approx(worst[insp.section_grade])
+    assert insp.section_grade_at_least_low <= insp.section_grade_at_least_high
 
 
 def test_export_and_report_carry_the_verdicts(measured, tmp_path):

@@ -35,6 +35,9 @@ from pipeline.measurement.automatic import measurable_automatically, measure_aut
 from pipeline.measurement.marked import marked_quantity
 from pipeline.measurement.quantity import MODELS, MarkedQuantity, QuantityResult, measure_quantity
 from pipeline.measurement.wall import contour_under
+from pipeline.core.numeric import finite_number
+from pipeline.judgement.grading import class_edges, scheme as grading_scheme
+from pipeline.judgement.verdicts.log_check import conformity_interval, logging_resolution
 from pipeline.app.judge import add_verdicts, logged_survey
 from pipeline.app.load import LogOnly, load_delivery
 from pipeline.app.locate import locate
@@ -134,6 +137,17 @@ def measure_package(folder: str | os.PathLike, *, certificates: str | os.PathLik
         return contour_under(obs, observations, contour, unit_length_m=header.pipe_unit_length_m,
                              height_mm=header.height_mm)
 
+    def edges(obs: Observation, quantity: str) -> tuple[float, ...]:
+        # where judge reads the draws' distribution function: the grading scheme's class edges (Q1 is graded) and
+        # the ends of the logged value's tolerance (the log check's conformity probability)
+        graded = class_edges(grading_scheme(), obs.code, obs.char1, header.height_mm, header.material) \
+            if quantity == "Q1" else ()
+        logged = finite_number(obs.q1 if quantity == "Q1" else obs.q2)
+        spec = obs.quantification(quantity)
+        unit = (obs.q1_unit if quantity == "Q1" else obs.q2_unit) or (spec.unit if spec else "")
+        ends = conformity_interval(logged, logging_resolution(logged, unit)) if logged is not None else ()
+        return tuple(sorted({*graded, *ends}))
+
     def ideal(frame: int) -> np.ndarray:
         if frame not in ideal_frames:        # kept by the contours' pass; a seek only for a frame it did not reach
             ideal_frames[frame] = und.frame(read_frame(manifest.video, frame))
@@ -161,7 +175,8 @@ def measure_package(folder: str | os.PathLike, *, certificates: str | os.PathLik
                     marked = marked_quantity(obs, m, und, cert)
                     future = pool.submit(measure_quantity, marked, under(obs, contours[frame]), cert,
                                          H=header.height_mm, tolerance=header.height_tolerance_mm, model=model,
-                                         seed=_seed(manifest.package_id, obs.row, m.quantity))
+                                         seed=_seed(manifest.package_id, obs.row, m.quantity),
+                                         edges=edges(obs, m.quantity))
                 except PipegaugeError as exc:
                     row.update(status="error", error=str(exc))
                 jobs.append((row, m, marked, future))
@@ -205,7 +220,7 @@ def measure_package(folder: str | os.PathLike, *, certificates: str | os.PathLik
             t0 = time.perf_counter()
             q, res = measure_automatic(obs, under(obs, contours[found]), ideal(found), cert, H=header.height_mm,
                                        tolerance=header.height_tolerance_mm, model=model, mask=mask,
-                                       seed=_seed(manifest.package_id, r, "Q1 contour"))
+                                       seed=_seed(manifest.package_id, r, "Q1 contour"), edges=edges(obs, "Q1"))
             t_measure += time.perf_counter() - t0
             row.update(_quantity_fields(res), u_mark_px=q.u_a)
             _check_distance(row)

@@ -171,13 +171,25 @@ class InspectionRecord(Record):
     survey_rows_outside: list[int] | None = column("list<int32>", doc="log rows logged outside the surveyed range")
     survey_statement: str | None = column("string", doc="the surveyed length in words")
     grading_scheme: str | None = column("string")
-    section_grade: str | None = column("string", doc="worst single grade")
+    section_grade: str | None = column(
+        "string", doc="the most probable class of the section's worst class (pipeline.judgement.grading.section)")
     section_grade_probability: float | None = column(
-        "float64", "1", "probability that an observation is in that class or worse")
+        "float64", "1", "probability that the section's worst class is section_grade (observations independent); "
+                        "schema-3 files before issue 30: probability that an observation is in that class or worse")
     log_agrees: int | None = column("int32")
     log_disagrees: int | None = column("int32")
     log_undecided: int | None = column("int32")
     log_not_checked: int | None = column("int32")
+    section_grade_probabilities: list[ClassProbability] | None = column(
+        "list<grade>", doc="distribution of the section's worst class, summing to 1 (observations independent)")
+    section_grade_at_least_low: float | None = column(
+        "float64", "1", "lower Fréchet bound of P(worst class is section_grade or worse), any dependence")
+    section_grade_at_least_high: float | None = column(
+        "float64", "1", "upper Fréchet bound of P(worst class is section_grade or worse), any dependence")
+    section_grade_from_log: list[str] | None = column(
+        "list<string>", doc="observations whose class comes from the log, not a measurement: 'row 4: EZ2 (status)'")
+    section_grade_statement: str | None = column(
+        "string", doc="the section grade in words: distribution, independence assumed, bounds, classes from the log")
 
 
 @dataclass
@@ -210,7 +222,8 @@ class ObservationRecord(Record):
     write_id: str | None = column("string", doc="the store (commit) that wrote this row; null in schema-2 files")
     grading_scheme: str | None = column(
         "string", doc="key of the grading scheme (pipeline.judgement.grading), e.g. vsa-2023")
-    grade_status: str | None = column("string", doc="graded | logged only | ungraded | unmeasured")
+    grade_status: str | None = column(
+        "string", doc="graded | logged only | not decidable from the image | ungraded | unmeasured")
     grade_reason: str | None = column("string", doc="why not graded from a measurement")
     grade: str | None = column("string", doc="the most probable class (graded), else the logged value's class")
     grade_probability: float | None = column("float64", "1", "probability of the most probable class")
@@ -287,7 +300,8 @@ class MeasurementRecord(Record):
     E_n: float | None = column("float64", "1", "|logged - measured| / sqrt(U95^2 + U_res^2)")
     grading_scheme: str | None = column(
         "string", doc="key of the grading scheme (pipeline.judgement.grading), e.g. vsa-2023")
-    grade_status: str | None = column("string", doc="graded | logged only | ungraded | unmeasured")
+    grade_status: str | None = column(
+        "string", doc="graded | logged only | not decidable from the image | ungraded | unmeasured")
     grade_reason: str | None = column("string", doc="why not graded from a measurement")
     grade: str | None = column("string", doc="the most probable class (graded), else the logged value's class")
     grade_probability: float | None = column("float64", "1", "probability of the most probable class")
@@ -296,6 +310,17 @@ class MeasurementRecord(Record):
     grade_disagrees: bool | None = column("bool", doc="the logged value's class has probability < 5 %")
     grade_probabilities: list[ClassProbability] | None = column(
         "list<grade>", doc="probability of each class, summing to 1")
+    mc_converged: bool | None = column(
+        "bool", doc="the adaptive Monte Carlo met its numerical tolerance before the trial cap (JCGM 101 7.9)")
+    class_edges: list[float] | None = column("list<float64>", "unit", "the grading scheme's class edges for this code")
+    class_edges_cdf: list[float] | None = column(
+        "list<float64>", "1", "share of the Monte Carlo draws below each class edge (the class probabilities' source)")
+    log_tolerance: float | None = column("float64", "unit", "the logging tolerance T: a log within T of the truth is right")
+    log_conformity: float | None = column(
+        "float64", "1", "probability from the measurement's draws that the logged value is right within T and its class")
+    log_check_risk: float | None = column(
+        "float64", "1", "specific risk of the verdict: false acceptance (agrees) 1 - conformity, false rejection "
+                        "(disagrees) conformity")
 
 
 @dataclass

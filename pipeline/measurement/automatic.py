@@ -67,11 +67,12 @@ def automatic_points(obs: Observation, contour: PipeContour, ideal_bgr: np.ndarr
 
 
 def measure_automatic(obs: Observation, contour: PipeContour, ideal_bgr: np.ndarray, cert: Certificate, *,
-                      H: float, tolerance: float, model: str, seed: int,
-                      mask: np.ndarray | None = None) -> tuple[MarkedQuantity, QuantityResult]:
-    """Measure a BDD or BAA observation from the contour alone (no marks), with its U95 and budget."""
+                      H: float, tolerance: float, model: str, seed: int, mask: np.ndarray | None = None,
+                      edges: tuple[float, ...] = ()) -> tuple[MarkedQuantity, QuantityResult]:
+    """Measure a BDD or BAA observation from the contour alone (no marks), with its U95 and budget (edges: as
+    ``measure_quantity``'s)."""
     q, problems = automatic_points(obs, contour, ideal_bgr, cert, mask=mask)
-    res = measure_quantity(q, contour, cert, H=H, tolerance=tolerance, model=model, seed=seed)
+    res = measure_quantity(q, contour, cert, H=H, tolerance=tolerance, model=model, seed=seed, edges=edges)
     if problems:
         res.confident = False
         res.reasons = tuple(dict.fromkeys(res.reasons + problems))

@@ -2,7 +2,10 @@
 
 Inputs of both models, each with a label that names its budget line:
 
-* ``H``: the header's nominal height, rectangular over its tolerance [mm];
+* ``H``: the header's nominal height, rectangular over its tolerance [mm]:
+  the one place the tolerance enters (the pose is fitted in units of the
+  pipe's own height, so a scale error of the pipe is all in H;
+  ``_without_tolerance`` takes it out of the wall's departure);
 * ``certificate``: relative change of the image length against the pipe's
   image height when the certificate's parameters vary within their
   uncertainty (``certificate_scale_u``) [1];
@@ -10,14 +13,18 @@ Inputs of both models, each with a label that names its budget line:
   between the undistorted marks [px], and ``approximation``, the
   orthographic model's own error: normal, u the difference between the
   orthographic and the perspective value of the same extent at the
-  estimates (the paper leaves this error as future work); for an extent
-  off a cross-section plane (along the axis, the whole distance on the
-  wall), combined with the perspective value's own u, which that
-  difference inherits;
+  estimates (the paper leaves this error as future work). The model
+  refuses an extent off a cross-section plane (along the axis, the whole
+  distance on the wall): there the difference is a known foreshortening
+  (a median -68 % along the axis), a bias to correct rather than an
+  uncertainty to carry (JCGM 100 3.2.4), and the perspective model
+  corrects it;
 * perspective (eqs. 1-11): the camera pose from the contour fit, jointly
   normal (``ox``, ``oy`` [H], ``yaw``, ``pitch``, ``roll`` [rad]), the marks
   ``xa``, ``ya``, ``xb``, ``yb`` [px], and ``wall``, the wall's radial
-  position against the nominal profile [1].
+  position against the nominal profile [1] beyond a change of scale (a
+  displaced joint logged before the observation; 0 otherwise: the
+  header states no out-of-roundness).
 
 Each method measures one extent (``methods.Method.extent``): around the
 pipe, the orthographic p_X is the marks' image separation along the
@@ -39,13 +46,14 @@ upper bound says something.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import cv2
 import numpy as np
 
 from pipeline.camera import Certificate
 from pipeline.vision.contour import PipeContour
+from pipeline.vision.contour.detect import wall_u_from_tolerance
 from pipeline.core.errors import MeasurementError
 from pipeline.maths.metrology import InputSet, JointNormal, Normal, Rectangular, propagate_linear, propagate_monte_carlo, validate_linear
 from pipeline.maths.profiles import level_tables, wall_point
@@ -59,6 +67,7 @@ __all__ = ["MarkedQuantity", "QuantityResult", "BudgetEntry", "measure_quantity"
 
 MODELS = ("orthographic", "perspective")
 CERTIFICATE_DRAWS = 200
+MAX_TRIALS = 400_000    # cap of the adaptive Monte Carlo: a run stopped by it is stated as not converged
 RESOLUTION_PX = 2.0     # an extent under about 2 px is not resolved: a blurred edge spreads over 1-2 px
 
 INPUT_DESCRIPTIONS = {
@@ -72,7 +81,7 @@ INPUT_DESCRIPTIONS = {
     "xa": "mark a, x (marking, certificate residual)", "ya": "mark a, y (marking, certificate residual)",
     "xb": "mark b, x (marking, certificate residual)", "yb": "mark b, y (marking, certificate residual)",
     "xo": "anchor on the wall, x (marking, certificate residual)", "yo": "anchor on the wall, y (marking, certificate residual)",
-    "wall": "wall position against the nominal profile (tolerance, displaced joints logged before it)",
+    "wall": "wall position against the nominal profile (displaced joints logged before it; the tolerance is in H)",
     "across": "the marks' separation across the measured extent (nuisance, not part of the value)",
 }
 
@@ -146,6 +155,9 @@ class QuantityResult:
     budget: list[BudgetEntry] = field(default_factory=list)
     extent: str = "section"           # which extent was measured (methods.Method.extent)
     below_resolution: bool = False    # the extent spans under RESOLUTION_PX in the image: report its upper bound
+    mc_converged: bool = True         # the adaptive Monte Carlo met its tolerance before the trial cap (JCGM 101 7.9)
+    class_edges: list[float] = field(default_factory=list)        # the grading scheme's class edges asked for [unit]
+    class_edges_cdf: list[float] = field(default_factory=list)    # share of the Monte Carlo draws below each [1]
 
 
 def certificate_scale_u(cert: Certificate, K: np.ndarray, ideal_points: np.ndarray, reference: np.ndarray,
@@ -227,22 +239,46 @@ def _across_line(fn, inputs, model: str) -> BudgetEntry:
                        "nuisance", 0.0, 0.0, 0.0)
 
 
+def _without_tolerance(contour: PipeContour, H: float, tolerance: float) -> PipeContour:
+    """The contour with the wall's departure from the nominal profile less the share of H's tolerance.
+
+    The pose is fitted in units of the pipe's own height, so a pipe larger than nominal within its tolerance looks
+    the same in the image: that error is all in the ``H`` input. The contour's ``wall_u`` also holds it
+    (``wall_u_from_tolerance``, used by the ring fits); counted again in the ``wall`` input and u(p_H) it entered
+    twice. What stays is the departure that is not a change of scale: a displaced joint logged before the
+    observation (``measurement.wall``).
+    """
+    shared = wall_u_from_tolerance(H, tolerance) if H > 0 and tolerance > 0 else 0.0
+    rest = math.sqrt(max(contour.wall_u ** 2 - shared ** 2, 0.0))
+    return contour if rest == contour.wall_u else replace(contour, wall_u=rest)
+
+
 def _h_input(H: float, tolerance: float):
     return Rectangular(H, tolerance) if tolerance > 0 else H
 
 
 def measure_quantity(q: MarkedQuantity, contour: PipeContour, cert: Certificate, *, H: float, tolerance: float,
-                     model: str = "perspective", seed: int = 1) -> QuantityResult:
+                     model: str = "perspective", seed: int = 1, edges: tuple[float, ...] = ()) -> QuantityResult:
     """Measure one marked quantity with ``model`` ("orthographic" or "perspective").
 
     contour : the pipe contour of the marks' frame (``pipeline.vision.video.pipe_contour``)
     H, tolerance : the header's nominal height and the half-width of its tolerance [mm]
     seed : seed of the Monte Carlo runs (recorded in the result)
+    edges : class edges of the grading scheme [unit of the quantity]; the result gives the share of the
+        Monte Carlo draws below each (``class_edges_cdf``), from which the class probabilities are computed
     Raises MeasurementError when the marks cannot be placed on the pipe.
     """
     if model not in MODELS:
         raise ValueError(f"unknown model {model!r}; use one of {', '.join(MODELS)}")
     method = METHODS[q.method]
+    if model == "orthographic" and method.extent not in IN_SECTION:
+        # eqs. 12-15 scale an image length in a cross-section plane square to the camera; an extent leaving that
+        # plane is foreshortened by a known amount (a median -68 % along the axis), a bias to correct, not an
+        # uncertainty to carry (JCGM 100 3.2.4): the perspective model corrects it
+        where = "along the pipe" if method.extent == "along" else "between two wall points off the cross-section"
+        raise MeasurementError(f"{q.code} {q.quantity}: the orthographic model measures in a cross-section plane "
+                               f"only; {q.method} measures {where} (use the perspective model)")
+    contour = _without_tolerance(contour, H, tolerance)
     shape, view = contour.view.shape, contour.view
     on_wall = [p for p, s in zip((q.a, q.b), method.surfaces) if s == "wall"] or [q.anchor]
     if on_wall == [None]:
@@ -307,10 +343,6 @@ def measure_quantity(q: MarkedQuantity, contour: PipeContour, cert: Certificate,
         joint=[JointNormal(names, [pose[n] for n in names], cov[np.ix_(free, free)])] if names else [])
     if model == "orthographic":
         delta_ortho = abs(v_ortho - v_persp)
-        if method.extent not in IN_SECTION:
-            # off a cross-section plane the difference is estimated with the perspective value's own
-            # uncertainty (click noise along the axis), which the orthographic inputs do not see
-            delta_ortho = math.hypot(delta_ortho, propagate_linear(perspective, perspective_inputs).u)
         inputs = InputSet({"p_X": Normal(p_X, math.hypot(q.u_a, q.u_b)), "p_H": Normal(plane.p_H, plane.u_p_H),
                            "approximation": Normal(0.0, delta_ortho) if delta_ortho > 0 else 0.0, **common})
         fn = orthographic
@@ -321,7 +353,11 @@ def measure_quantity(q: MarkedQuantity, contour: PipeContour, cert: Certificate,
         fn = perspective
         nuisance = None if across_from_points(q.method, np.zeros(3), np.zeros(3), H) is None else (across, inputs)
     lin = propagate_linear(fn, inputs, name=q.quantity)
-    mc = propagate_monte_carlo(fn, inputs, seed=seed, name=q.quantity, max_trials=400_000)
+    # the stopping rule checks the interval reported: the shortest for the perspective model, the symmetric one
+    # (the one the clause 8 check compares) for the orthographic
+    mc = propagate_monte_carlo(fn, inputs, seed=seed, name=q.quantity, max_trials=MAX_TRIALS, keep_samples=bool(edges),
+                               interval="shortest" if model == "perspective" else "symmetric")
+    edges_cdf = [float(np.mean(mc.samples < e)) for e in edges] if mc.samples is not None else []
     check = validate_linear(lin, mc)
     bound_low, bound_high = method.domain
     crosses = lin.interval.low < bound_low or lin.interval.high > bound_high
@@ -347,6 +383,10 @@ def measure_quantity(q: MarkedQuantity, contour: PipeContour, cert: Certificate,
     if below_resolution:
         reasons.append(f"below the image's resolution: the marks are {p_X:.2g} px apart along the measured extent "
                        f"(under {RESOLUTION_PX:g} px); only the upper bound {high:.3g} {method.unit} is measured")
+    if not mc.converged:
+        # one warning: the warnings column joins reasons with "; "
+        reasons.append(f"Monte Carlo not converged: the interval's endpoints were not stable to 2 significant digits "
+                       f"of u within {mc.trials} trials (JCGM 101 7.9), so their last digit is uncertain")
     budget = _budget(lin, q.origin) + ([] if nuisance is None else [_across_line(*nuisance, model)])
     return QuantityResult(
         model=model, method=q.method, unit=method.unit, value=float(value), u=float(u), U95=float(max(high - value, value - low)),
@@ -355,4 +395,5 @@ def measure_quantity(q: MarkedQuantity, contour: PipeContour, cert: Certificate,
         p_H_px=plane.p_H, u_p_H_px=plane.u_p_H, SC_mm_per_px=H / plane.p_H, p_X_px=p_X,
         plane_depth_mm=plane.depth * H, orthographic_value=v_ortho, perspective_value=v_persp,
         confident=plane.confident and contour.confident, reasons=tuple(dict.fromkeys(reasons)), budget=budget,
-        extent=method.extent, below_resolution=below_resolution)
+        extent=method.extent, below_resolution=below_resolution, mc_converged=mc.converged,
+        class_edges=[float(e) for e in edges], class_edges_cdf=edges_cdf)

@@ -30,7 +30,7 @@ from pipeline.reports.pdf import FRAME_WIDTH, build_pdf, cell, grid_table, key_v
 from pipeline.reports.graphics import pipe_strip, strip_span
 from pipeline.reports.method import method_statement
 from pipeline.reports.style import number
-from pipeline.reports.verdict_text import grade_text, log_check_text, verdict_lines
+from pipeline.reports.verdict_text import LOG_CHECK_RULE, grade_text, log_check_text, verdict_lines
 from pipeline.reports.warning_text import measurement_warnings
 from pipeline.maths.metrology import K95
 from pipeline.core.numeric import is_finite, is_missing
@@ -187,10 +187,7 @@ def _verdict_block(i: dict, measurements: list[dict]) -> list:
             f"{safe_text(format_record(m))}, E_n {m['E_n']:.1f}" for m in wrong)))
     t = key_value_table([(safe_text(k), v if k == "Log errors" else safe_text(v, 800)) for k, v in rows])
     return [Paragraph("Verdicts", styles()["h2"]), t,
-            Paragraph("Log check: the contractor's value against the measurement, E_n = |logged − measured| / "
-                      "√(U95² + U_res²) with U_res from the logged value's step; E_n ≤ 1 agrees. Where the "
-                      "pipe's outline is not trusted the check is undecided unless E_n > 2 (then it disagrees). "
-                      f"Grades: {_scheme_sentence(i)}", styles()["small"])]
+            Paragraph(f"{LOG_CHECK_RULE} Grades: {_scheme_sentence(i)}", styles()["small"])]
 
 
 def _scheme_sentence(i) -> str:

@@ -14,7 +14,16 @@ from typing import Any, Mapping
 from pipeline.domain.results import Record
 from pipeline.core.numeric import is_missing
 
-__all__ = ["json_safe", "log_check_text", "grade_text", "probabilities_text", "verdict_lines", "is_missing"]
+__all__ = ["LOG_CHECK_RULE", "json_safe", "log_check_text", "grade_text", "probabilities_text", "verdict_lines", "is_missing"]
+
+
+# the log check's rule in words, under the report's verdict block (pipeline.judgement.verdicts.log_check)
+LOG_CHECK_RULE = (
+    "Log check: P(log right) is the probability, from the measurement's draws, that the true value rounds to the "
+    "contractor's value (within half its step) and lies in its class; agrees when it is at least 0.95, disagrees when it is "
+    "at most 0.05 and the log lies outside the measurement's 95 % interval (E_n = |logged − measured| / "
+    "√(U95² + U_res²) > 1, U_res from the logged value's step), else undecided. Where the pipe's outline is not "
+    "trusted its u is widened 1.5 times first.")
 
 
 def json_safe(x: Any) -> Any:
@@ -41,17 +50,22 @@ def _num(x: Any, fmt: str) -> str:
 
 
 def log_check_text(m: Mapping) -> str:
-    """One measurement's log check, short: 'disagrees (logged 20 %, -10.1 %, E_n 4.1)'."""
+    """One measurement's log check, short: 'disagrees (P(right) 0.00; logged 20 %, -10.1 %, E_n 4.1)'."""
     verdict = m.get("log_check")
     if is_missing(verdict):
         return "not checked"
     unit = m.get("unit") or ""
     if verdict in ("disagrees", "agrees", "undecided") and not is_missing(m.get("E_n")):
-        untrusted = verdict == "undecided" or (verdict == "disagrees" and not is_missing(m.get("confident"))
-                                                and not bool(m.get("confident")))
-        why = "contour not trusted; " if untrusted else ""
-        return (f"{verdict} ({why}logged {float(m['logged_value']):g} {unit}, {float(m['log_difference']):+.3g} {unit}, "
-                f"E_n {float(m['E_n']):.2f})")
+        if verdict == "undecided" and m.get("below_resolution") is True:
+            why = "below resolution: consistent, not confirmed; "
+        elif not is_missing(m.get("confident")) and not bool(m.get("confident")):
+            why = "contour not trusted: u widened; "
+        else:
+            why = ""
+        p = m.get("log_conformity")
+        right = "" if is_missing(p) else f"P(right) {float(p):.2f}; "
+        return (f"{verdict} ({why}{right}logged {float(m['logged_value']):g} {unit}, "
+                f"{float(m['log_difference']):+.3g} {unit}, E_n {float(m['E_n']):.2f})")
     return f"{verdict} ({m.get('log_check_reason') or ''})"
 
 
@@ -76,6 +90,9 @@ def grade_text(r: Mapping) -> str:
         return text
     if status == "logged only":
         return f"{r['grade']} from the log only ({r.get('grade_reason')})"
+    if status == "not decidable from the image":
+        # the reason starts with these words already
+        return (f"{r['grade']} from the log: " if not is_missing(r.get("grade")) else "") + f"{r.get('grade_reason')}"
     return f"{status}: {r.get('grade_reason')}"
 
 
@@ -87,11 +104,14 @@ def verdict_lines(inspection: Mapping) -> list[tuple[str, str]]:
     if not is_missing(inspection.get("log_agrees")):
         lines.append(("Log check", f"{int(inspection['log_agrees'])} agree, {int(inspection['log_disagrees'])} disagree, "
                                    f"{int(inspection['log_undecided'])} undecided, "
-                                   f"{int(inspection['log_not_checked'])} not checked (E_n <= 1 agrees; "
-                                   f"outline not trusted: undecided unless E_n > 2)"))
+                                   f"{int(inspection['log_not_checked'])} not checked (agrees: P(log right) >= 0.95; "
+                                   f"disagrees: P(log right) <= 0.05 and E_n > 1; outline not trusted: u x1.5; "
+                                   f"below resolution: undecided unless the log exceeds the bound)"))
     grade = inspection.get("section_grade")
     scheme = inspection.get("grading_scheme")
-    if not is_missing(grade):
+    if not is_missing(grade) and not is_missing(inspection.get("section_grade_statement")):
+        lines.append(("Section grade", f"{grade}: {inspection['section_grade_statement']}"))
+    elif not is_missing(grade):          # a record written before the worst class's distribution was stored
         lines.append(("Section grade", f"{grade} ({scheme}, the worst single grade); probability "
                                        f"{100 * float(inspection['section_grade_probability']):.0f} % that at least one "
                                        f"observation is {grade} or worse"))

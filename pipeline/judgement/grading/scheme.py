@@ -9,9 +9,12 @@ import math
 from dataclasses import dataclass, field
 from typing import Callable, Mapping
 
-__all__ = ["Band", "Scheme", "Grade", "applicable_bands", "class_index", "class_probabilities", "grade", "LIKELY"]
+__all__ = ["Band", "Scheme", "Grade", "applicable_bands", "class_index", "class_probabilities", "classes_below",
+           "class_range", "grade", "LIKELY", "NOT_DECIDABLE", "FROM_LOG"]
 
 LIKELY = 0.05       # a class with at least this probability is reported as possible ("worst class with p >= 5 %")
+NOT_DECIDABLE = "not decidable from the image"     # status of a grade whose measurement only bounds the value
+FROM_LOG = ("logged only", NOT_DECIDABLE)           # statuses whose class is the logged value's
 
 
 @dataclass(frozen=True)
@@ -61,8 +64,10 @@ class Grade:
     """An observation's grade in one scheme.
 
     status : "graded" (from the measurement's distribution), "logged only" (no measurement: the class of the
-             logged value), "ungraded" (the scheme has no threshold for it), "unmeasured" (neither a measurement
-             nor a logged value); reason says why when not "graded"
+             logged value), "not decidable from the image" (the measurement is below the image's resolution and
+             its upper bound spans several classes: the class of the logged value), "ungraded" (the scheme has
+             no threshold for it), "unmeasured" (neither a measurement nor a logged value); reason says why when
+             not "graded"
     probabilities : class -> probability (sum 1) when graded
     most_probable, worst_likely : the most probable class and the worst class with probability >= LIKELY
     logged_class : the class of the contractor's logged value; disagrees : it is not among the likely classes
@@ -80,7 +85,7 @@ class Grade:
     @property
     def cls(self) -> str | None:
         """The class reported: the most probable one, else the logged value's."""
-        return self.most_probable or (self.logged_class if self.status == "logged only" else None)
+        return self.most_probable or (self.logged_class if self.status in FROM_LOG else None)
 
 
 def applicable_bands(s: Scheme, code: str, char1: str | None, unit: str | None, dn_mm: float,
@@ -118,11 +123,36 @@ def class_probabilities(bands: list[Band], cdf: Callable[[float], float], classe
     return {c: p / total for c, p in probs.items()}
 
 
+def class_range(bands: list[Band], value: float, n_classes: int) -> tuple[float, float]:
+    """[low, high) [unit] of the values that have the class of ``value`` around it (bounds are ">=")."""
+    c = class_index(bands, value, n_classes)
+    edges = sorted({bound for b in bands for bound, _ in b.steps})
+    lo = max((e for e in edges if e <= value), default=-math.inf)
+    hi = min((e for e in edges if e > value), default=math.inf)
+    while lo > -math.inf and class_index(bands, lo - 1e-9 * max(1.0, abs(lo)), n_classes) == c:
+        lo = max((e for e in edges if e < lo), default=-math.inf)
+    while hi < math.inf and class_index(bands, hi, n_classes) == c:
+        hi = min((e for e in edges if e > hi), default=math.inf)
+    return lo, hi
+
+
+def classes_below(bands: list[Band], bound: float, classes: tuple[str, ...], floor: float = 0.0) -> list[str]:
+    """The classes a value in [floor, bound] may have, worst first."""
+    edges = sorted({b for band in bands for b, _ in band.steps if floor < b <= bound})
+    found = {class_index(bands, x, len(classes)) for x in [floor, *edges]}
+    return [classes[c] for c in sorted(found)]
+
+
 def grade(s: Scheme, code: str, char1: str | None, *, unit: str | None, dn_mm: float, material: str | None,
-          logged: float | None, cdf: Callable[[float], float] | None, unmeasured_reason: str | None = None) -> Grade:
+          logged: float | None, cdf: Callable[[float], float] | None, unmeasured_reason: str | None = None,
+          upper_bound: float | None = None) -> Grade:
     """An observation's grade: from the measurement's distribution (cdf) when there is one, else from the log.
 
     logged : the contractor's Q1 in the scheme's unit, or None; unmeasured_reason : why there is no cdf
+    upper_bound : for a measurement below the image's resolution, the bound it gives (the value is in [0, bound]);
+                  when that range spans several classes the measurement decides none: the grade is the logged
+                  value's class, status ``NOT_DECIDABLE`` (a below-resolution distribution is the marking noise's,
+                  not the feature's)
     """
     bands, why = applicable_bands(s, code, char1, unit, dn_mm, material)
     if not bands:
@@ -134,6 +164,14 @@ def grade(s: Scheme, code: str, char1: str | None, *, unit: str | None, dn_mm: f
             return Grade(s.key, "unmeasured", (unmeasured_reason or "not measured") + "; no logged value either")
         return Grade(s.key, "logged only", (unmeasured_reason or "not measured") + "; the class of the logged value",
                      logged_class=logged_class)
+    if upper_bound is not None and math.isfinite(upper_bound):
+        spans = classes_below(bands, upper_bound, s.classes)
+        if len(spans) > 1:
+            why = (f"{NOT_DECIDABLE}: below the image's resolution, the value is only known to be < {upper_bound:.3g} "
+                   f"{unit or bands[0].unit}, which spans {spans[-1]} to {spans[0]}")
+            if logged_class is None:
+                return Grade(s.key, NOT_DECIDABLE, why + "; no logged value either")
+            return Grade(s.key, NOT_DECIDABLE, why + "; the class of the logged value", logged_class=logged_class)
     probs = class_probabilities(bands, cdf, s.classes)
     most = max(s.classes, key=lambda c: probs[c])
     worst = next(c for c in s.classes if probs[c] >= LIKELY) if any(p >= LIKELY for p in probs.values()) else most

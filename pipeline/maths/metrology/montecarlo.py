@@ -8,7 +8,12 @@ Two modes:
   of the block estimates of y, u(y), y_low and y_high are computed
   (7.9.4 e) and the run stops when twice each of them is at most the
   numerical tolerance delta of u(y) (7.9.2, 7.9.4 g). The results are then
-  computed from all h M trials (7.9.4 h).
+  computed from all h M trials (7.9.4 h). y_low and y_high are the
+  endpoints of the interval that will be reported (``interval``: the
+  probabilistically symmetric one, or the shortest, JCGM 101 7.7.3), so
+  the stability checked is that of the numbers reported. A run that meets
+  ``max_trials`` first stops there with ``converged`` False: JCGM 101 7.9
+  wants that stated with the result.
 
 Draws come from ``numpy.random.Generator(PCG64(seed))``; the seed and the
 number of trials are part of every result, so any run can be repeated.
@@ -107,12 +112,17 @@ class _BlockStats:
     highs: list[float] = field(default_factory=list)
     chunks: list[np.ndarray] = field(default_factory=list)
 
-    def add(self, y: np.ndarray, lo_i: int, hi_i: int) -> None:
-        part = np.partition(y, (lo_i, hi_i))
+    def add(self, y: np.ndarray, lo_i: int, hi_i: int, interval: str = "symmetric") -> None:
         self.means.append(float(np.mean(y)))
         self.variances.append(float(np.var(y, ddof=1)))
-        self.lows.append(float(part[lo_i]))
-        self.highs.append(float(part[hi_i]))
+        if interval == "shortest":
+            block = shortest_interval(np.sort(y))
+            low, high = block.low, block.high
+        else:
+            part = np.partition(y, (lo_i, hi_i))
+            low, high = float(part[lo_i]), float(part[hi_i])
+        self.lows.append(low)
+        self.highs.append(high)
         self.chunks.append(y)
 
     def stability(self, M: int, ndig: int) -> Stability:
@@ -171,6 +181,7 @@ def propagate_monte_carlo(
     max_trials: int = 10_000_000,
     name: str = "y",
     keep_samples: bool = False,
+    interval: str = "symmetric",
 ) -> MonteCarloResult | dict[str, MonteCarloResult]:
     """Propagate the input distributions through ``model`` by Monte Carlo.
 
@@ -185,10 +196,14 @@ def propagate_monte_carlo(
     max_trials : cap on the adaptive run; reaching it sets ``converged=False``
     name : name of the output when ``model`` returns a single array
     keep_samples : keep the output trials in the result (memory: 8 bytes each)
+    interval : "symmetric" or "shortest": the coverage interval whose endpoints the adaptive
+        stopping rule checks (the one the caller reports; JCGM 101 7.9.4 e)
 
     Returns a MonteCarloResult, or a dict of them when the model returns a mapping.
     """
     inputs = InputSet.of(inputs)
+    if interval not in ("symmetric", "shortest"):
+        raise ValueError(f"interval must be 'symmetric' or 'shortest', got {interval!r}")
     if seed is None:
         seed = secrets.randbits(63)
     rng = np.random.Generator(np.random.PCG64(seed))
@@ -218,7 +233,7 @@ def propagate_monte_carlo(
         outputs, single = evaluate_outputs(model, inputs.sample(rng, M), M, name)
         h += 1
         for key, y in outputs.items():
-            stats.setdefault(key, _BlockStats()).add(y, lo_i, hi_i)
+            stats.setdefault(key, _BlockStats()).add(y, lo_i, hi_i, interval)
         if h >= min_blocks:
             stability = {key: s.stability(M, ndig) for key, s in stats.items()}
             if all(s.stable for s in stability.values()):

@@ -12,7 +12,17 @@ agree. Two checks follow from that:
 * **Reproducibility.** The fit's own covariance ignores model error (a wall
   off the nominal profile, roll held at zero). The scatter of the agreeing
   windows' poses is a Type A evaluation of what that misses (JCGM 100 4.2);
-  with three or more windows it is added to each window's covariance.
+  with three or more windows, what it holds beyond the fits' own noise is
+  added to each window's covariance. The windows' fit noise is in their
+  scatter already, reduced by the frames they share: for windows whose
+  estimates correlate by rho (the share of common frames, |A & B| /
+  sqrt(|A| |B|), averaged over the pairs) the scatter expected from the fit
+  noise alone is (1 - rho) times their mean covariance. Only the positive
+  part of the difference is added (issue 30: the full scatter counted the
+  fit noise twice). With about three overlapping windows that excess is an
+  estimate with about two degrees of freedom; it is added as a standard
+  uncertainty (no Student t: the samples' pose-dominated quantities already
+  have standardised errors with a robust SD of 0.4-0.6, docs/measurement.md).
 
 Distances are Mahalanobis distances over the fitted pose parameters.
 """
@@ -91,11 +101,22 @@ def reconcile_windows(contours: dict[int, PipeContour], windows: dict[int, list[
             continue
         poses = np.array([contours[g].view.pose for g in group])
         scatter = np.cov(poses.T, ddof=1)
+        rho = float(np.mean([len(sets[a] & sets[b]) / np.sqrt(len(sets[a]) * len(sets[b]))
+                             for i, a in enumerate(group) for b in group[i + 1:]]))
+        within = (1.0 - rho) * np.mean([contours[g].covariance for g in group], axis=0)
+        excess = _positive_part(scatter - within)
         held = np.diag(contours[f].covariance) == 0
-        scatter[held, :] = 0.0
-        scatter[:, held] = 0.0
-        out[f] = dataclasses.replace(contours[f], covariance=contours[f].covariance + scatter)
+        excess[held, :] = 0.0
+        excess[:, held] = 0.0
+        out[f] = dataclasses.replace(contours[f], covariance=contours[f].covariance + excess)
     return out
+
+
+def _positive_part(m: np.ndarray) -> np.ndarray:
+    """The symmetric matrix's positive semi-definite part (its negative eigenvalues set to 0)."""
+    m = 0.5 * (m + m.T)
+    w, v = np.linalg.eigh(m)
+    return (v * np.clip(w, 0.0, None)) @ v.T
 
 
 def _borrow(own: PipeContour, other: PipeContour, reason: str) -> PipeContour:

@@ -1,0 +1,103 @@
+"""Issue 30 at measurement time: the Monte Carlo's stopping rule checks the interval reported, its
+non-convergence is stated, the draws' shares below the class edges are kept."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from pipeline.domain.results import MeasurementRecord
+from pipeline.maths.metrology import Normal, propagate_monte_carlo
+from pipeline.maths.metrology.intervals import shortest_interval
+from pipeline.measurement import quantity as quantity_module
+from pipeline.measurement import MarkedQuantity, measure_quantity
+from tests.test_measurement import _contour, _marked, _truth
+
+
+def _skewed(x):
+    return np.exp(x)
+
+
+def test_the_adaptive_stopping_rule_checks_the_shortest_interval_when_that_is_reported():
+    mc = propagate_monte_carlo(_skewed, {"x": Normal(0.0, 0.8)}, seed=4, keep_samples=True, interval="shortest",
+                               max_trials=200_000)
+    M = 10_000
+    blocks = mc.samples.reshape(mc.blocks, M)
+    lows = [shortest_interval(np.sort(b)).low for b in blocks]
+    assert mc.stability.s_low == pytest.approx(np.std(lows, ddof=1) / math.sqrt(mc.blocks))
+    symmetric = propagate_monte_carlo(_skewed, {"x": Normal(0.0, 0.8)}, seed=4, max_trials=200_000)
+    assert symmetric.stability.s_low != pytest.approx(mc.stability.s_low)
+    with pytest.raises(ValueError, match="interval"):
+        propagate_monte_carlo(_skewed, {"x": Normal(0.0, 0.8)}, seed=4, interval="widest")
+
+
+def _bdd():
+    truth, cert, und, view = _truth("S02-circular-water-offset")
+    obs = next(o for o in truth["observations"] if o["code"] == "BDD")
+    return _marked(und, obs["quantities"][0], "BDD", "A"), _contour(view), cert
+
+
+def test_a_run_stopped_by_the_trial_cap_is_stored_as_not_converged_with_a_warning(monkeypatch):
+    marked, contour, cert = _bdd()
+    monkeypatch.setattr(quantity_module, "MAX_TRIALS", 30_000)      # fewer than the 10 blocks the rule needs
+    r = measure_quantity(marked, contour, cert, H=400.0, tolerance=4.0, model="perspective", seed=11)
+    assert r.mc_converged is False and r.mc_trials == 30_000
+    assert any("Monte Carlo not converged" in reason and "JCGM 101 7.9" in reason for reason in r.reasons)
+    assert MeasurementRecord(mc_converged=r.mc_converged).mc_converged is False      # a stored field
+
+
+def test_the_draws_share_below_each_class_edge_is_kept():
+    marked, contour, cert = _bdd()
+    edges = (10.0, 29.5, 30.5, 50.0)
+    r = measure_quantity(marked, contour, cert, H=400.0, tolerance=4.0, model="perspective", seed=11, edges=edges)
+    assert r.class_edges == list(edges)
+    assert r.class_edges_cdf[0] == 0.0 and r.class_edges_cdf[-1] == 1.0
+    assert 0.0 < r.class_edges_cdf[1] < r.class_edges_cdf[2] < 1.0                # the level is near 30 %
+
+
+def test_the_height_tolerance_enters_once_as_H_and_not_again_as_the_wall():
+    from dataclasses import replace
+
+    from pipeline.vision.contour.detect import wall_u_from_tolerance
+
+    marked, contour, cert = _bdd()
+    contour = replace(contour, wall_u=wall_u_from_tolerance(400.0, 4.0))       # as pipe_contour gives it
+    r = measure_quantity(marked, contour, cert, H=400.0, tolerance=4.0, model="perspective", seed=11)
+    wall = next(line for line in r.budget if line.label == "wall")
+    assert wall.u < 1e-9                                # the old code said u(wall) = 2 wall_u = tol / (sqrt(3) H)
+    stepped = replace(contour, wall_u=math.hypot(contour.wall_u, 0.01))        # a displaced joint before it
+    s = measure_quantity(marked, stepped, cert, H=400.0, tolerance=4.0, model="perspective", seed=11)
+    assert next(line for line in s.budget if line.label == "wall").u == pytest.approx(0.02)
+
+
+@pytest.mark.parametrize("method, extent", [("axial", "along"), ("around", "around")])
+def test_the_predicted_U95_of_a_marked_extent_is_the_measured_one_where_the_marks_dominate(method, extent):
+    from pipeline.measurement.predict import predicted_U95
+    from pipeline.vision.contour import PipeView
+
+    truth, cert, und, _ = _truth("S01-circular-clean")
+    K, H, Z, u = und.K, 300.0, 500.0, 0.7                        # DN300, marks 0.5 m ahead, 0.7 px each
+    view = PipeView("circular", K[0, 0], K[1, 1], K[0, 2], K[1, 2], 0.0, 0.0, 0.0, 0.0, 0.0)
+    theta, t = math.radians(200), Z / H
+    if extent == "along":
+        pts = [[0.5 * math.cos(theta), 0.5 * math.sin(theta), t + s] for s in (-0.05, 0.05)]      # a 30 mm gap
+    else:
+        pts = [[0.5 * math.cos(theta + s), 0.5 * math.sin(theta + s), t] for s in (-0.05, 0.05)]  # a 30 mm chord
+    a, b = view.project(np.array(pts))
+    q = MarkedQuantity("BAJ", "A", "Q1", method, tuple(a), tuple(b), u, u)
+    r = measure_quantity(q, _contour(view, u_pose=(1e-5,) * 5), cert, H=H, tolerance=0.0, model="perspective",
+                         seed=5)
+    predicted = predicted_U95(extent, Z, H, float(K[0, 0]), u)
+    assert r.U95 == pytest.approx(predicted, rel=0.25)
+    assert r.U95 >= 0.9 * predicted                             # the marks' share only: a lower bound
+
+
+def test_the_report_says_a_monte_carlo_that_did_not_converge_in_one_warning_with_its_action():
+    from pipeline.reports.warning_text import plain_warnings
+
+    technical = ("Monte Carlo not converged: the interval's endpoints were not stable to 2 significant digits of u "
+                 "within 400000 trials (JCGM 101 7.9), so their last digit is uncertain")
+    [(sentence, action)] = plain_warnings(technical)
+    assert "trial cap" in sentence and action == "read the interval to one digit less"

@@ -36,6 +36,8 @@ TABLES = ("inspections", "observations", "measurements", "thumbnails")
 VOLATILE = re.compile(r"^(processed_at|write_id|time_\w+_s)$")
 # a report prints when it was made: the processing date and time, and a duration
 _REPORT_TIMES = [(re.compile(r"\d{4}-\d\d-\d\d[ T]\d\d:\d\d(:\d\d)?( ?UTC)?"), "<time>"),
+                 # the day a report is rendered (its running header): a run past midnight is the same result
+                 (re.compile(r"rendered \d{4}-\d\d-\d\d"), "rendered <date>"),
                  (re.compile(r"\b\d+(\.\d+)? s\b"), "<seconds>")]
 
 

@@ -124,7 +124,7 @@ def test_good_bad_and_hostile_packages_in_one_night_then_nothing_new(tmp_path, e
     assert first.returncode == 1, first.stderr
     for text in ("unexpected error", "Traceback"):
         assert text not in first.stderr
-    assert "2 ok, 1 partial, 13 failed; 13 processed, 0 unchanged since the last run, 3 refused unread" in first.stderr
+    assert "2 ok, 1 partial, 0 log-only, 13 failed; 13 processed, 0 unchanged since the last run, 3 refused unread" in first.stderr
     inspections = read_table(out / "dataset", "inspections").set_index("inspection_id")
     assert set(inspections.index) == {*GOOD, "BAD-VIDEO", "BAD-LOG", "BAD-CERT", "stray-folder", "BAD-ROWS", "HUGE-LOG",
                                       "newline-id", "é-accent", "#hash", "x y", "x_y"}
@@ -157,7 +157,7 @@ def test_good_bad_and_hostile_packages_in_one_night_then_nothing_new(tmp_path, e
     from pypdf import PdfReader
 
     text = " ".join(p.extract_text() for p in PdfReader(out / "reports" / summary[0]).pages)
-    assert "2 ok, 1 partial, 13 failed" in text and "CAM-NOWHERE" in text
+    assert "2 ok, 1 partial, 0 log-only" in text and "13 failed" in text and "CAM-NOWHERE" in text
     # the run used the configured server: no embedded one was started, and the flow run is on that server
     assert not (out / ".prefect-server.pid").exists() and "embedded" not in first.stderr
     assert f"nightly {inbox}" in _flow_run_names(prefect_server)
@@ -165,7 +165,7 @@ def test_good_bad_and_hostile_packages_in_one_night_then_nothing_new(tmp_path, e
     stored_files = _snapshot(out)
     second = _pipegauge("run", str(inbox), "--out", str(out), env=env)
     assert second.returncode == 1, second.stderr                 # the bad ones are still bad
-    assert "2 ok, 1 partial, 13 failed; 0 processed, 13 unchanged since the last run, 3 refused unread" in second.stderr
+    assert "2 ok, 1 partial, 0 log-only, 13 failed; 0 processed, 13 unchanged since the last run, 3 refused unread" in second.stderr
     assert "corrupt-video: failed (unchanged since the last run): " in second.stderr
     assert "kept as it was" in second.stderr and "Traceback" not in second.stderr
     stored = read_table(out / "dataset", "inspections").set_index("inspection_id").processed_at

@@ -27,6 +27,9 @@ PACKAGES = ("S01-circular-clean", "S02-circular-water-offset", "S03-egg-concrete
 FOOTER_TOP = 36.0           # the footer line lies below this height on every page [pt]
 HEADING_PT = 9.4            # headings (title 15, h2 11, h3 9.5 pt) are set larger than any body text [pt]
 S01_PAGES_BEFORE = 9        # S01's report before issue 23
+# issue 23 halved it (4 pages); issues 30 and 31 added, on purpose, the section grade's distribution with its
+# stated independence, a glossary of every symbol and a legend under each thumbnail: one page more
+S01_PAGES_AT_MOST = 5
 
 
 def _pages(path: Path) -> list[dict]:
@@ -116,7 +119,7 @@ def test_sample_reports_lay_out_cleanly(sample_night, name):
     for r in m.itertuples():
         assert format_record(r) in flat, (r.row, format_record(r))
     if name == "S01-circular-clean":
-        assert len(pages) <= S01_PAGES_BEFORE // 2, len(pages)
+        assert len(pages) <= S01_PAGES_AT_MOST < S01_PAGES_BEFORE, len(pages)
 
 
 @pytest.mark.slow

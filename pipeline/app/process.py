@@ -9,7 +9,6 @@ or delivering its certificate, changes the key.
 from __future__ import annotations
 
 import datetime as dt
-import json
 import os
 import socket
 import time
@@ -25,6 +24,7 @@ from pipeline.app.measure import InspectionResult, measure_package
 from pipeline.core.errors import PackageError, PipegaugeError, StoreError
 from pipeline.domain.results import InspectionRecord
 from pipeline.formats.header import load_header
+from pipeline.formats.jsonfile import read_json
 from pipeline.formats.manifest import DEFAULT_FILES, load_manifest
 from pipeline.reports import render_inspection_report, report_file_name
 from pipeline.store import commit_problem, stored_input_key, write_inspection
@@ -145,10 +145,11 @@ def _date_from_header(folder: Path, rec) -> None:
     """A package that failed before its header was read (a missing video, a bad manifest): its header read on its
     own, so that the record is partitioned by the inspection's date and says what it can; the processing date
     only when no header can be read, and the record says so (a warning)."""
+    # through the safe reader: this package may be hostile (a FIFO, a link to a device, 50,000 levels deep)
     try:
-        document = json.loads((folder / "package.json").read_text(encoding="utf-8"))
+        document = read_json(folder / "package.json", PackageError, "missing")
         name = document.get("header") if isinstance(document, dict) else None
-    except (OSError, ValueError):
+    except PipegaugeError:
         name = None
     path = (folder / (name if isinstance(name, str) and name else DEFAULT_FILES["header"])).resolve()
     if folder.resolve() in path.parents:
@@ -161,8 +162,9 @@ def _date_from_header(folder: Path, rec) -> None:
                         if k in InspectionRecord.field_names() and rec.get(k) is None})
             return
         try:     # a header with other problems may still give its date
-            date = dt.date.fromisoformat(str(json.loads(path.read_text(encoding="utf-8"))["inspection_date"]))
-        except (OSError, ValueError, KeyError, TypeError):
+            data = read_json(path, PackageError, "missing")
+            date = dt.date.fromisoformat(str(data["inspection_date"]))      # type: ignore[index]
+        except (PipegaugeError, ValueError, KeyError, TypeError):
             date = None
         if date is not None:
             rec.update(inspection_date=date)

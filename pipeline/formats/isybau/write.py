@@ -53,7 +53,9 @@ def _timecode(seconds: float, fps: int) -> str:
 
 def isybau_document(sections: list[dict], **kwargs) -> bytes:
     """An ISYBAU 2013 condition-data file of ``sections``, as bytes (UTF-8): ``isybau_tree`` serialised."""
-    return _bytes(isybau_tree(sections, **kwargs))
+    root = isybau_tree(sections, **kwargs)
+    root.attrib.pop("_namespace", None)          # the tree's own bookkeeping, not an attribute of the file
+    return _bytes(root)
 
 
 def _bytes(root: Element) -> bytes:

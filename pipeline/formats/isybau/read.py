@@ -26,6 +26,7 @@ from pipeline.domain.codes import quantification
 from pipeline.domain.records import Observation, RowProblem
 from pipeline.formats.isybau.codes import (ANLAGENTYP, CODING_NAMES, CONTINUOUS, DIRECTIONS, EN13508_CODING, FORMAT_NAME,
                                            FPS_RANGE, KIND_OF, MATERIALS, NAMESPACES, NO_MATERIAL, PROFILE_NAMES, PROFILES)
+from pipeline.formats.coded_rows import clock_text
 from pipeline.formats.observation_log import parse_log_rows
 from pipeline.formats.reading import ExchangeFile, LogReading
 from pipeline.formats.xmlfile import child_text, parse_xml
@@ -294,7 +295,7 @@ def _pipe_row(n: int, z: Element, film: Film | None, coding: str) -> tuple[str, 
     elif kind:
         remark = f"{remark} (Streckenschaden {kind}{number})".strip()      # C, G, R: kept in words
     raw = {"row": str(n), "distance_m": child_text(z, "Station"), "code": code, "char1": char1, "char2": char2,
-           "clock_from": _clock(child_text(z, "PositionVon")), "clock_to": _clock(child_text(z, "PositionBis")),
+           "clock_from": clock_text(child_text(z, "PositionVon")), "clock_to": clock_text(child_text(z, "PositionBis")),
            "at_joint": {"true": "Y", "1": "Y", "false": "N", "0": "N"}.get(child_text(z, "Verbindung").lower(), ""),
            "continuous": continuous, "video_time": _video_time(z, film), "photo": child_text(z, "Fotodatei"),
            "remark": remark, "grade": _classes(z)}
@@ -305,10 +306,6 @@ def _pipe_row(n: int, z: Element, film: Film | None, coding: str) -> tuple[str, 
         if not text and child_text(z, f"Quantifizierung{q}Text"):
             raw["remark"] = f"{raw['remark']} (Quantifizierung{q}Text {child_text(z, f'Quantifizierung{q}Text')})".strip()
     return f"RZustand {n + 1} (line {z.get('_line', '?')})", raw
-
-
-def _clock(text: str) -> str:
-    return "" if text.strip() in ("", "0") else text.strip()
 
 
 def _classes(z: Element) -> str:

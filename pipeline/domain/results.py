@@ -321,6 +321,9 @@ class MeasurementRecord(Record):
     log_check_risk: float | None = column(
         "float64", "1", "specific risk of the verdict: false acceptance (agrees) 1 - conformity, false rejection "
                         "(disagrees) conformity")
+    nu_eff: float | None = column(
+        "float64", "1", "effective degrees of freedom of u (Welch-Satterthwaite over the budget; the pose's nu from "
+                        "its rings); inf when every input is known (Type B)")
 
 
 @dataclass

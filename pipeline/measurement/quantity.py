@@ -32,8 +32,11 @@ image of the cross-section's wall at their midpoint; along the pipe, along
 the image of the axis there. The other component is the nuisance
 ``across``: a budget line of its own with no weight in the value.
 
-The orthographic value and U95 come from the law of propagation (k = 1.96,
-every input is Type B), checked by Monte Carlo (JCGM 101 clause 8); when
+The orthographic value and U95 come from the law of propagation (k the
+Student t quantile for the Welch-Satterthwaite nu_eff: the pose covariance
+is a Type A estimate from the rings with the contour's ``dof``, every other
+input Type B; p_H then a t input, the pose a multivariate t in the Monte
+Carlo draws), checked by Monte Carlo (JCGM 101 clause 8); when
 the check fails, or when the linear interval leaves the quantity's domain
 (a width below 0, a level above 100 %), the Monte Carlo interval is
 reported instead, its trials held inside the domain. The perspective model
@@ -55,7 +58,8 @@ from pipeline.camera import Certificate
 from pipeline.vision.contour import PipeContour
 from pipeline.vision.contour.detect import wall_u_from_tolerance
 from pipeline.core.errors import MeasurementError
-from pipeline.maths.metrology import InputSet, JointNormal, Normal, Rectangular, propagate_linear, propagate_monte_carlo, validate_linear
+from pipeline.maths.metrology import (InputSet, JointNormal, Normal, Rectangular, StudentT, propagate_linear, propagate_monte_carlo,
+                                      validate_linear)
 from pipeline.maths.profiles import level_tables, wall_point
 from pipeline.measurement.methods import (IN_SECTION, METHODS, across_from_points, reference_dimension, value_from_image_ratio,
                       value_from_points, within_domain)
@@ -158,6 +162,7 @@ class QuantityResult:
     mc_converged: bool = True         # the adaptive Monte Carlo met its tolerance before the trial cap (JCGM 101 7.9)
     class_edges: list[float] = field(default_factory=list)        # the grading scheme's class edges asked for [unit]
     class_edges_cdf: list[float] = field(default_factory=list)    # share of the Monte Carlo draws below each [1]
+    nu_eff: float = math.inf          # effective degrees of freedom of u (Welch-Satterthwaite; the pose's nu)
 
 
 def certificate_scale_u(cert: Certificate, K: np.ndarray, ideal_points: np.ndarray, reference: np.ndarray,
@@ -340,10 +345,12 @@ def measure_quantity(q: MarkedQuantity, contour: PipeContour, cert: Certificate,
         {"xa": Normal(a[0], q.u_a), "ya": Normal(a[1], q.u_a), "xb": Normal(b[0], q.u_b),
          "yb": Normal(b[1], q.u_b), "wall": Normal(1.0, max(2 * contour.wall_u, 1e-12)),
          **{k: Normal(v, max(q.u_anchor, 1e-12)) for k, v in anchored.items()}, **fixed, **common},
-        joint=[JointNormal(names, [pose[n] for n in names], cov[np.ix_(free, free)])] if names else [])
+        joint=[JointNormal(names, [pose[n] for n in names], cov[np.ix_(free, free)], dof=contour.dof)] if names else [])
     if model == "orthographic":
         delta_ortho = abs(v_ortho - v_persp)
-        inputs = InputSet({"p_X": Normal(p_X, math.hypot(q.u_a, q.u_b)), "p_H": Normal(plane.p_H, plane.u_p_H),
+        p_H_input = (StudentT(plane.p_H, plane.u_p_H, plane.dof) if math.isfinite(plane.dof) and plane.u_p_H > 0
+                     else Normal(plane.p_H, plane.u_p_H))
+        inputs = InputSet({"p_X": Normal(p_X, math.hypot(q.u_a, q.u_b)), "p_H": p_H_input,
                            "approximation": Normal(0.0, delta_ortho) if delta_ortho > 0 else 0.0, **common})
         fn = orthographic
         nuisance = None if direction is None else (
@@ -356,14 +363,16 @@ def measure_quantity(q: MarkedQuantity, contour: PipeContour, cert: Certificate,
     # the stopping rule checks the interval reported: the shortest for the perspective model, the symmetric one
     # (the one the clause 8 check compares) for the orthographic
     mc = propagate_monte_carlo(fn, inputs, seed=seed, name=q.quantity, max_trials=MAX_TRIALS, keep_samples=bool(edges),
-                               interval="shortest" if model == "perspective" else "symmetric")
+                               interval="shortest" if model == "perspective" else "symmetric",
+                               redraw_outside=math.isfinite(contour.dof))
     edges_cdf = [float(np.mean(mc.samples < e)) for e in edges] if mc.samples is not None else []
     check = validate_linear(lin, mc)
     bound_low, bound_high = method.domain
     crosses = lin.interval.low < bound_low or lin.interval.high > bound_high
     reasons = list(plane.reasons)
     if model == "orthographic" and check.validated and not crosses:
-        value, low, high, how, k, u = lin.value, lin.interval.low, lin.interval.high, "linear, k = 1.96 (validated by Monte Carlo)", lin.k, lin.u
+        value, low, high, how, k, u = (lin.value, lin.interval.low, lin.interval.high,
+                                       f"linear, k = {lin.k:.3g} (validated by Monte Carlo)", lin.k, lin.u)
     else:
         # The model at the estimates (GUM 4.1.4), with the shortest 95 % Monte Carlo interval: a length
         # near the marking noise has a skewed distribution whose mean lies above the measured value.
@@ -396,4 +405,4 @@ def measure_quantity(q: MarkedQuantity, contour: PipeContour, cert: Certificate,
         plane_depth_mm=plane.depth * H, orthographic_value=v_ortho, perspective_value=v_persp,
         confident=plane.confident and contour.confident, reasons=tuple(dict.fromkeys(reasons)), budget=budget,
         extent=method.extent, below_resolution=below_resolution, mc_converged=mc.converged,
-        class_edges=[float(e) for e in edges], class_edges_cdf=edges_cdf)
+        class_edges=[float(e) for e in edges], class_edges_cdf=edges_cdf, nu_eff=float(lin.dof))

@@ -207,21 +207,29 @@ class Arcsine(Distribution):
 
 @dataclass(frozen=True)
 class JointNormal:
-    """Jointly normal input quantities with a covariance matrix (JCGM 101 6.4.8).
+    """Jointly normal input quantities with a covariance matrix (JCGM 101 6.4.8), or, with finite ``dof``, jointly
+    t-distributed (the multivariate t of a covariance estimated from data, JCGM 102 5.3.3; the univariate case
+    is JCGM 101 6.4.9).
 
     labels : names of the quantities, in the order of ``x`` and ``cov``
     x : estimates [units of each quantity]
     cov : covariance matrix [products of the units], symmetric positive
-        semi-definite
+        semi-definite; with finite ``dof`` the scale matrix of the t: the
+        covariance the linear method uses, with ``dof`` degrees of freedom
+        (its Monte Carlo draws have covariance dof / (dof - 2) cov, as a
+        ``StudentT`` has)
+    dof : degrees of freedom of ``cov`` (inf: known, a normal)
     """
 
     labels: tuple[str, ...]
     x: np.ndarray
     cov: np.ndarray
     kind: str = field(default="normal (joint)", init=False)
+    dof: float = math.inf
     _factor: np.ndarray = field(init=False, repr=False, compare=False)
 
-    def __init__(self, labels: Sequence[str], x: Sequence[float] | np.ndarray, cov: Sequence[Sequence[float]] | np.ndarray):
+    def __init__(self, labels: Sequence[str], x: Sequence[float] | np.ndarray, cov: Sequence[Sequence[float]] | np.ndarray,
+                 dof: float = math.inf):
         labels = tuple(labels)
         x_arr = np.asarray(x, dtype=float)
         cov_arr = np.asarray(cov, dtype=float)
@@ -235,6 +243,8 @@ class JointNormal:
             )
         if not (np.all(np.isfinite(x_arr)) and np.all(np.isfinite(cov_arr))):
             raise ValueError("JointNormal estimates and covariance must be finite")
+        if not float(dof) > 0:
+            raise ValueError(f"JointNormal dof must be > 0, got {dof!r}")
         if not np.allclose(cov_arr, cov_arr.T, rtol=1e-10, atol=0.0):
             raise ValueError("JointNormal covariance must be symmetric")
         eigval, eigvec = np.linalg.eigh(cov_arr)
@@ -247,7 +257,8 @@ class JointNormal:
         object.__setattr__(self, "labels", labels)
         object.__setattr__(self, "x", x_arr)
         object.__setattr__(self, "cov", cov_arr)
-        object.__setattr__(self, "kind", "normal (joint)")
+        object.__setattr__(self, "kind", "normal (joint)" if math.isinf(dof) else f"t (joint, nu={float(dof):.3g})")
+        object.__setattr__(self, "dof", float(dof))
         object.__setattr__(self, "_factor", factor)
 
     @property
@@ -256,6 +267,9 @@ class JointNormal:
         return np.sqrt(np.diag(self.cov))
 
     def sample(self, rng: np.random.Generator, n: int) -> np.ndarray:
-        """Draws of shape (n, len(labels))."""
+        """Draws of shape (n, len(labels)): normal, or multivariate t (a normal draw divided by one
+        sqrt(chi^2_nu / nu) per trial, shared by the group's quantities) for finite ``dof``."""
         z = rng.standard_normal((n, len(self.labels)))
+        if math.isfinite(self.dof):
+            z = z / np.sqrt(rng.chisquare(self.dof, n) / self.dof)[:, None]
         return self.x + z @ self._factor.T

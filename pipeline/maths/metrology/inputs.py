@@ -76,7 +76,7 @@ class InputSet:
         for group in self._joint:
             for i, label in enumerate(group.labels):
                 x, u = float(group.x[i]), float(np.sqrt(group.cov[i, i]))
-                members.append(_Member(label, x, u, math.inf, group.kind, f"{group.kind}(x={x:.6g}, u={u:.3g})"))
+                members.append(_Member(label, x, u, group.dof, group.kind, f"{group.kind}(x={x:.6g}, u={u:.3g})"))
         self._members = tuple(members)
         self._index = {m.label: i for i, m in enumerate(members)}
 
@@ -108,6 +108,14 @@ class InputSet:
         values = {m.label: m.x for m in self._members}
         values.update(self._constants)
         return values
+
+    def sources(self) -> list[tuple[list[int], float]]:
+        """The independent sources of uncertainty: (indices into ``labels``, degrees of freedom), one per
+        independent input and one per joint group (its inputs share one estimate of their covariance)."""
+        out: list[tuple[list[int], float]] = [([self._index[label]], float(dist.dof))
+                                              for label, dist in self._independent.items()]
+        out += [([self._index[label] for label in group.labels], float(group.dof)) for group in self._joint]
+        return out
 
     def covariance(self) -> np.ndarray:
         """Covariance matrix of the uncertain inputs, in the order of ``labels``."""

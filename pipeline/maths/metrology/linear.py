@@ -100,6 +100,22 @@ def welch_satterthwaite(contributions: np.ndarray, dofs: np.ndarray) -> float:
     return math.inf if denom == 0.0 else u4 / denom
 
 
+def _source_terms(inputs: InputSet, c: np.ndarray, cov: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Welch-Satterthwaite's terms per independent source: u_s(y) = sqrt(c_s^T V_s c_s) and nu_s.
+
+    GUM G.4.1 assumes independent inputs; a joint group's inputs share one
+    estimate of their covariance with one nu, so the group's whole
+    contribution is one term with that nu (Willink, Metrologia 44 (2007)
+    340), and groups are independent of one another.
+    """
+    contributions, dofs = [], []
+    for idx, nu in inputs.sources():
+        cs = c[idx]
+        contributions.append(math.sqrt(max(float(cs @ cov[np.ix_(idx, idx)] @ cs), 0.0)))
+        dofs.append(nu)
+    return np.array(contributions), np.array(dofs)
+
+
 K95 = 1.959963984540054
 """k for a 95 % coverage of a normal distribution, ``coverage_factor(inf)``: the one place it is written."""
 
@@ -176,7 +192,6 @@ def propagate_linear(
 
     cov = inputs.covariance()
     u_in = np.array([m.u for m in members])
-    dofs = np.array([m.dof for m in members])
     results: dict[str, LinearResult] = {}
     for out_name, c in jac.items():
         variance = float(c @ cov @ c) if members else 0.0
@@ -185,7 +200,7 @@ def propagate_linear(
         diag_var = float(np.sum(contributions**2))
         shares = contributions**2 / variance if variance > 0 else np.zeros_like(contributions)
         correlation_share = (variance - diag_var) / variance if variance > 0 else 0.0
-        dof = welch_satterthwaite(contributions, dofs)
+        dof = welch_satterthwaite(*_source_terms(inputs, c, cov))
         k_used = coverage_factor(dof, p) if k is None else float(k)
         budget = tuple(
             BudgetLine(m.label, m.x, m.u, m.dof, m.describe, float(c[j]), float(contributions[j]), float(shares[j]))

@@ -21,10 +21,12 @@ __all__ = ["Model", "evaluate_outputs"]
 Model = Callable[..., Union[np.ndarray, float, Mapping[str, Union[np.ndarray, float]]]]
 
 
-def evaluate_outputs(model: Model, values: Mapping[str, np.ndarray | float], n: int, name: str) -> tuple[dict[str, np.ndarray], bool]:
+def evaluate_outputs(model: Model, values: Mapping[str, np.ndarray | float], n: int, name: str, *,
+                     allow_nonfinite: bool = False) -> tuple[dict[str, np.ndarray], bool]:
     """Evaluate ``model(**values)``; return ({output name: array of shape (n,)}, single).
 
-    ``single`` is True when the model returned one array rather than a mapping.
+    ``single`` is True when the model returned one array rather than a mapping. A non-finite output raises
+    ModelError unless ``allow_nonfinite`` (the caller then handles those trials).
     """
     with np.errstate(all="ignore"):
         out = model(**values)
@@ -33,7 +35,7 @@ def evaluate_outputs(model: Model, values: Mapping[str, np.ndarray | float], n: 
     outputs: dict[str, np.ndarray] = {}
     for key, arr in raw.items():
         arr = np.broadcast_to(np.asarray(arr, dtype=float), (n,))
-        if not np.all(np.isfinite(arr)):
+        if not allow_nonfinite and not np.all(np.isfinite(arr)):
             bad = int(np.count_nonzero(~np.isfinite(arr)))
             raise ModelError(
                 f"model {getattr(model, '__name__', model)!r} returned {bad} non-finite value(s) "

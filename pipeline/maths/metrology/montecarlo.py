@@ -29,6 +29,7 @@ import numpy as np
 
 from pipeline.maths.metrology.inputs import InputLike, InputSet
 from pipeline.maths.metrology.intervals import CoverageInterval, interval_indices, numerical_tolerance, shortest_interval, symmetric_interval
+from pipeline.core.errors import ModelError
 from pipeline.maths.metrology.model import Model, evaluate_outputs
 
 __all__ = ["Stability", "MonteCarloResult", "propagate_monte_carlo", "block_size"]
@@ -146,6 +147,34 @@ class _BlockStats:
         )
 
 
+MAX_REDRAWN_SHARE = 0.001
+"""Largest share of a block's trials that may fall outside the model's domain and be drawn again."""
+
+
+def _block(model: Model, inputs: InputSet, rng: np.random.Generator, n: int, name: str,
+           redraw_outside: bool) -> tuple[dict[str, np.ndarray], bool]:
+    """``n`` trials of every output; with ``redraw_outside``, trials whose inputs fall outside the model's domain
+    (a non-finite output) are drawn again: the input distributions truncated to the domain, which a measurement
+    made in it implies (JCGM 101 6.4.1: what is known of a quantity, here that it is in the domain, shapes its
+    PDF). More than ``MAX_REDRAWN_SHARE`` of the block outside is an error, as without the option."""
+    outputs, single = evaluate_outputs(model, inputs.sample(rng, n), n, name, allow_nonfinite=redraw_outside)
+    if not redraw_outside:
+        return outputs, single
+    outputs = {key: np.array(y, dtype=float) for key, y in outputs.items()}      # writeable copies
+    bad = ~np.logical_and.reduce([np.isfinite(y) for y in outputs.values()])
+    if np.count_nonzero(bad) > MAX_REDRAWN_SHARE * n:
+        raise ModelError(f"model {getattr(model, '__name__', model)!r}: {np.count_nonzero(bad)} of {n} trials fall "
+                         "outside the model's domain (non-finite output), more than can be drawn again")
+    while bad.any():
+        idx = np.flatnonzero(bad)
+        more, _ = evaluate_outputs(model, inputs.sample(rng, idx.size), idx.size, name, allow_nonfinite=True)
+        ok = np.logical_and.reduce([np.isfinite(y) for y in more.values()])
+        for key, y in more.items():
+            outputs[key][idx[ok]] = y[ok]
+        bad[idx[ok]] = False
+    return outputs, single
+
+
 def _summarise(
     name: str, y: np.ndarray, p: float, *, seed: int, blocks: int, adaptive: bool,
     converged: bool, ndig: int, stability: Stability | None, keep_samples: bool,
@@ -182,6 +211,7 @@ def propagate_monte_carlo(
     name: str = "y",
     keep_samples: bool = False,
     interval: str = "symmetric",
+    redraw_outside: bool = False,
 ) -> MonteCarloResult | dict[str, MonteCarloResult]:
     """Propagate the input distributions through ``model`` by Monte Carlo.
 
@@ -198,6 +228,9 @@ def propagate_monte_carlo(
     keep_samples : keep the output trials in the result (memory: 8 bytes each)
     interval : "symmetric" or "shortest": the coverage interval whose endpoints the adaptive
         stopping rule checks (the one the caller reports; JCGM 101 7.9.4 e)
+    redraw_outside : draw again the trials whose inputs fall outside the model's domain
+        (a non-finite output; at most ``MAX_REDRAWN_SHARE`` of a block), for
+        inputs with unbounded tails such as a multivariate t pose
 
     Returns a MonteCarloResult, or a dict of them when the model returns a mapping.
     """
@@ -211,7 +244,7 @@ def propagate_monte_carlo(
     if trials is not None:
         if trials < 2:
             raise ValueError(f"trials must be >= 2, got {trials}")
-        outputs, single = evaluate_outputs(model, inputs.sample(rng, trials), trials, name)
+        outputs, single = _block(model, inputs, rng, trials, name, redraw_outside)
         results = {
             key: _summarise(key, y, p, seed=seed, blocks=1, adaptive=False, converged=True,
                             ndig=ndig, stability=None, keep_samples=keep_samples)
@@ -230,7 +263,7 @@ def propagate_monte_carlo(
     converged = False
     stability: dict[str, Stability] = {}
     while True:
-        outputs, single = evaluate_outputs(model, inputs.sample(rng, M), M, name)
+        outputs, single = _block(model, inputs, rng, M, name, redraw_outside)
         h += 1
         for key, y in outputs.items():
             stats.setdefault(key, _BlockStats()).add(y, lo_i, hi_i, interval)

@@ -20,9 +20,9 @@ agree. Two checks follow from that:
   noise alone is (1 - rho) times their mean covariance. Only the positive
   part of the difference is added (issue 30: the full scatter counted the
   fit noise twice). With about three overlapping windows that excess is an
-  estimate with about two degrees of freedom; it is added as a standard
-  uncertainty (no Student t: the samples' pose-dominated quantities already
-  have standardised errors with a robust SD of 0.4-0.6, docs/measurement.md).
+  estimate with about two degrees of freedom (the group's size less one),
+  combined with the fit's own by Welch-Satterthwaite (``combined_dof``):
+  the contour's ``dof``, which the measurement's t-distributed pose draws use.
 
 Distances are Mahalanobis distances over the fitted pose parameters.
 """
@@ -35,7 +35,7 @@ import numpy as np
 
 from pipeline.vision.contour.result import PipeContour
 
-__all__ = ["reconcile_windows", "GROSS_M2", "MIN_OVERLAP"]
+__all__ = ["reconcile_windows", "combined_dof", "GROSS_M2", "MIN_OVERLAP"]
 
 # Squared Mahalanobis distance beyond which two fits of overlapping frames cannot both be right
 # (a 10-sigma departure); moderate scatter below it goes into the reproducibility term instead.
@@ -108,7 +108,20 @@ def reconcile_windows(contours: dict[int, PipeContour], windows: dict[int, list[
         held = np.diag(contours[f].covariance) == 0
         excess[held, :] = 0.0
         excess[:, held] = 0.0
-        out[f] = dataclasses.replace(contours[f], covariance=contours[f].covariance + excess)
+        out[f] = dataclasses.replace(contours[f], covariance=contours[f].covariance + excess,
+                                     dof=combined_dof(contours[f].covariance, contours[f].dof, excess, len(group) - 1))
+    return out
+
+
+def combined_dof(fit: np.ndarray, nu_fit: float, excess: np.ndarray, nu_excess: float) -> float:
+    """Degrees of freedom of fit + excess: Welch-Satterthwaite (GUM G.4.1) on each fitted parameter's variance, the
+    smallest over the parameters (the covariance is one estimate; its least-known direction sets nu)."""
+    out = float("inf")
+    for a, b in zip(np.diag(fit), np.diag(excess)):
+        if a + b <= 0:
+            continue
+        denom = (a**2 / nu_fit if a > 0 else 0.0) + (b**2 / nu_excess if b > 0 else 0.0)
+        out = min(out, (a + b) ** 2 / denom if denom > 0 else float("inf"))
     return out
 
 

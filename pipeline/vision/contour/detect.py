@@ -169,7 +169,14 @@ def contour_from_candidates(candidates: list[FrameCandidates], camera_matrix: np
         problems.append(f"no ring is seen over more than {max(r.coverage_deg for r in found):.0f} degrees: "
                         "partial arcs do not fix the pose")
     return PipeContour(view, cov, sorted(found, key=lambda r: (r.frame, r.depth)), rms, len(pts), tuple(seed),
-                       problems, wall_u, sorted(set(deformed)))
+                       problems, wall_u, sorted(set(deformed)), pose_dof(len(rings), len(free)))
+
+
+def pose_dof(rings: int, fitted: int) -> float:
+    """Degrees of freedom of the fit's covariance: the rings are its independent observations (the residual
+    variance is scaled by points per ring), each fixing its own depth and two coordinates of the image, so
+    2 rings - (rings + fitted pose parameters) = rings - fitted, at least 1."""
+    return float(max(rings - fitted, 1))
 
 
 def wall_u_from_tolerance(height_mm: float, tolerance_mm: float) -> float:

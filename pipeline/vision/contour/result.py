@@ -19,6 +19,8 @@ the detected rings, or when u(p_H) exceeds ``MAX_RELATIVE_U`` p_H.
 
 from __future__ import annotations
 
+import math
+
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -55,6 +57,7 @@ class PlaneContour:
     polygon: np.ndarray            # the cross-section's contour, ideal image (n, 2) [px]
     confident: bool
     reasons: tuple[str, ...]       # why not confident (empty when confident)
+    dof: float = float("inf")      # degrees of freedom of u_p_H (Welch-Satterthwaite: the pose fit's, the wall's inf)
 
 
 @dataclass
@@ -70,6 +73,7 @@ class PipeContour:
     problems: list[str] = field(default_factory=list)
     wall_u: float = 0.0            # standard uncertainty of the wall's radial position against the profile [H]
     deformed: list[tuple[int, float]] = field(default_factory=list)   # (frame, depth [H]) of rings off the profile's shape
+    dof: float = float("inf")      # degrees of freedom of the covariance (a Type A estimate from the rings; detect.py)
 
     @property
     def confident(self) -> bool:
@@ -87,7 +91,8 @@ class PipeContour:
         t = float(np.mean([p.depth for p in planes]))
         return PlaneContour(planes[0].point, t, float(self.view.p_H(t)[0]), float(np.mean([p.u_p_H for p in planes])),
                             tuple(np.mean([p.dp_H_dpoint for p in planes], axis=0)), self.view.ring(t),
-                            all(p.confident for p in planes), tuple(dict.fromkeys(r for p in planes for r in p.reasons)))
+                            all(p.confident for p in planes), tuple(dict.fromkeys(r for p in planes for r in p.reasons)),
+                            min(p.dof for p in planes))
 
     def at_point(self, point, *, deformed_here: bool = False) -> PlaneContour:
         """The cross-section plane through the ideal wall point (x, y) [px], its p_H and u(p_H).
@@ -125,4 +130,5 @@ class PipeContour:
             reasons.append(f"the plane (depth {t:.2f} H) lies far outside the detected rings ({min(depths):.2f}-{max(depths):.2f} H)")
         if u > MAX_RELATIVE_U * p_H:
             reasons.append(f"u(p_H) is {100 * u / p_H:.1f} % of p_H")
-        return PlaneContour(tuple(q), t, p_H, u, tuple(dq), self.view.ring(t), not reasons, tuple(reasons))
+        dof = (u**4 / (u_fit2**2 / self.dof)) if u_fit2 > 0 and math.isfinite(self.dof) and math.isfinite(u) else math.inf
+        return PlaneContour(tuple(q), t, p_H, u, tuple(dq), self.view.ring(t), not reasons, tuple(reasons), dof)

@@ -94,7 +94,7 @@ def row(name: str, g: list[dict]) -> str:
              if off and math.isfinite(lo)]
     return (f"| {name} | {len(g)} | {100 * inside / len(g):.1f} % ({100 * lo:.1f}-{100 * hi:.1f}) | "
             f"{_fmt(b, b_lo, b_hi, '+.2f')} | {_fmt(sd, sd_lo, sd_hi, '.2f')} | "
-            f"{100 * tails / max(z.size, 1):.1f} % ({100 * t_lo:.1f}-{100 * t_hi:.1f}) | "
+            f"{100 * tails / max(z.size, 1):.1f} % ({max(100 * t_lo, 0.0):.1f}-{100 * t_hi:.1f}) | "
             f"{np.median(ratio) if ratio.size else math.nan:.2f} | {_fmt(w, w_lo, w_hi, '.2f')} | "
             f"{'off: ' + ', '.join(flags) if flags else ''} |")
 

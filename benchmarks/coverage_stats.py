@@ -155,8 +155,25 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("cases", type=Path, help="a JSON cache of benchmarks/verdicts.py --cache, "
                                                  "measurement_coverage.py --cache or mismatch_coverage.py --cache")
+    parser.add_argument("--worst", type=int, default=0, help="also list the N largest |z| with what they were")
     args = parser.parse_args()
-    report(json.loads(args.cases.read_text()), args.cases.name)
+    cases = json.loads(args.cases.read_text())
+    report(cases, args.cases.name)
+    if args.worst:
+        worst(cases, args.worst)
+
+
+def worst(cases: list[dict], n: int) -> None:
+    """The ``n`` quantities with the largest |z|: family, model, DN, depth, whether confident, and why not."""
+    ranked = sorted((c for c in cases if c["u"]), key=lambda c: -abs(c["value"] - c["truth"]) / c["u"])[:n]
+    print(f"\nthe {len(ranked)} largest |z|:\n")
+    print("| z | method | model | set / package | DN | depth [m] | value | truth | U95 | confident | warnings |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|")
+    for c in ranked:
+        print(f"| {(c['value'] - c['truth']) / c['u']:+.1f} | {c['method']} | {c.get('model', 'perspective')} | "
+              f"{c.get('package', c.get('set', ''))} {c.get('kind', '')} | {c['height_mm']:g} | "
+              f"{c.get('depth_mm', float('nan')) / 1000:.2f} | {c['value']:.3g} | {c['truth']:.3g} | {c['U95']:.3g} | "
+              f"{'yes' if c['confident'] else 'no'} | {c.get('reasons', '')[:120]} |")
 
 
 if __name__ == "__main__":

@@ -17,7 +17,10 @@ For each case, a circular pipe and a camera mount are drawn; then
 The pose is fitted on the one window (no other windows of a video to check it against). Both models; the
 cache holds what ``benchmarks/coverage_stats.py`` tabulates.
 
-    python benchmarks/mismatch_coverage.py [--cases 20] [--seed 11] [--cache mismatch.json]
+``--only camera`` (or ``height``, ``clicks``) keeps only that departure, with the same draws, to tell which
+one a miss comes from.
+
+    python benchmarks/mismatch_coverage.py [--cases 20] [--seed 11] [--cache mismatch.json] [--only camera ...]
 """
 
 from __future__ import annotations
@@ -47,6 +50,7 @@ from measurement_coverage import KINDS, generate        # benchmarks/measurement
 
 SAMPLES = Path(__file__).resolve().parent.parent / "sample_videos"
 DECLARED_CLICK_PX = 0.7
+MISMATCHES = ("camera", "height", "clicks")
 CODE_OF = {"length": "BAB", "axial": "BAJ", "step": "BAJ", "intrusion": "BAG", "water_level": "BDD",
            "deposit_area": "BBC", "deformation": "BAA"}
 
@@ -56,6 +60,8 @@ def main() -> None:
     ap.add_argument("--cases", type=int, default=20, help="pipes and camera mounts (8 quantities each)")
     ap.add_argument("--seed", type=int, default=11)
     ap.add_argument("--cache", type=Path, help="write the measured quantities here (JSON)")
+    ap.add_argument("--only", nargs="+", choices=MISMATCHES, default=MISMATCHES,
+                    help="apply only these departures (the same draws are made, so the cases are the same)")
     args = ap.parse_args()
     certs = [load_certificate(SAMPLES / "certificates" / n) for n in ("SYN-720x576.json", "SYN-1280x720.json")]
     rng = np.random.default_rng(args.seed)
@@ -63,10 +69,13 @@ def main() -> None:
     t0 = time.perf_counter()
     for i in range(args.cases):
         cert = certs[i % 2]
-        true_cam = drawn_certificate(cert, rng)
+        true_cam = drawn_certificate(cert, rng) if "camera" in args.only else cert
+        if "camera" not in args.only:
+            drawn_certificate(cert, rng)                 # the same draws, so the cases stay the same
         H_nominal = float(rng.choice([300.0, 400.0, 600.0]))
         tolerance = 0.01 * H_nominal
         H = drawn_height(H_nominal, tolerance, rng)
+        H = H if "height" in args.only else H_nominal
         scene = Scene(Pipe("circular", H, "concrete", 1000.0))
         offset = (float(rng.uniform(-0.08, 0.08) * H), float(rng.uniform(-0.1, 0.05) * H))
         yaw, pitch = float(rng.uniform(-2, 2)), float(rng.uniform(-2, 2))
@@ -89,7 +98,10 @@ def main() -> None:
                 continue
             if np.any(clicks < 5) or np.any(clicks[:, 0] > W - 6) or np.any(clicks[:, 1] > Hh - 6):
                 continue
-            clicks = clicks + click_noise(DECLARED_CLICK_PX, clicks.shape, rng)
+            noise = click_noise(DECLARED_CLICK_PX, clicks.shape, rng)
+            if "clicks" not in args.only:                # the declared normal noise, from draws of its own
+                noise = DECLARED_CLICK_PX * np.random.default_rng([args.seed, i, made]).standard_normal(clicks.shape)
+            clicks = clicks + noise
             (a, ua), (b, ub) = (ideal_point_and_u(und, p, DECLARED_CLICK_PX, cert.image_coordinate_u_px)
                                 for p in clicks)
             q = MarkedQuantity(CODE_OF[method], char1, "Q1", method, a, b, ua, ub)
@@ -114,7 +126,8 @@ def main() -> None:
           f"{time.perf_counter() - t0:.0f} s\n")
     if args.cache:
         args.cache.write_text(json.dumps(records))
-    coverage_stats.report(records, f"benchmarks/mismatch_coverage.py --cases {args.cases} --seed {args.seed}")
+    only = "" if tuple(args.only) == MISMATCHES else " --only " + " ".join(args.only)
+    coverage_stats.report(records, f"benchmarks/mismatch_coverage.py --cases {args.cases} --seed {args.seed}{only}")
 
 
 if __name__ == "__main__":

@@ -74,8 +74,12 @@ def main() -> None:
         z = np.full(5, np.nan)
         z[free] = e / np.sqrt(np.diag(C))
         rows.append((z, d2, len(free), len(c.rings), c.dof, c.confident))
-        print(f"case {i + 1}/{args.cases}: rings {len(c.rings)}, nu {c.dof:g}, d2 {d2:.2f} over {len(free)}, "
-              f"z {np.round(z, 2)}, confident {c.confident} ({time.perf_counter() - t0:.0f} s)", file=sys.stderr)
+        err = c.view.pose - truth
+        print(f"case {i + 1}/{args.cases}: rings {len(c.rings)}, nu {c.dof:g}, RMS {c.rms_px:.2f} px, d2 {d2:.2f} "
+              f"over {len(free)}, z {np.round(z, 2)}, error ox {100 * err[0]:+.2f} % H, oy {100 * err[1]:+.2f} % H, "
+              f"yaw {np.degrees(err[2]):+.2f} deg, pitch {np.degrees(err[3]):+.2f} deg, ring depths "
+              f"{min(r.depth for r in c.rings):.2f}-{max(r.depth for r in c.rings):.2f} H, "
+              f"confident {c.confident} ({time.perf_counter() - t0:.0f} s)", file=sys.stderr)
     print(f"{len(rows)} poses of {args.cases} cases{' (camera drawn from the certificate)' if args.mismatch else ''}, "
           f"{sum(r[5] for r in rows)} confident, in {time.perf_counter() - t0:.0f} s")
     for label, keep in (("all", lambda r: True), ("confident", lambda r: r[5])):

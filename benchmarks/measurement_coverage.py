@@ -9,7 +9,8 @@ pipe contour fitted on the video's frames, marks undistorted, both models):
   gaps, radial steps, intrusions, water lines, deposit surfaces,
   deformations) whose true world points (the as-built wall, displaced
   joints included; deformed stretches and spans across a displaced joint avoided) are projected with the true
-  camera pose and marked with the samples' click noise (0.7 px).
+  camera pose and marked with the samples' click noise (0.7 px); on the pipe after a displaced joint the wall
+  term is widened by its step, as the pipeline does for an observation logged after one.
 
 Prints per model: the share of true values inside [low, high] (target
 93-98 %), the median |error| / U95 and the share per method; the
@@ -29,6 +30,7 @@ contractors deliver them (``pipeline/synth/delivery.py``; PyAV, in the
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import csv
 import json
 import math
@@ -115,6 +117,15 @@ KINDS = ("chord", "along", "axial", "step", "intrusion", "water_level", "deposit
 
 def deformed(scene, z: float) -> bool:
     return any(d.z_from_mm - d.ramp_mm - 50 <= z <= d.z_to_mm + d.ramp_mm + 50 for d in scene.of_type(Deformation))
+
+
+def on_displaced_pipe(scene, pts: np.ndarray) -> float:
+    """The largest radial step [mm] of a displaced joint whose displaced pipe (the unit after it) holds one of the
+    points; 0 if none. The pipeline widens the wall term by it for an observation logged after a displaced joint
+    (``measurement.wall.contour_under``); the generated quantities get the same, from the truth."""
+    unit = scene.pipe.unit_length_mm
+    return max((j.step_mm for j in scene.of_type(DisplacedJoint)
+                if np.any((pts[:, 2] >= j.joint * unit) & (pts[:, 2] < (j.joint + 1) * unit))), default=0.0)
 
 
 def across_displaced_joint(scene, pts: np.ndarray) -> bool:
@@ -211,8 +222,11 @@ def collect(per_frame: int = 17, seed: int = 7, codec: str | None = None, models
                 code = {"length": "BAB", "axial": "BAJ", "step": "BAJ", "intrusion": "BAG", "water_level": "BDD",
                         "deposit_area": "BBC", "deformation": "BAA"}[method]
                 q = MarkedQuantity(code, char1, "Q1", method, a, b, ua, ub)
+                step = on_displaced_pipe(spec.scene, pts)
+                here = contour if step == 0 else dataclasses.replace(
+                    contour, wall_u=math.hypot(contour.wall_u, step / math.sqrt(3.0) / header.height_mm))
                 try:
-                    results = measure_both(q, contour, cert, header, seed=int(rng.integers(1 << 31)), models=models)
+                    results = measure_both(q, here, cert, header, seed=int(rng.integers(1 << 31)), models=models)
                 except Exception as exc:       # a point the fitted pose cannot place: counted, not hidden
                     print(f"{folder.name} frame {frame} {kind}: not measured: {exc}", file=sys.stderr)
                     cases.append(("generated", folder.name, kind, method, true_value, None, code, char1, header))

@@ -40,6 +40,11 @@ the inputs, so a shared input is drawn once per trial for all frames, and
 the interval, U95, class-edge shares, resolution flag, confidence and
 reasons follow ``quantity._result``, the rules of ``measure_quantity``.
 With one view the result is ``measure_quantity``'s.
+
+Left as independent between frames: the orthographic model's ``p_H`` (each
+frame's own plane; with one pose fit their errors are correlated, so the
+orthographic combination of such frames understates u: prefer the
+perspective model, whose pose is shared explicitly).
 """
 
 from __future__ import annotations

@@ -45,11 +45,16 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from pipeline.judgement.grading import LIKELY, applicable_bands, class_index, class_range, grade, scheme  # noqa: E402
 from pipeline.judgement.grading.probability import result_cdf  # noqa: E402
 from pipeline.judgement.verdicts.log_check import (P_AGREE, P_DISAGREE, RESOLUTION, TOLERANCE_STEPS,  # noqa: E402
-                                                    UNTRUSTED_INFLATION, check_logged)
+                                                    UNTRUSTED_INFLATION, check_logged, logging_steps)
 from coverage_stats import wilson  # noqa: E402
 
 ERROR_SIZES = (0.5, 1.0, 2.0, 3.0, 5.0)
 _FIELDS = ("unit", "value", "u", "U95", "low", "high", "k", "mc_trials", "confident")
+
+
+def _fine(c: dict) -> float:
+    """The finest customary logging step [unit] of a case's code: honest logs are the truth rounded to it."""
+    return logging_steps(c["unit"], c["code"])[-1]
 
 
 def measured_cases(per_frame: int, seed: int, cache: Path | None) -> list[dict]:
@@ -97,10 +102,10 @@ def log_checks(cases, rng) -> None:
         bands, _ = applicable_bands(s, c["code"], c["char1"], c["unit"], c["height_mm"], c["material"])
         return check_logged(lv, c["unit"], value=c["value"], U95=c["U95"], unit=c["unit"], confident=confident,
                             cdf=result_cdf(c["value"], c["u"], c["low"], c["high"], c["k"]),
-                            class_range=class_range(bands, lv, len(s.classes)) if bands else None)
+                            class_range=class_range(bands, lv, len(s.classes)) if bands else None, code=c["code"])
 
     for c in cases:
-        r = RESOLUTION[c["unit"]]
+        r = _fine(c)
         logged = _round(c["truth"], r)
         honest.append((c, check(c, logged, c["confident"])))
         for size in ERROR_SIZES:
@@ -111,14 +116,14 @@ def log_checks(cases, rng) -> None:
             wrong.append((c, check(c, bad, c["confident"]), bad, size, bad != logged))
     alarms = [ch.verdict == "disagrees" for _, ch in honest]
     conf = [ch.verdict == "disagrees" for c, ch in honest if c["confident"]]
-    print(f"honest logs (truth rounded: mm to {RESOLUTION['mm']:g} mm, % to {RESOLUTION['%']:g} %): "
+    print(f"honest logs (truth rounded: mm to {RESOLUTION['mm'][-1]:g} mm, % to {RESOLUTION['%'][-1]:g} %): "
           f"{len(honest)} quantities of {len(set((c['code'], c['char1']) for c in cases))} code/characterisations; "
           f"false alarms {100 * np.mean(alarms):.1f} % (target <= 5 %); among the {len(conf)} confident "
           f"{100 * np.mean(conf):.1f} %; agrees {sum(ch.verdict == 'agrees' for _, ch in honest)}, "
           f"undecided {sum(ch.verdict == 'undecided' for _, ch in honest)} (agrees: P(right) >= {P_AGREE:g}; "
           f"disagrees: P(right) <= {P_DISAGREE:g} and E_n > 1)")
     agreed = [ch.risk for _, ch in honest + [(c, ch) for c, ch, *_ in wrong] if ch.verdict == "agrees"]
-    accepted = [abs(bad - c["truth"]) / RESOLUTION[c["unit"]] for c, ch, bad, size, differs in wrong
+    accepted = [abs(bad - c["truth"]) / _fine(c) for c, ch, bad, size, differs in wrong
                 if ch.verdict == "agrees" and differs]
     if agreed:
         print(f"  'agrees' on {len(agreed)} logs (honest and wrong): stated false-acceptance risk mean "
@@ -132,7 +137,7 @@ def log_checks(cases, rng) -> None:
               f"{sum(ch.verdict == 'disagrees' for c, ch in honest if not c['confident'])} "
               f"(their u is widened x{UNTRUSTED_INFLATION:g} first)")
     big = [(c, ch) for c, ch, bad, size, differs in wrong
-           if differs and abs(bad - c["truth"]) > 2 * c["U95"] + RESOLUTION[c["unit"]] / 2]
+           if differs and abs(bad - c["truth"]) > 2 * c["U95"] + _fine(c) / 2]
     big_conf = [ch for c, ch in big if c["confident"]]
     print(f"wrong logs, |logged - truth| > 2 U95 + r/2 (beyond the rounding): {len(big)}; detected (disagrees) "
           f"{100 * np.mean([ch.verdict == 'disagrees' for _, ch in big]):.1f} % (target >= 90 %); among the "
@@ -186,25 +191,29 @@ def operator_errors(cases, rng) -> None:
         bands, _ = applicable_bands(s, c["code"], c["char1"], c["unit"], c["height_mm"], c["material"])
         return check_logged(lv, c["unit"], value=c["value"], U95=c["U95"], unit=c["unit"], confident=c["confident"],
                             cdf=result_cdf(c["value"], c["u"], c["low"], c["high"], c["k"]),
-                            class_range=class_range(bands, lv, len(s.classes)) if bands else None).verdict
+                            class_range=class_range(bands, lv, len(s.classes)) if bands else None, code=c["code"]).verdict
 
     def clip(c, lv):
         return min(max(lv, 0.0), 100.0) if c["unit"] == "%" else max(lv, 0.0)
 
     rows: list[tuple[str, bool, list[str]]] = []
     for unit in ("mm", "%"):
-        r = RESOLUTION[unit]
-        rows.append((f"honest, {unit} rounded to {r:g} {unit} (the unit's step)", True,
-                     [check(c, _round(c["truth"], r)) for c in cases if c["unit"] == unit]))
+        rows.append((f"honest, {unit} rounded to the code's finest customary step", True,
+                     [check(c, _round(c["truth"], _fine(c))) for c in cases if c["unit"] == unit]))
     for unit, step in COARSE_STEPS.items():
-        rows.append((f"honest, {unit} rounded to {step:g} {unit} (coarser than the step)", True,
-                     [check(c, _round(c["truth"], step)) for c in cases if c["unit"] == unit]))
+        # rounded to a step the code's practice allows (water levels in tens) or coarser than any it allows
+        for customary in (True, False):
+            got = [check(c, _round(c["truth"], step)) for c in cases
+                   if c["unit"] == unit and (step in logging_steps(unit, c["code"])) == customary]
+            rows.append((f"honest, {unit} rounded to {step:g} {unit} ("
+                         + ("a customary step of the code" if customary else "coarser than the code's steps") + ")",
+                         True, got))
     one_class = []
     for c in cases:
         bands, _ = applicable_bands(s, c["code"], c["char1"], c["unit"], c["height_mm"], c["material"])
         if not bands:
             continue
-        r = RESOLUTION[c["unit"]]
+        r = _fine(c)
         lo, hi = class_range(bands, c["truth"], len(s.classes))
         # the value just across the nearer class edge, rounded to the step away from the truth's class
         side = hi if (hi - c["truth"]) < (c["truth"] - lo) or not math.isfinite(lo) else lo
@@ -219,7 +228,7 @@ def operator_errors(cases, rng) -> None:
     rows.append(("one class off (the nearest value across a class edge, rounded)", False, one_class))
     for unit, sizes in FIXED_ERRORS.items():
         for size in sizes:
-            r = RESOLUTION[unit]
+            r = RESOLUTION[unit][-1]
             got = []
             for c in cases:
                 if c["unit"] != unit:
@@ -231,7 +240,7 @@ def operator_errors(cases, rng) -> None:
     for share in RELATIVE_ERRORS:
         got = []
         for c in cases:
-            r = RESOLUTION[c["unit"]]
+            r = _fine(c)
             lv = clip(c, _round(c["truth"] * (1.0 + rng.choice((-1.0, 1.0)) * share), r))
             if abs(lv - c["truth"]) > TOLERANCE_STEPS * r:
                 got.append(check(c, lv))
@@ -243,8 +252,8 @@ def operator_errors(cases, rng) -> None:
     for name, honest, verdicts in rows:
         if verdicts:
             print(_family_row(name, honest, verdicts))
-    for what, keep in (("false-accusation rate (honest logs called disagrees), logs to the unit's step",
-                        lambda name, h: h and "the unit's step" in name),
+    for what, keep in (("false-accusation rate (honest logs called disagrees), logs to a customary step",
+                        lambda name, h: h and "customary step" in name),
                        ("false-accusation rate, all honest families", lambda name, h: h),
                        ("detection rate (wrong logs called disagrees), all wrong families", lambda name, h: not h)):
         verdicts = [v for name, h, vs in rows if keep(name, h) for v in vs]
@@ -265,7 +274,7 @@ def grade_checks(cases) -> None:
             continue
         cdf = result_cdf(c["value"], c["u"], c["low"], c["high"], c["k"])
         g = grade(s, c["code"], c["char1"], unit=c["unit"], dn_mm=c["height_mm"], material=c["material"],
-                  logged=_round(c["truth"], RESOLUTION[c["unit"]]), cdf=cdf)
+                  logged=_round(c["truth"], _fine(c)), cdf=cdf)
         true = s.classes[class_index(bands, c["truth"], len(s.classes))]
         true_likely.append(g.probabilities[true] >= LIKELY)
         most_true.append(g.most_probable == true)
@@ -280,7 +289,7 @@ def grade_checks(cases) -> None:
           f"{100 * np.mean(most_true):.1f} %, the honest rounded log's class in {100 * np.mean(log_true):.1f} %")
     for unit, pairs in sorted(per_unit.items()):
         m, lg, v = np.mean(pairs, axis=0)
-        print(f"  in {unit:2s} (logged to {RESOLUTION[unit]:g} {unit}): {len(pairs)} quantities, most probable class "
+        print(f"  in {unit:2s} (logged to {RESOLUTION[unit][-1]:g} {unit}): {len(pairs)} quantities, most probable class "
               f"true {100 * m:.1f} %, honest log's class true {100 * lg:.1f} % (the measured value's class "
               f"{100 * v:.1f} %)")
     reliability(np.array(stated), np.array(happened))

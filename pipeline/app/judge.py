@@ -81,7 +81,7 @@ def add_verdicts(result, header, observations, track, scheme_key: str | None = N
         c = check_logged(logged, logged_unit, value=m.get("value"), U95=m.get("U95"), unit=m.get("unit"),
                          confident=m.get("confident"), status=m.get("status", "error"),
                          upper_bound=m.get("high") if m.get("below_resolution") is True else None,
-                         cdf=_distribution(m), class_range=_class_range(s, m, header, logged))
+                         cdf=_distribution(m), class_range=_class_range(s, m, header, logged), code=o.code)
         m.update(logged_value=c.logged, logged_resolution=c.resolution, log_check=c.verdict,
                  log_check_reason=c.reason, log_difference=c.difference, E_n=c.E_n, log_tolerance=c.tolerance,
                  log_conformity=c.conformity, log_check_risk=c.risk)

@@ -37,7 +37,7 @@ from pipeline.measurement.quantity import MODELS, MarkedQuantity, QuantityResult
 from pipeline.measurement.wall import contour_under
 from pipeline.core.numeric import finite_number
 from pipeline.judgement.grading import class_edges, scheme as grading_scheme
-from pipeline.judgement.verdicts.log_check import conformity_interval, logging_resolution
+from pipeline.judgement.verdicts.log_check import conformity_interval, logging_resolutions
 from pipeline.app.judge import add_verdicts, logged_survey
 from pipeline.app.load import LogOnly, load_delivery
 from pipeline.app.locate import locate
@@ -145,7 +145,8 @@ def measure_package(folder: str | os.PathLike, *, certificates: str | os.PathLik
         logged = finite_number(obs.q1 if quantity == "Q1" else obs.q2)
         spec = obs.quantification(quantity)
         unit = (obs.q1_unit if quantity == "Q1" else obs.q2_unit) or (spec.unit if spec else "")
-        ends = conformity_interval(logged, logging_resolution(logged, unit)) if logged is not None else ()
+        ends = tuple(e for step in logging_resolutions(logged, unit, obs.code)
+                     for e in conformity_interval(logged, step)) if logged is not None else ()
         return tuple(sorted({*graded, *ends}))
 
     def ideal(frame: int) -> np.ndarray:

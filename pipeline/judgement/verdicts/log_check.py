@@ -88,7 +88,8 @@ from typing import Callable
 
 from pipeline.maths.metrology import K95
 
-__all__ = ["RESOLUTION", "CODE_STEPS", "LogCheck", "logging_resolution", "logging_resolutions", "logging_steps", "check_logged", "U_RES_FACTOR", "finite_number",
+__all__ = ["RESOLUTION", "CODE_STEPS", "LogCheck", "logging_resolution", "logging_resolutions",
+           "logging_steps", "check_logged", "U_RES_FACTOR", "finite_number",
            "TOLERANCE_STEPS", "P_AGREE", "P_DISAGREE", "UNTRUSTED_INFLATION", "conformity_interval"]
 
 # customary logging steps per unit, coarsest first (module docstring)

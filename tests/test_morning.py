@@ -71,6 +71,49 @@ def test_the_summary_ranks_failed_deliveries_then_grades_and_names_each_report(t
     assert capsys.readouterr().out.splitlines()[0].startswith("1. B1, inspection BAD-1: delivery failed")
 
 
+def test_the_morning_list_is_grouped_by_delivery_the_most_urgent_delivery_first(tmp_path, capsys):
+    """Sections of one delivery stand together; deliveries are ranked by their most urgent section, so the first
+    entry is still the night's most urgent one (ungrouped, the package P1's EZ2 came between D1's EZ1 and EZ3)."""
+    data = tmp_path / "out" / "dataset"
+    for iid, delivery, grade, disagree in (("D1-A", "D1", "EZ3", False), ("D1-B", "D1", "EZ1", True),
+                                           ("P1", None, "EZ2", False)):
+        inspection, observations, measurements, thumbnails = example_inspection(iid, n_observations=3)
+        inspection.update(section_id=iid, section_grade=grade, section_grade_probability=0.9, grading_scheme="vsa-2023",
+                          delivery_id=delivery, status="ok")
+        for m in measurements:
+            m.update(log_check="agrees", below_resolution=False, grading_scheme="vsa-2023")
+        for o in observations:
+            o.update(grade=grade, grading_scheme="vsa-2023")
+        if disagree:
+            measurements[1].update(log_check="disagrees", logged_value=10.0, log_difference=-3.0, E_n=3.0)
+        write_inspection(data, inspection, observations, measurements, thumbnails)
+    write_inspection(data, {"inspection_id": "D2-A", "inspection_date": dt.date(2026, 11, 20), "status": "failed",
+                            "section_id": "D2-A", "delivery_id": "D2", "error": "video.mp4: no such file",
+                            "problems": []}, [], [], [])
+    rows = [{"package": i, "inspection_id": i, "status": s, "quantities": 3, "error": "", "processed": True,
+             "delivery": d} for i, s, d in (("D1-A", "ok", "D1"), ("D1-B", "ok", "D1"), ("P1", "ok", None),
+                                            ("D2-A", "failed", "D2"))]
+    reports = tmp_path / "out" / "reports"
+    reports.mkdir()
+    pdf = render_night_summary(rows, data, reports / "summary-2026-11-21.pdf", night=dt.date(2026, 11, 21))
+    listed = read_summary_csv(reports / "summary-2026-11-21.csv")
+    assert [(r["rank"], r["inspection_id"], r["delivery_id"]) for r in listed] == [
+        (1, "D2-A", "D2"), (2, "D1-B", "D1"), (3, "D1-A", "D1"), (4, "P1", "")]
+    text = " ".join(_text(pdf))
+    assert "Most in need of a person: D2-A: the delivery failed" in text
+    headings = ["Delivery D2: 1 section (0 measured, 0 log-only, 1 failed)",
+                "Delivery D1: 2 sections (2 measured, 0 log-only, 0 failed)", "Package folder P1"]
+    assert all(h in text for h in headings) and [text.index(h) for h in headings] == sorted(
+        text.index(h) for h in headings)
+    capsys.readouterr()
+    assert main(["summary", "--data", str(tmp_path / "out")]) == 0
+    printed = capsys.readouterr().out.splitlines()
+    assert printed[0] == headings[0] and printed[1].startswith("  1. D2-A") and printed[2] == headings[1]
+    assert [line.split(".")[0].strip() for line in printed if line.startswith("  ")] == ["1", "2", "3", "4"]
+    assert main(["summary", "--data", str(tmp_path / "out"), "--json"]) == 0
+    assert [e["inspection_id"] for e in json.loads(capsys.readouterr().out)] == ["D2-A", "D1-B", "D1-A", "P1"]
+
+
 def test_report_takes_a_section_id_as_the_summary_lists_it(tmp_path, capsys):
     data, _ = _night(tmp_path)
     assert main(["report", "W1", "--data", str(tmp_path / "out"), "--out", str(tmp_path / "w1.pdf")]) == 0

@@ -7,6 +7,10 @@ One entry per stored inspection (and per package refused unread), ranked:
 3. then by what needs a person: contractor's values the measurement contradicts, and observations the image
    could not decide (below resolution, or a check left undecided), most first.
 
+When deliveries land, the list is grouped by delivery: a delivery's sections stand together, in the order above,
+and the groups are ranked by their first section (the one of the group that most needs a person), so the list's
+first entry is still the night's most urgent one. A package folder is a delivery of its own section.
+
 Each entry says its grade, the distribution of its observations' classes, its counts, what to do and where its
 report is. The nightly summary (PDF), ``summary.csv`` (``pipeline.formats.tabular.write_summary_csv``) and
 ``pipegauge summary`` all show this list (docs/reports.md).
@@ -24,7 +28,7 @@ from pipeline.core.numeric import is_missing
 from pipeline.judgement.grading import SCHEMES, scheme
 from pipeline.store import file_stem, read_records
 
-__all__ = ["SectionEntry", "morning_list", "class_rank", "FAILED_ACTION"]
+__all__ = ["SectionEntry", "morning_list", "class_rank", "by_delivery", "group_heading", "FAILED_ACTION"]
 
 FAILED_ACTION = ("correct the delivery as the reason says and deliver it again; the next night measures it anew")
 
@@ -159,10 +163,31 @@ def morning_list(data: str | os.PathLike, *, inspection_ids: Sequence[str] | Non
                                     f"the delivery was refused unread: {_text(r.get('error'))}",
                                     "give each package its own folder and package id inside the inbox, and deliver "
                                     "it again", "", _text(r.get("error"))))
-    entries.sort(key=_rank_key)
+    entries = [e for group in by_delivery(sorted(entries, key=_rank_key)) for e in group]
     for k, e in enumerate(entries, start=1):
         e.rank = k
     return entries
+
+
+def by_delivery(entries: Sequence[SectionEntry]) -> list[list[SectionEntry]]:
+    """Ranked entries grouped by their delivery: each group in its entries' order, the groups in the order of their
+    first entry; an entry without a delivery (a package folder) is a group of its own."""
+    groups: dict[str, list[SectionEntry]] = {}
+    for e in entries:
+        groups.setdefault(e.delivery_id or f"\0{e.inspection_id}", []).append(e)
+    return list(groups.values())
+
+
+def group_heading(group: Sequence[SectionEntry]) -> str:
+    """A group of ``by_delivery`` in words: 'Delivery D7: 3 sections (1 measured, 1 log-only, 1 failed)', or
+    'Package folder S01-circular-clean' for an entry without a delivery."""
+    first = group[0]
+    if not first.delivery_id:
+        return f"Package folder {first.inspection_id}"
+    failed = sum(e.status == "failed" for e in group)
+    log_only = sum(e.status == "log-only" for e in group)
+    return (f"Delivery {first.delivery_id}: {_n(len(group), 'section', 'sections')} ({len(group) - failed - log_only} "
+            f"measured, {log_only} log-only, {failed} failed)")
 
 
 def _rank_key(e: SectionEntry) -> tuple:

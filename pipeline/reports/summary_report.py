@@ -20,8 +20,8 @@ from pipeline.domain.results import MeasurementRecord
 from pipeline.store import read_records
 from pipeline.domain.value_text import format_record     # the one place a value and its interval are written
 from pipeline.formats.tabular import write_summary_csv
-from pipeline.reports.morning import SectionEntry, class_rank as _class_rank, morning_list
-from pipeline.reports.pdf import TABLE_STYLE, build_pdf, safe_text, styles
+from pipeline.reports.morning import SectionEntry, by_delivery, class_rank as _class_rank, group_heading as _group_heading, morning_list
+from pipeline.reports.pdf import ACCENT, TABLE_STYLE, build_pdf, safe_text, styles
 from pipeline.reports.verdict_text import grade_text
 
 __all__ = ["render_night_summary", "worst_observations", "log_disagreements", "summary_csv_path"]
@@ -105,6 +105,20 @@ def _first_line(entries: list[SectionEntry]) -> str:
     return "Most in need of a person: " + entries[0].headline()
 
 
+def _entry_row(e: SectionEntry, st) -> list:
+    """One morning-list entry as a row of the summary's table."""
+    counts_text = ("-" if e.status == "failed" else f"{e.observations} rows, {e.measured} measured"
+                   + (f"; classes {e.grades}" if e.grades else ""))
+    return [Paragraph(str(e.rank), st["cell"]),
+            Paragraph(safe_text(e.section, 120) + "<br/>" + safe_text(e.inspection_id, 80)
+                      + (f"<br/>delivery {safe_text(e.delivery_id, 60)}" if e.delivery_id else ""), st["cell"]),
+            Paragraph(safe_text(e.grade or ("failed" if e.status == "failed" else "-")), st["cell"]),
+            Paragraph(safe_text(counts_text, 200), st["cell"]),
+            Paragraph(safe_text(e.needs_person or "nothing", 500), st["cell"]),
+            Paragraph(safe_text(e.action, 300), st["cell"]),
+            Paragraph(safe_text(Path(e.report).name if e.report else "-", 80), st["cell"])]
+
+
 def render_night_summary(rows: Sequence[dict], data: str | os.PathLike, path: str | os.PathLike, *,
                          night: dt.date | None = None, reports: str | os.PathLike | None = None) -> Path:
     """The summary of one run: ``rows`` are the run's package rows (package, inspection_id, status, error, ...).
@@ -136,24 +150,24 @@ def render_night_summary(rows: Sequence[dict], data: str | os.PathLike, path: st
              Paragraph("Failed or refused deliveries first (nothing of them is known until they are fixed), then by "
                        "the section's grade, the worst class first, then by the observations that need a person: "
                        "contractor's values the measurement contradicts, and observations the image could not decide "
-                       f"(below resolution, or a check left undecided). The same list: "
+                       "(below resolution, or a check left undecided)"
+                       + (". Grouped by delivery: a delivery's sections together, the delivery whose section most "
+                          "needs a person first" if any(e.delivery_id for e in entries) else "")
+                       + f". The same list: "
                        f"{safe_text(summary_csv_path(path).name)} beside this file, and `pipegauge summary`.",
                        st["small"]), Spacer(1, 1.5 * mm)]
     table = [[Paragraph(h, st["cell"]) for h in ("#", "Section / inspection", "Grade", "Observations", "Needs a person",
                                                  "Action", "Report")]]
-    for e in entries:
-        counts_text = ("-" if e.status == "failed" else f"{e.observations} rows, {e.measured} measured"
-                       + (f"; classes {e.grades}" if e.grades else ""))
-        table.append([Paragraph(str(e.rank), st["cell"]),
-                      Paragraph(safe_text(e.section, 120) + "<br/>" + safe_text(e.inspection_id, 80)
-                                + (f"<br/>delivery {safe_text(e.delivery_id, 60)}" if e.delivery_id else ""), st["cell"]),
-                      Paragraph(safe_text(e.grade or ("failed" if e.status == "failed" else "-")), st["cell"]),
-                      Paragraph(safe_text(counts_text, 200), st["cell"]),
-                      Paragraph(safe_text(e.needs_person or "nothing", 500), st["cell"]),
-                      Paragraph(safe_text(e.action, 300), st["cell"]),
-                      Paragraph(safe_text(Path(e.report).name if e.report else "-", 80), st["cell"])])
+    group_rows = []
+    grouped = any(e.delivery_id for e in entries)
+    for group in by_delivery(entries):
+        if grouped:
+            group_rows.append(len(table))
+            table.append([Paragraph(safe_text(_group_heading(group), 300), st["cell"])] + [""] * 6)
+        table += [_entry_row(e, st) for e in group]
     t = Table(table, colWidths=[6 * mm, 33 * mm, 11 * mm, 25 * mm, 40 * mm, 37 * mm, 28 * mm], repeatRows=1)
-    t.setStyle(TableStyle(TABLE_STYLE))
+    t.setStyle(TableStyle(TABLE_STYLE + [c for r in group_rows for c in (("SPAN", (0, r), (-1, r)),
+                                                                         ("BACKGROUND", (0, r), (-1, r), ACCENT))]))
     story.append(t)
     wrong = log_disagreements(measurements)
     story += [Paragraph("Contractor's log contradicted by the measurement", st["h2"]),

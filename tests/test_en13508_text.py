@@ -286,7 +286,7 @@ def test_a_file_over_the_size_cap_is_refused_before_reading(tmp_path):
     with path.open("wb") as fh:
         fh.truncate(MAX_EXCHANGE_BYTES + 1)         # sparse: nothing would ever be read
     before = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
-    with pytest.raises(TransferError, match=f"{MAX_EXCHANGE_BYTES + 1:,} bytes; an EN 13508-2 text transfer is read"):
+    with pytest.raises(TransferError, match=f"{MAX_EXCHANGE_BYTES + 1:,} bytes; the limit for this EN 13508-2 text transfer is"):
         read_log_file(path)
     assert resource.getrusage(resource.RUSAGE_SELF).ru_maxrss - before < 16 * 1024    # [KiB]: nothing was read
 

@@ -602,3 +602,15 @@ def test_the_csv_export_is_the_condition_log_with_header_and_provenance(tmp_path
     assert main(["export", "--data", str(data), "--out", str(tmp_path / "log.parquet")]) == 0
     meta = pq.read_schema(tmp_path / "log.parquet").metadata
     assert meta[b"pipegauge.values"] == b"delivered" and b"contractor's as delivered" in meta[b"pipegauge.policy"]
+
+
+def test_a_vsa_clock_of_0_or_00_is_no_position_as_in_the_other_job_formats(tmp_path):
+    """SchadenlageAnfang/Ende read through coded_rows.clock_text, the helper of the job formats: 0 and 00 are no
+    position (VSA's 0); before, '00' went on to the log's check and was refused as no clock position 1-12."""
+    text = REAL_XTF.read_text(encoding="utf-8")
+    text = text.replace("<SchadenlageAnfang>0</SchadenlageAnfang>", "<SchadenlageAnfang>00</SchadenlageAnfang>", 1)
+    text = text.replace("<SchadenlageEnde>0</SchadenlageEnde>", "<SchadenlageEnde>3</SchadenlageEnde>", 1)
+    path = tmp_path / "clock.xtf"
+    path.write_text(text, encoding="utf-8")
+    first = read_log_file(path).sections[0].observations[0]
+    assert (first.clock_from, first.clock_to, first.problems) == (None, 3, [])

@@ -337,3 +337,53 @@ def test_paper_refuses_a_certificate_whose_distortion_is_not_linear_over_its_unc
     assert main(["paper", "--certificate", str(cert), "--no-files"]) == 1
     captured = capsys.readouterr()
     assert "its distortion is not linear over its uncertainty" in captured.err and "U95" not in captured.out
+
+
+# -- the thumbnail shows the burned-in overlay whole, as recorded ---------------------------------------------------
+
+def test_the_thumbnail_shows_the_overlay_as_recorded_and_the_ideal_image_elsewhere():
+    import cv2
+    import numpy as np
+
+    from pipeline.reports.thumbnail import THUMBNAIL_WIDTH_PX, measurement_thumbnail
+
+    h, w = 576, 720
+    ideal = np.full((h, w, 3), 40, np.uint8)                 # the undistorted frame: its overlay bent and cut
+    recorded = np.full((h, w, 3), 90, np.uint8)
+    cv2.rectangle(recorded, (0, 40), (260, 120), (255, 255, 255), -1)      # the overlay's band, from the left edge
+    mask = np.full((h, w), 255, np.uint8)
+    mask[40:121, 0:261] = 0
+    s = THUMBNAIL_WIDTH_PX / w
+    jpeg = measurement_thumbnail(ideal, None, (500.0, 400.0), (520.0, 400.0), overlay=(recorded, mask))
+    thumb = cv2.imdecode(np.frombuffer(jpeg, np.uint8), cv2.IMREAD_GRAYSCALE)
+    assert thumb.shape == (round(h * s), THUMBNAIL_WIDTH_PX)
+    band = thumb[round(45 * s):round(115 * s), 0:round(255 * s)]
+    assert band.min() > 235                                  # the band whole, from the thumbnail's left edge
+    assert abs(float(np.median(thumb[round(300 * s):, :round(400 * s)])) - 40) < 4      # elsewhere the ideal image
+    with pytest.raises(ValueError, match="size"):
+        measurement_thumbnail(ideal, None, (500.0, 400.0), (520.0, 400.0), overlay=(recorded[:100], mask))
+
+
+@pytest.mark.slow
+def test_the_samples_thumbnails_show_the_overlay_text_as_recorded(sample_night):
+    """S01's thumbnails: where the recorded frame shows the overlay's white text (its top left, the header band at
+    the frame's left edge), the thumbnail shows it too, at the same place; the undistorted frame alone had moved it
+    out of the picture."""
+    import cv2
+    import numpy as np
+
+    from pipeline.store import read_records
+    from pipeline.vision.video.reader import read_frame
+
+    inspection = read_records(sample_night / "dataset", "inspections", inspection_ids=["S01-circular-clean"])[0]
+    video = sample_night / "inbox" / "S01-circular-clean" / inspection.video_file
+    thumbs = read_records(sample_night / "dataset", "thumbnails", inspection_ids=["S01-circular-clean"])
+    assert thumbs
+    for t in thumbs[:3]:
+        thumb = cv2.imdecode(np.frombuffer(t.image_jpeg, np.uint8), cv2.IMREAD_GRAYSCALE)
+        recorded = cv2.cvtColor(read_frame(video, t.frame), cv2.COLOR_BGR2GRAY)
+        recorded = cv2.resize(recorded, (thumb.shape[1], thumb.shape[0]), interpolation=cv2.INTER_AREA)
+        corner = (slice(0, thumb.shape[0] // 4), slice(0, thumb.shape[1] // 2))
+        text = recorded[corner] > 200
+        assert text.sum() > 50                              # the overlay's text is there, as recorded
+        assert np.mean(thumb[corner][text] > 150) > 0.9, t.frame

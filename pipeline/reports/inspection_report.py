@@ -465,7 +465,9 @@ def render_inspection_report(data: str | os.PathLike, inspection_id: str, path: 
                             "parameters, their u relative (0.01 = 1 %); <i>across</i> is listed but no part of the "
                             "value (c_i = 0). Thumbnails: the frame measured, undistorted, with the pipe's contour "
                             "fitted in it in green (dashed where the fit is not trusted) and in red the two points "
-                            "measured between (marked, or found in the image alone) and the line joining them.",
+                            "measured between (marked, or found in the image alone) and the line joining them; the "
+                            "burned-in overlay (chainage, section) is shown as recorded, not undistorted, so that it "
+                            "reads whole.",
                             st["small"])]
         story += [_quantity_block(m, thumbs.get((m["row"], m["quantity"], _source(m))))
                   for m in measurements[:MAX_REPORT_QUANTITIES]]

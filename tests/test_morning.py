@@ -387,3 +387,20 @@ def test_the_samples_thumbnails_show_the_overlay_text_as_recorded(sample_night):
         text = recorded[corner] > 200
         assert text.sum() > 50                              # the overlay's text is there, as recorded
         assert np.mean(thumb[corner][text] > 150) > 0.9, t.frame
+
+
+def test_the_glossary_states_the_log_checks_rule_as_the_judgement_applies_it():
+    """The glossary said 'outline not trusted: undecided unless E_n > 2' and 'E_n ≤ 1 agrees', rules the metrology
+    merge replaced (u widened 1.5 times; agrees on P(right) >= 0.95), and left P(right), which the table prints,
+    undefined."""
+    from pipeline.judgement.verdicts.log_check import P_AGREE, UNTRUSTED_INFLATION
+    from pipeline.reports.inspection_report import GLOSSARY
+    from pipeline.reports.verdict_text import log_check_text
+
+    words = dict(GLOSSARY)
+    assert f"widened {UNTRUSTED_INFLATION:g} times" in words["outline not trusted"]
+    assert "E_n > 2" not in " ".join(words.values()) and "agrees" not in words["E_n"]
+    assert any("P(right)" in k for k in words) and f"agrees at ≥ {P_AGREE:g}" in words["P(right), P(log right)"]
+    shown = log_check_text({"log_check": "undecided", "log_conformity": 0.5, "logged_value": 5.0, "unit": "mm",
+                            "log_difference": 1.0, "E_n": 0.3, "log_check_reason": ""})
+    assert "P(right)" in shown                              # the symbol the table prints is the one defined

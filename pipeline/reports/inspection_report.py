@@ -36,6 +36,7 @@ from pipeline.maths.metrology import K95
 from pipeline.core.numeric import is_finite, is_missing
 from pipeline.measurement.quantity import input_unit
 from pipeline.judgement.grading import DEFAULT_SCHEME, SCHEMES, scheme
+from pipeline.judgement.verdicts.log_check import P_AGREE, P_DISAGREE, UNTRUSTED_INFLATION
 
 __all__ = ["render_inspection_report", "inspection_warnings", "report_file_name", "NEAR_EXPIRY_DAYS"]
 
@@ -366,10 +367,14 @@ def _source(record: dict) -> str:
 GLOSSARY = (
     ("U95", "expanded uncertainty at 95 % coverage: the true value lies within value ± U95 with 95 % probability"),
     ("u, u_c", "standard uncertainty of an input, and of the result (combined)"),
-    ("E_n", "|logged − measured| / √(U95² + U_res²): the contractor's value against the measurement; ≤ 1 agrees"),
+    ("P(right), P(log right)", "the probability, from the measurement's draws, that the contractor's logged value "
+                               f"is right (the true value rounds to it and lies in its class): the log check agrees "
+                               f"at ≥ {P_AGREE:g}, disagrees at ≤ {P_DISAGREE:g} with E_n > 1, else is undecided"),
+    ("E_n", "|logged − measured| / √(U95² + U_res²): above 1 when the logged value lies outside the measurement's "
+            "95 % interval (a disagreement needs it)"),
     ("U_res", "the step the contractor logged to (e.g. 1 mm, 5 %) taken as an uncertainty of the logged value"),
     ("outline not trusted", "the pipe's outline (contour) in the frame could not be fixed well, so the scale is "
-                            "uncertain: a check is then undecided unless E_n > 2"),
+                            f"uncertain: its u is widened {UNTRUSTED_INFLATION:g} times before the log check"),
     ("grade, worst likely", "the most probable condition class; the worst class with probability ≥ 5 % (it may be "
                             "worse than the grade)"),
     ("SC, p_H", "the scale [mm/px] across the pipe at the observation: the pipe's height H over its height p_H in "

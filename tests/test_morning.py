@@ -404,3 +404,16 @@ def test_the_glossary_states_the_log_checks_rule_as_the_judgement_applies_it():
     shown = log_check_text({"log_check": "undecided", "log_conformity": 0.5, "logged_value": 5.0, "unit": "mm",
                             "log_difference": 1.0, "E_n": 0.3, "log_check_reason": ""})
     assert "P(right)" in shown                              # the symbol the table prints is the one defined
+
+
+def test_a_logged_value_contradicted_twice_is_listed_once_as_marked():
+    """S02's row 1 water level was listed twice under "Contractor's log contradicted" (marked, and from the image
+    alone), as the worst observations once did."""
+    from pipeline.domain.results import MeasurementRecord
+    from pipeline.reports.summary_report import log_disagreements
+
+    common = dict(inspection_id="X", status="ok", unit="%", code="BDD", quantity="Q1", log_check="disagrees")
+    m = [MeasurementRecord(row=1, source="marks", E_n=4.1, **common),
+         MeasurementRecord(row=1, source="contour", E_n=4.0, **common),
+         MeasurementRecord(row=2, source="contour", E_n=2.0, **common)]      # only the image contradicts row 2
+    assert [(r.row, r.source) for r in log_disagreements(m)] == [(1, "marks"), (2, "contour")]

@@ -447,7 +447,8 @@ def render_inspection_report(data: str | os.PathLike, inspection_id: str, path: 
                         "edges, 6 (invert) in the middle; a clock range runs clockwise (10–2 over the crown, across "
                         "the edges; 12–12 all round); measured observations in red"
                         + (f"; {'rows' if len(beyond) > 1 else 'row'} {', '.join(map(str, beyond))} "
-                           f"{'lie' if len(beyond) > 1 else 'lies'} outside this range and stand at its edge"
+                           + ("lie outside this range and stand at its edge" if len(beyond) > 1
+                              else "lies outside this range and stands at its edge")
                            if beyond else "") + ".", st["small"]),
               Spacer(1, 2 * mm),
               _observation_table(observations[:MAX_REPORT_OBSERVATIONS], by_row),

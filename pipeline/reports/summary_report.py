@@ -72,8 +72,12 @@ def _quantity(r) -> str:
 
 
 def log_disagreements(measurements: Sequence[MeasurementRecord], n: int = 30) -> list[MeasurementRecord]:
-    """The logged quantities the measurement contradicts (log check ``disagrees``), the largest E_n first."""
+    """The logged quantities the measurement contradicts (log check ``disagrees``), the largest E_n first; a logged
+    value contradicted both by its marked measurement and by the one from the image alone is listed once, as
+    marked."""
     wrong = [m for m in measurements if m.log_check == "disagrees"]
+    marked = {(m.inspection_id, m.row, m.quantity) for m in wrong if m.source == "marks"}
+    wrong = [m for m in wrong if not (m.source == "contour" and (m.inspection_id, m.row, m.quantity) in marked)]
     return sorted(wrong, key=lambda m: -(finite_number(m.E_n) or -math.inf))[:n]
 
 
@@ -173,7 +177,9 @@ def render_night_summary(rows: Sequence[dict], data: str | os.PathLike, path: st
     story += [Paragraph("Contractor's log contradicted by the measurement", st["h2"]),
               Paragraph("Logged values outside what the measurement allows: E_n = |logged − measured| / "
                         "√(U95² + U_res²) > 1 (U95: the measurement's expanded uncertainty, 95 %; U_res: the step "
-                        "the contractor logged to, as an uncertainty), the largest first.", st["small"]), Spacer(1, 1.5 * mm)]
+                        "the contractor logged to, as an uncertainty) and a probability of at most 5 % that the logged "
+                        "value is right, the largest E_n first; a value contradicted by its marked measurement and by "
+                        "the one from the image alone once, as marked.", st["small"]), Spacer(1, 1.5 * mm)]
     if len(wrong):
         table = [[Paragraph(h, st["cell"]) for h in ("Inspection", "Row", "Code", "Logged", "Measured (95 %)", "E_n")]]
         for r in wrong:

@@ -221,3 +221,17 @@ def test_every_material_an_exchange_format_maps_to_is_a_material_pipegauge_knows
 
     for table in (MATERIALS, dwa_m150.MATERIALS, en13508_text.MATERIALS):
         assert set(table.values()) <= KNOWN_MATERIALS, sorted(set(table.values()) - KNOWN_MATERIALS)
+
+
+def test_a_manhole_row_is_checked_as_in_the_other_job_formats(tmp_path):
+    """KZustand rows go through coded_rows.parse_manhole_rows, the DWA-M 150 and text readers' check: a pipe code and
+    a position that is no number are each a problem naming the ISYBAU element."""
+    text = JOB_2013.read_text(encoding="iso-8859-1")
+    text = text.replace("<InspektionsKode>DBA</InspektionsKode>", "<InspektionsKode>BBA</InspektionsKode>", 1)
+    text = text.replace("<VertikaleLage>0.40</VertikaleLage>", "<VertikaleLage>0,4x</VertikaleLage>", 1)
+    path = tmp_path / "manhole.xml"
+    path.write_text(text, encoding="iso-8859-1")
+    rows = read_isybau(path).manholes[0].observations
+    said = [(p.field, p.message) for o in rows for p in o.problems]
+    assert ("InspektionsKode", "'BBA' is not a manhole observation code (D and two letters, EN 13508-2)") in said
+    assert any(f == "VertikaleLage" and "'0,4x' is not a vertical position" in m for f, m in said)

@@ -602,3 +602,16 @@ def test_a_vsa_clock_of_0_or_00_is_no_position_as_in_the_other_job_formats(tmp_p
     path.write_text(text, encoding="utf-8")
     first = read_log_file(path).sections[0].observations[0]
     assert (first.clock_from, first.clock_to, first.problems) == (None, 3, [])
+
+
+def test_a_transfers_remark_names_a_grade_only_where_the_measurement_decided_it():
+    """S02's crack below resolution read 'pipegauge Q1 < 15.5 mm (below resolution), log undecided, grade EZ1' while
+    its EZ1 is the logged value's class (the report: 'EZ1 from the log: not decidable from the image')."""
+    from pipeline.formats.vsa_kek.write import _measured_note
+
+    below = {"quantity": "Q1", "value": 7.0, "high": 15.5, "unit": "mm", "below_resolution": True, "confident": True,
+             "log_check": "undecided", "grade": "EZ1", "grade_status": "not decidable from the image"}
+    note = _measured_note(below)
+    assert note.startswith("Q1 < ") and note.endswith("(below resolution), log undecided"), note
+    assert _measured_note({**below, "below_resolution": False, "U95": 1.0, "grade_status": "graded"}).endswith(
+        ", log undecided, grade EZ1")

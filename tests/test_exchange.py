@@ -407,6 +407,7 @@ def test_export_refuses_unknown_suffixes_reversed_dates_and_a_file_for_a_transfe
     write_inspection(data, {"inspection_id": "P1", "inspection_date": dt.date(2026, 11, 20), "status": "ok",
                             "problems": []}, [], [], [])
     for argv, message in ((["--out", str(tmp_path / "x.xlsx")], "no export format writes files ending '.xlsx'"),
+                          (["--out", str(tmp_path / "x.xlsx")], "vsa-kek-2020, isybau-2013)"),    # every transfer
                           (["--out", str(tmp_path / "y.csv"), "--from", "2026-12-01", "--to", "2026-01-01"],
                            "--from 2026-12-01 is after --to 2026-01-01"),
                           (["--format", "vsa-kek-2019", "--out", str(tmp_path / "file.xtf")], "looks like a file"),

@@ -20,20 +20,26 @@ def _text(pdf) -> list[str]:
     return [line for p in PdfReader(pdf).pages for line in p.extract_text().splitlines()]
 
 
+def _store_graded(data, iid: str, grade: str, disagree: bool, **inspection_fields) -> None:
+    """An example inspection stored with every observation of class ``grade``; row 2's logged value contradicted by
+    the measurement when ``disagree``."""
+    inspection, observations, measurements, thumbnails = example_inspection(iid, n_observations=3)
+    inspection.update(section_grade=grade, section_grade_probability=0.9, grading_scheme="vsa-2023",
+                      **inspection_fields)
+    for m in measurements:
+        m.update(log_check="agrees", below_resolution=False, grading_scheme="vsa-2023")
+    for o in observations:
+        o.update(grade=grade, grading_scheme="vsa-2023")
+    if disagree:
+        measurements[1].update(log_check="disagrees", logged_value=10.0, log_difference=-3.0, E_n=3.0)
+    write_inspection(data, inspection, observations, measurements, thumbnails)
+
+
 def _night(tmp_path):
     """Three sections: a clean EZ3 one, an EZ1 one whose row 2 the measurement contradicts, a failed delivery."""
     data = tmp_path / "out" / "dataset"
     for iid, section, grade, disagree in (("CLEAN-1", "C1", "EZ3", False), ("WRONG-1", "W1", "EZ1", True)):
-        inspection, observations, measurements, thumbnails = example_inspection(iid, n_observations=3)
-        inspection.update(section_id=section, section_grade=grade, section_grade_probability=0.9,
-                          grading_scheme="vsa-2023")
-        for m in measurements:
-            m.update(log_check="agrees", below_resolution=False, grading_scheme="vsa-2023")
-        for o in observations:
-            o.update(grade=grade, grading_scheme="vsa-2023")
-        if disagree:
-            measurements[1].update(log_check="disagrees", logged_value=10.0, log_difference=-3.0, E_n=3.0)
-        write_inspection(data, inspection, observations, measurements, thumbnails)
+        _store_graded(data, iid, grade, disagree, section_id=section)
     write_inspection(data, {"inspection_id": "BAD-1", "inspection_date": dt.date(2026, 11, 20), "status": "failed",
                             "section_id": "B1", "error": "video.mp4: no such file", "problems": []}, [], [], [])
     rows = [{"package": i, "inspection_id": i, "status": s, "quantities": 3, "error": "", "processed": True}
@@ -77,16 +83,7 @@ def test_the_morning_list_is_grouped_by_delivery_the_most_urgent_delivery_first(
     data = tmp_path / "out" / "dataset"
     for iid, delivery, grade, disagree in (("D1-A", "D1", "EZ3", False), ("D1-B", "D1", "EZ1", True),
                                            ("P1", None, "EZ2", False)):
-        inspection, observations, measurements, thumbnails = example_inspection(iid, n_observations=3)
-        inspection.update(section_id=iid, section_grade=grade, section_grade_probability=0.9, grading_scheme="vsa-2023",
-                          delivery_id=delivery, status="ok")
-        for m in measurements:
-            m.update(log_check="agrees", below_resolution=False, grading_scheme="vsa-2023")
-        for o in observations:
-            o.update(grade=grade, grading_scheme="vsa-2023")
-        if disagree:
-            measurements[1].update(log_check="disagrees", logged_value=10.0, log_difference=-3.0, E_n=3.0)
-        write_inspection(data, inspection, observations, measurements, thumbnails)
+        _store_graded(data, iid, grade, disagree, section_id=iid, delivery_id=delivery, status="ok")
     write_inspection(data, {"inspection_id": "D2-A", "inspection_date": dt.date(2026, 11, 20), "status": "failed",
                             "section_id": "D2-A", "delivery_id": "D2", "error": "video.mp4: no such file",
                             "problems": []}, [], [], [])

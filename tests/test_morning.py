@@ -414,3 +414,19 @@ def test_a_logged_value_contradicted_twice_is_listed_once_as_marked():
          MeasurementRecord(row=1, source="contour", E_n=4.0, **common),
          MeasurementRecord(row=2, source="contour", E_n=2.0, **common)]      # only the image contradicts row 2
     assert [(r.row, r.source) for r in log_disagreements(m)] == [(1, "marks"), (2, "contour")]
+
+
+def test_a_log_only_section_says_it_was_not_measured_and_what_to_deliver(tmp_path):
+    """A delivery's section without its video (log-only) read 'needs a person: nothing' and 'action: none: the log
+    agrees with the measurement', though nothing was measured; it now ranks before a measured section of its grade."""
+    from pipeline.reports.morning import LOG_ONLY_ACTION, morning_list
+
+    data = tmp_path / "dataset"
+    _store_graded(data, "MEASURED", "EZ1", False, section_id="M1", status="ok")
+    _store_graded(data, "JOB-S1", "EZ1", False, section_id="S1", status="log-only", delivery_id="JOB",
+                  error="not measured: no video delivered for section S1: MPEG/S1.mp4 is not in JOB")
+    first, second = morning_list(data)
+    assert (first.inspection_id, second.inspection_id) == ("JOB-S1", "MEASURED")
+    assert first.needs_person.startswith("not measured: no video delivered for section S1")
+    assert first.action == LOG_ONLY_ACTION and "none" not in first.action
+    assert first.headline().startswith("S1 (MH1 → MH2), grade EZ1 from the log: not measured: no video delivered")

@@ -4,8 +4,9 @@ One entry per stored inspection (and per package refused unread), ranked:
 
 1. deliveries that failed or were refused: nothing of them is known until a person fixes them;
 2. then by the section's grade, the worst class first (ungraded sections after the graded ones);
-3. then by what needs a person: contractor's values the measurement contradicts, and observations the image
-   could not decide (below resolution, or a check left undecided), most first.
+3. then by what needs a person: sections stored log-only (not measured: their whole log is unchecked), then
+   contractor's values the measurement contradicts, and observations the image could not decide (below
+   resolution, or a check left undecided), most first.
 
 When deliveries land, the list is grouped by delivery: a delivery's sections stand together, in the order above,
 and the groups are ranked by their first section (the one of the group that most needs a person), so the list's
@@ -28,9 +29,12 @@ from pipeline.core.numeric import is_missing
 from pipeline.judgement.grading import SCHEMES, scheme
 from pipeline.store import file_stem, read_records
 
-__all__ = ["SectionEntry", "morning_list", "class_rank", "by_delivery", "group_heading", "FAILED_ACTION"]
+__all__ = ["SectionEntry", "morning_list", "class_rank", "by_delivery", "group_heading", "FAILED_ACTION",
+           "LOG_ONLY_ACTION"]
 
 FAILED_ACTION = ("correct the delivery as the reason says and deliver it again; the next night measures it anew")
+LOG_ONLY_ACTION = ("deliver what the reason names (the video, or the camera's certificate) to have the section "
+                   "measured; until then its grades are the contractor's logged values'")
 
 
 def class_rank(scheme_key, cls) -> float:
@@ -80,8 +84,9 @@ class SectionEntry:
         if self.status == "failed":
             text = f"{self.section}: the delivery failed ({self.error})"
         else:
-            text = f"{self.section}, grade {self.grade or 'none'}" + (f": {self.needs_person}" if self.needs_person
-                                                                       else ": nothing needs a person")
+            from_log = " from the log" if self.status == "log-only" and self.grade else ""
+            text = f"{self.section}, grade {self.grade or 'none'}{from_log}" + (
+                f": {self.needs_person}" if self.needs_person else ": nothing needs a person")
         return text + (f". Report {Path(self.report).name}" if self.report else "")
 
     def line(self) -> str:
@@ -192,8 +197,9 @@ def group_heading(group: Sequence[SectionEntry]) -> str:
 
 def _rank_key(e: SectionEntry) -> tuple:
     failed = e.status == "failed"
-    return (not failed, _grade_rank(e.grade or None), -(e.disagree + e.undecided), e.section_id or e.inspection_id,
-            e.inspection_id)
+    unchecked = e.status == "log-only"           # its whole log is unchecked: before a measured one of its grade
+    return (not failed, _grade_rank(e.grade or None), not unchecked, -(e.disagree + e.undecided),
+            e.section_id or e.inspection_id, e.inspection_id)
 
 
 def _grade_rank(cls: str | None) -> float:
@@ -231,6 +237,9 @@ def _entry(i, observations: list, measurements: list, report: str) -> SectionEnt
     if status == "failed":
         needs.insert(0, f"the delivery failed: {_text(i.error) or 'no reason stored'}")
         action = FAILED_ACTION
+    elif status == "log-only":          # read and graded from the log alone: nothing of it is checked yet
+        needs.insert(0, _text(i.error) or "not measured: no reason stored")
+        action = LOG_ONLY_ACTION
     elif disagree or undecided:
         action = "; ".join((["check the contractor's coding of " + _rows_list(disagree)] if disagree else [])
                            + (["look at " + _rows_list(undecided) + " in the video"] if undecided else [])) \

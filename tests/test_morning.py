@@ -430,3 +430,17 @@ def test_a_log_only_section_says_it_was_not_measured_and_what_to_deliver(tmp_pat
     assert first.needs_person.startswith("not measured: no video delivered for section S1")
     assert first.action == LOG_ONLY_ACTION and "none" not in first.action
     assert first.headline().startswith("S1 (MH1 → MH2), grade EZ1 from the log: not measured: no video delivered")
+
+
+def test_a_log_only_report_says_nothing_was_checked_and_what_to_deliver():
+    """A log-only section's report read 'Log check: 0 agree, 0 disagree, 0 undecided, 0 not checked' and told the
+    reader to 'correct the delivery as the problems below say', with no problem below."""
+    from pipeline.reports.inspection_report import inspection_warnings
+    from pipeline.reports.verdict_text import verdict_lines
+
+    record = {"status": "log-only", "error": "not measured: no video delivered for section S01", "log_agrees": 0,
+              "log_disagrees": 0, "log_undecided": 0, "log_not_checked": 0, "problems": [], "warnings": []}
+    assert dict(verdict_lines(record))["Log check"].startswith("none: nothing was measured (log-only)")
+    said = inspection_warnings(record, [], dt.date(2026, 12, 2))
+    assert said[0].startswith("Status log-only: not measured: no video delivered for section S01. Action: deliver")
+    assert "problems below" not in " ".join(said)

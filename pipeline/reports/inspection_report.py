@@ -66,7 +66,11 @@ def inspection_warnings(inspection: dict, measurements: list[dict], today: dt.da
     unmeasured quantities (one per observation and problem; the technical reasons stay in the dataset),
     certificate validity."""
     out = []
-    if inspection.get("status") not in ("ok", "failed"):      # a failed one says so in its own block
+    if inspection.get("status") == "log-only":                # read and graded from the log alone
+        out.append(f"Status log-only: {inspection.get('error') or 'not measured'}. Action: deliver what this names "
+                   "(the video, or the camera's certificate); the next night measures the section. Until then "
+                   "every grade here is the class of the contractor's logged value, unchecked.")
+    elif inspection.get("status") not in ("ok", "failed"):    # a failed one says so in its own block
         out.append(f"Status {inspection.get('status')}: {inspection.get('error') or 'see below'}. Action: correct "
                    "the delivery as the problems below say and deliver it again; the next night measures it anew.")
     for problem in inspection.get("problems") if inspection.get("problems") is not None else []:

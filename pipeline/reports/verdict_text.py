@@ -102,11 +102,14 @@ def verdict_lines(inspection: Mapping) -> list[tuple[str, str]]:
     lines = []
     if not is_missing(inspection.get("survey_statement")):
         lines.append(("Survey", inspection["survey_statement"]))
-    if not is_missing(inspection.get("log_agrees")):
+    if inspection.get("status") == "log-only":
+        lines.append(("Log check", "none: nothing was measured (log-only), so no logged value is checked"))
+    elif not is_missing(inspection.get("log_agrees")):
         lines.append(("Log check", f"{int(inspection['log_agrees'])} agree, {int(inspection['log_disagrees'])} disagree, "
                                    f"{int(inspection['log_undecided'])} undecided, "
-                                   f"{int(inspection['log_not_checked'])} not checked (agrees: P(log right) >= 0.95; "
-                                   f"disagrees: P(log right) <= 0.05 and E_n > 1; outline not trusted: u x1.5; "
+                                   f"{int(inspection['log_not_checked'])} not checked (agrees: P(log right) >= "
+                                   f"{P_AGREE:g}; disagrees: P(log right) <= {P_DISAGREE:g} and E_n > 1; outline not "
+                                   f"trusted: u x{UNTRUSTED_INFLATION:g}; "
                                    f"below resolution: undecided unless the log exceeds the bound)"))
     grade = inspection.get("section_grade")
     scheme = inspection.get("grading_scheme")

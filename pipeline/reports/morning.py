@@ -34,7 +34,7 @@ __all__ = ["SectionEntry", "morning_list", "class_rank", "by_delivery", "group_h
 
 FAILED_ACTION = ("correct the delivery as the reason says and deliver it again; the next night measures it anew")
 LOG_ONLY_ACTION = ("deliver what the reason names (the video, or the camera's certificate) to have the section "
-                   "measured; until then its grades are the contractor's logged values'")
+                   "measured; until then its grades are the classes of the contractor's logged values")
 
 
 def class_rank(scheme_key, cls) -> float:

@@ -99,8 +99,9 @@ def _deliveries(rows: list[dict], st) -> list:
     for name, c in sorted(counts.items()):
         table.append([Paragraph(safe_text(name, 80), st["cell"]), Paragraph(str(sum(c.values())), st["cell"]),
                       *(Paragraph(str(c[k]), st["cell"]) for k in ("measured", "log-only", "failed"))])
-    return [Paragraph("Deliveries", st["h2"]), Table(table, colWidths=[60 * mm, 25 * mm, 25 * mm, 25 * mm, 25 * mm],
-                                                     repeatRows=1)]
+    t = Table(table, colWidths=[60 * mm, 25 * mm, 25 * mm, 25 * mm, 25 * mm], repeatRows=1)
+    t.setStyle(TableStyle(TABLE_STYLE))
+    return [Paragraph("Deliveries", st["h2"]), t]
 
 
 def _first_line(entries: list[SectionEntry]) -> str:

@@ -30,7 +30,9 @@ class Location:
     ingest: ChainageIngest                  # the chainage track, the video's facts, frames sampled across it
     undistorter: Undistorter
     mask: np.ndarray | None           # the burned-in overlay's pixels, left out of every fit
-    recorded_mask: np.ndarray | None = None     # the same overlay in the recorded frame's pixels (thumbnails)
+    # where a thumbnail shows the recorded frame's pixels (0): the overlay as recorded, and its bent copy in the ideal
+    # image (pipeline.reports.thumbnail)
+    thumbnail_mask: np.ndarray | None = None
 
     @property
     def info(self):
@@ -61,5 +63,7 @@ def locate(delivery: Delivery, record: InspectionRecord, reader: OverlayReader |
     recorded = recorded_overlay_mask(ingest.spread_frames.values())
     x0, y0, x1, y1 = ingest.box                 # the counter's digits change from frame to frame: its box, whole
     recorded[max(0, y0):max(0, y1), max(0, x0):max(0, x1)] = 0
+    bent = und.frame(255 - recorded)            # the overlay's place in the ideal image (> 0 on it)
+    shown = np.where((recorded == 0) | (bent > 0) | (mask == 0), 0, 255).astype(np.uint8)
     record.time_track_s = time.perf_counter() - t0
-    return Location(ingest, und, mask, recorded)
+    return Location(ingest, und, mask, shown)

@@ -158,11 +158,8 @@ def measure_package(folder: str | os.PathLike, *, certificates: str | os.PathLik
 
     def thumbnail(frame: int, marked, row: int, source: str) -> ThumbnailRecord:
         image = ideal(frame)                # reads the recorded frame too when the contours' pass did not keep it
-        overlay = None
-        if frame in recorded_frames and where.recorded_mask is not None:
-            # the overlay as recorded, and where the undistorted frame holds its bent copy, the recorded pixels too
-            shown = where.recorded_mask if mask is None else np.minimum(where.recorded_mask, mask)
-            overlay = (recorded_frames[frame], shown)
+        overlay = (recorded_frames[frame], where.thumbnail_mask) \
+            if frame in recorded_frames and where.thumbnail_mask is not None else None
         return _thumbnail(image, contours[frame], marked, row, frame, source, overlay)
 
     # the Monte Carlo runs of the quantities are independent (each its own seed) and mostly large NumPy operations

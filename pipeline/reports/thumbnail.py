@@ -8,9 +8,9 @@ The burned-in overlay (chainage, site, section) is shown as recorded: the
 undistortion moves the frame's edges outwards, so in the ideal image the
 overlay is bent and cut at the frame's edge, and a reader could not check
 the chainage or the section on it. Its pixels are taken from the recorded
-frame where the overlay's mask says it is, at the recorded place (the
-caller's mask also covers the bent copy in the ideal image, so no cut copy
-of it is left beside the whole one).
+frame where the caller's mask says so: the overlay at its recorded place,
+and its bent copy in the ideal image (the recorded mask undistorted), so no
+cut copy is left beside the whole one (``pipeline.app.locate``).
 """
 
 from __future__ import annotations

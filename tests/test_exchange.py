@@ -355,7 +355,6 @@ def test_a_sample_delivered_as_a_transfer_measures_bit_for_bit_as_its_csv_packag
 
 
 @pytest.mark.slow
-@pytest.mark.slow
 def test_the_samples_exported_by_default_keep_the_contractors_values_and_pass_the_validator(tmp_path, ili_models,
                                                                                            sample_night):
     """Issue 31: S02's 5 mm crack was written as the measured 2 mm (U95 13 mm) with pipegauge's EZ0; by default

@@ -88,7 +88,10 @@ def add_verdicts(result, header, observations, track, scheme_key: str | None = N
         if m["quantity"] == "Q1":
             m.update(_grade_fields(_measurement_grade(s, m, header, _f(logged), logged_unit)))
         else:
-            m.update(grading_scheme=s.key, grade_status="ungraded", grade_reason=f"{s.name} grades Q1 only")
+            # a code the scheme does not grade at all says so for each quantity, not "Q1 only"
+            why = (f"{s.name} does not grade {m['code']}: {s.not_graded[m['code']]}" if m.get("code") in s.not_graded
+                   else f"{s.name} grades Q1 only")
+            m.update(grading_scheme=s.key, grade_status="ungraded", grade_reason=why)
 
     grades: list[tuple[Grade, int]] = []
     for rec, o in zip(result.observations, observations):

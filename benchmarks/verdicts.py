@@ -15,7 +15,12 @@ for a graded quantity; ``pipeline.judgement.verdicts.log_check``).
 
 Prints the false-alarm rate on honest logs (target <= 5 %), the detection
 rate of logged errors larger than 2 U95 and larger than the resolution
-(target >= 90 %), and per size; then, for the graded quantities (VSA 2023),
+(target >= 90 %), and per size; then a table of operator behaviours not
+tied to U95 (honest logs rounded to the unit's step and to a coarser one;
+logs one class off, off by a fixed amount in mm or %, off by a fixed share
+of the value), each family's verdict shares with Wilson 95 % intervals and
+n, the false-accusation rate (honest logs called "disagrees") and the
+detection rate (wrong logs called "disagrees"); then, for the graded quantities (VSA 2023),
 how often the true class has probability >= 5 % (target >= 95 %) and how
 often the most probable class and the honest log's class are the true one.
 
@@ -40,10 +45,16 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from pipeline.judgement.grading import LIKELY, applicable_bands, class_index, class_range, grade, scheme  # noqa: E402
 from pipeline.judgement.grading.probability import result_cdf  # noqa: E402
 from pipeline.judgement.verdicts.log_check import (P_AGREE, P_DISAGREE, RESOLUTION, TOLERANCE_STEPS,  # noqa: E402
-                                                    UNTRUSTED_INFLATION, check_logged)
+                                                    UNTRUSTED_INFLATION, check_logged, logging_steps)
+from coverage_stats import wilson  # noqa: E402
 
 ERROR_SIZES = (0.5, 1.0, 2.0, 3.0, 5.0)
 _FIELDS = ("unit", "value", "u", "U95", "low", "high", "k", "mc_trials", "confident")
+
+
+def _fine(c: dict) -> float:
+    """The finest customary logging step [unit] of a case's code: honest logs are the truth rounded to it."""
+    return logging_steps(c["unit"], c["code"])[-1]
 
 
 def measured_cases(per_frame: int, seed: int, cache: Path | None) -> list[dict]:
@@ -91,10 +102,10 @@ def log_checks(cases, rng) -> None:
         bands, _ = applicable_bands(s, c["code"], c["char1"], c["unit"], c["height_mm"], c["material"])
         return check_logged(lv, c["unit"], value=c["value"], U95=c["U95"], unit=c["unit"], confident=confident,
                             cdf=result_cdf(c["value"], c["u"], c["low"], c["high"], c["k"]),
-                            class_range=class_range(bands, lv, len(s.classes)) if bands else None)
+                            class_range=class_range(bands, lv, len(s.classes)) if bands else None, code=c["code"])
 
     for c in cases:
-        r = RESOLUTION[c["unit"]]
+        r = _fine(c)
         logged = _round(c["truth"], r)
         honest.append((c, check(c, logged, c["confident"])))
         for size in ERROR_SIZES:
@@ -105,14 +116,14 @@ def log_checks(cases, rng) -> None:
             wrong.append((c, check(c, bad, c["confident"]), bad, size, bad != logged))
     alarms = [ch.verdict == "disagrees" for _, ch in honest]
     conf = [ch.verdict == "disagrees" for c, ch in honest if c["confident"]]
-    print(f"honest logs (truth rounded: mm to {RESOLUTION['mm']:g} mm, % to {RESOLUTION['%']:g} %): "
+    print(f"honest logs (truth rounded: mm to {RESOLUTION['mm'][-1]:g} mm, % to {RESOLUTION['%'][-1]:g} %): "
           f"{len(honest)} quantities of {len(set((c['code'], c['char1']) for c in cases))} code/characterisations; "
           f"false alarms {100 * np.mean(alarms):.1f} % (target <= 5 %); among the {len(conf)} confident "
           f"{100 * np.mean(conf):.1f} %; agrees {sum(ch.verdict == 'agrees' for _, ch in honest)}, "
           f"undecided {sum(ch.verdict == 'undecided' for _, ch in honest)} (agrees: P(right) >= {P_AGREE:g}; "
           f"disagrees: P(right) <= {P_DISAGREE:g} and E_n > 1)")
     agreed = [ch.risk for _, ch in honest + [(c, ch) for c, ch, *_ in wrong] if ch.verdict == "agrees"]
-    accepted = [abs(bad - c["truth"]) / RESOLUTION[c["unit"]] for c, ch, bad, size, differs in wrong
+    accepted = [abs(bad - c["truth"]) / _fine(c) for c, ch, bad, size, differs in wrong
                 if ch.verdict == "agrees" and differs]
     if agreed:
         print(f"  'agrees' on {len(agreed)} logs (honest and wrong): stated false-acceptance risk mean "
@@ -126,7 +137,7 @@ def log_checks(cases, rng) -> None:
               f"{sum(ch.verdict == 'disagrees' for c, ch in honest if not c['confident'])} "
               f"(their u is widened x{UNTRUSTED_INFLATION:g} first)")
     big = [(c, ch) for c, ch, bad, size, differs in wrong
-           if differs and abs(bad - c["truth"]) > 2 * c["U95"] + RESOLUTION[c["unit"]] / 2]
+           if differs and abs(bad - c["truth"]) > 2 * c["U95"] + _fine(c) / 2]
     big_conf = [ch for c, ch in big if c["confident"]]
     print(f"wrong logs, |logged - truth| > 2 U95 + r/2 (beyond the rounding): {len(big)}; detected (disagrees) "
           f"{100 * np.mean([ch.verdict == 'disagrees' for _, ch in big]):.1f} % (target >= 90 %); among the "
@@ -148,25 +159,61 @@ def log_checks(cases, rng) -> None:
 
 
 FIXED_ERRORS = {"mm": (2.0, 5.0, 10.0), "%": (5.0, 10.0)}       # operator errors of a fixed size, per unit
+RELATIVE_ERRORS = (0.2, 0.5)        # operator errors of a fixed share of the value (by eye: the samples' logs, 20 %)
+COARSE_STEPS = {"mm": 5.0, "%": 10.0}   # an honest operator rounding coarser than the unit's default step
+
+
+def _family_row(name: str, honest: bool, verdicts: list[str]) -> str:
+    """One Markdown row: n, the share of each verdict with its Wilson 95 % interval."""
+    n = len(verdicts)
+
+    def share(v: str) -> str:
+        k = verdicts.count(v)
+        lo, hi = wilson(k, n)
+        return f"{100 * k / n:.1f} [{100 * lo:.1f}, {100 * hi:.1f}]"
+
+    what = "false accusation" if honest else "detection"
+    return f"| {name} | {'honest' if honest else 'wrong'} | {n} | {share('agrees')} | {share('undecided')} | " \
+           f"{share('disagrees')} ({what}) |"
 
 
 def operator_errors(cases, rng) -> None:
-    """Logs wrong in ways that are not multiples of the measurement's U95: one class off, off by a fixed amount."""
+    """Verdicts per family of operator behaviour, none tied to the measurement's U95 (module docstring).
+
+    Honest families: the truth rounded to the unit's step, or to a coarser step an operator may use; their
+    "disagrees" is a false accusation. Wrong families (the log off the honest rounding): one class off, off by a
+    fixed amount in the unit, off by a fixed share of the value; their "disagrees" is a detection. Each share with
+    its Wilson 95 % interval and n.
+    """
     s = scheme()
 
     def check(c, lv):
         bands, _ = applicable_bands(s, c["code"], c["char1"], c["unit"], c["height_mm"], c["material"])
         return check_logged(lv, c["unit"], value=c["value"], U95=c["U95"], unit=c["unit"], confident=c["confident"],
                             cdf=result_cdf(c["value"], c["u"], c["low"], c["high"], c["k"]),
-                            class_range=class_range(bands, lv, len(s.classes)) if bands else None).verdict
+                            class_range=class_range(bands, lv, len(s.classes)) if bands else None, code=c["code"]).verdict
 
-    print("\noperator errors not tied to U95 (verdict shares over the logs; disagrees is a detection):")
+    def clip(c, lv):
+        return min(max(lv, 0.0), 100.0) if c["unit"] == "%" else max(lv, 0.0)
+
+    rows: list[tuple[str, bool, list[str]]] = []
+    for unit in ("mm", "%"):
+        rows.append((f"honest, {unit} rounded to the code's finest customary step", True,
+                     [check(c, _round(c["truth"], _fine(c))) for c in cases if c["unit"] == unit]))
+    for unit, step in COARSE_STEPS.items():
+        # rounded to a step the code's practice allows (water levels in tens) or coarser than any it allows
+        for customary in (True, False):
+            got = [check(c, _round(c["truth"], step)) for c in cases
+                   if c["unit"] == unit and (step in logging_steps(unit, c["code"])) == customary]
+            rows.append((f"honest, {unit} rounded to {step:g} {unit} ("
+                         + ("a customary step of the code" if customary else "coarser than the code's steps") + ")",
+                         True, got))
     one_class = []
     for c in cases:
         bands, _ = applicable_bands(s, c["code"], c["char1"], c["unit"], c["height_mm"], c["material"])
         if not bands:
             continue
-        r = RESOLUTION[c["unit"]]
+        r = _fine(c)
         lo, hi = class_range(bands, c["truth"], len(s.classes))
         # the value just across the nearer class edge, rounded to the step away from the truth's class
         side = hi if (hi - c["truth"]) < (c["truth"] - lo) or not math.isfinite(lo) else lo
@@ -175,28 +222,44 @@ def operator_errors(cases, rng) -> None:
         lv = r * math.ceil(side / r) if side == hi else r * math.floor((side - 1e-9) / r)
         if class_index(bands, lv, len(s.classes)) == class_index(bands, c["truth"], len(s.classes)):
             continue
+        if abs(lv - c["truth"]) <= TOLERANCE_STEPS * r:     # the honest rounding itself crosses the edge: not wrong
+            continue
         one_class.append(check(c, lv))
-    _shares("one class off (the nearest value across a class edge, rounded)", one_class)
+    rows.append(("one class off (the nearest value across a class edge, rounded)", False, one_class))
     for unit, sizes in FIXED_ERRORS.items():
         for size in sizes:
+            r = RESOLUTION[unit][-1]
             got = []
             for c in cases:
                 if c["unit"] != unit:
                     continue
-                r = RESOLUTION[unit]
-                lv = _round(c["truth"] + rng.choice((-1.0, 1.0)) * size, r)
-                if unit == "%":
-                    lv = min(max(lv, 0.0), 100.0)
-                if lv != _round(c["truth"], r):
+                lv = clip(c, _round(c["truth"] + rng.choice((-1.0, 1.0)) * size, r))
+                if abs(lv - c["truth"]) > TOLERANCE_STEPS * r:      # wrong: not the truth to its step
                     got.append(check(c, lv))
-            _shares(f"off by {size:g} {unit}, rounded", got)
+            rows.append((f"off by {size:g} {unit}, rounded to {r:g} {unit}", False, got))
+    for share in RELATIVE_ERRORS:
+        got = []
+        for c in cases:
+            r = _fine(c)
+            lv = clip(c, _round(c["truth"] * (1.0 + rng.choice((-1.0, 1.0)) * share), r))
+            if abs(lv - c["truth"]) > TOLERANCE_STEPS * r:
+                got.append(check(c, lv))
+        rows.append((f"off by {100 * share:g} % of the value, rounded to the step", False, got))
 
-
-def _shares(label: str, verdicts: list[str]) -> None:
-    n = len(verdicts)
-    if n:
-        print(f"  {label}: {n} logs; disagrees {100 * verdicts.count('disagrees') / n:.1f} %, undecided "
-              f"{100 * verdicts.count('undecided') / n:.1f} %, agrees {100 * verdicts.count('agrees') / n:.1f} %")
+    print("\noperator behaviour not tied to U95: verdict shares [%] with Wilson 95 % intervals; \"disagrees\" is a "
+          "false accusation of an honest log, a detection of a wrong one")
+    print("\n| family | log | n | agrees | undecided | disagrees |\n|---|---|---|---|---|---|")
+    for name, honest, verdicts in rows:
+        if verdicts:
+            print(_family_row(name, honest, verdicts))
+    for what, keep in (("false-accusation rate (honest logs called disagrees), logs to a customary step",
+                        lambda name, h: h and "customary step" in name),
+                       ("false-accusation rate, all honest families", lambda name, h: h),
+                       ("detection rate (wrong logs called disagrees), all wrong families", lambda name, h: not h)):
+        verdicts = [v for name, h, vs in rows if keep(name, h) for v in vs]
+        k, n = verdicts.count("disagrees"), len(verdicts)
+        lo, hi = wilson(k, n)
+        print(f"\n{what}: {k} of {n}, {100 * k / n:.1f} % [{100 * lo:.1f}, {100 * hi:.1f}]")
 
 
 def grade_checks(cases) -> None:
@@ -211,7 +274,7 @@ def grade_checks(cases) -> None:
             continue
         cdf = result_cdf(c["value"], c["u"], c["low"], c["high"], c["k"])
         g = grade(s, c["code"], c["char1"], unit=c["unit"], dn_mm=c["height_mm"], material=c["material"],
-                  logged=_round(c["truth"], RESOLUTION[c["unit"]]), cdf=cdf)
+                  logged=_round(c["truth"], _fine(c)), cdf=cdf)
         true = s.classes[class_index(bands, c["truth"], len(s.classes))]
         true_likely.append(g.probabilities[true] >= LIKELY)
         most_true.append(g.most_probable == true)
@@ -226,7 +289,7 @@ def grade_checks(cases) -> None:
           f"{100 * np.mean(most_true):.1f} %, the honest rounded log's class in {100 * np.mean(log_true):.1f} %")
     for unit, pairs in sorted(per_unit.items()):
         m, lg, v = np.mean(pairs, axis=0)
-        print(f"  in {unit:2s} (logged to {RESOLUTION[unit]:g} {unit}): {len(pairs)} quantities, most probable class "
+        print(f"  in {unit:2s} (logged to {RESOLUTION[unit][-1]:g} {unit}): {len(pairs)} quantities, most probable class "
               f"true {100 * m:.1f} %, honest log's class true {100 * lg:.1f} % (the measured value's class "
               f"{100 * v:.1f} %)")
     reliability(np.array(stated), np.array(happened))

@@ -371,6 +371,7 @@ def cmd_report(args: argparse.Namespace) -> int:
 
 def cmd_summary(args: argparse.Namespace) -> int:
     from pipeline.app import dataset_summary
+    from pipeline.reports.morning import by_delivery, group_heading
 
     if args.start and args.end and args.start > args.end:
         _say(f"pipegauge summary: error: --from {args.start} is after --to {args.end}; swap them")
@@ -379,9 +380,14 @@ def cmd_summary(args: argparse.Namespace) -> int:
     if args.json:
         print(json.dumps([e.as_dict() for e in entries], indent=1))
     else:
-        for e in entries:
-            print(e.line())
-    _say(f"pipegauge summary: {len(entries)} inspection(s), most in need of a person first")
+        grouped = any(e.delivery_id for e in entries)
+        for group in by_delivery(entries):
+            if grouped:
+                print(group_heading(group))
+            for e in group:
+                print(("  " if grouped else "") + e.line())
+    _say(f"pipegauge summary: {len(entries)} inspection(s), most in need of a person first"
+         + (", grouped by delivery" if any(e.delivery_id for e in entries) else ""))
     return EXIT_OK
 
 

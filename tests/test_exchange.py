@@ -15,13 +15,13 @@ import shutil
 import subprocess
 import sys
 import textwrap
-import tracemalloc
 from pathlib import Path
 
 import pytest
 
 import ili_cache
 from flows.cli import main
+from hostile import assert_refused, entity_expansion, external_entity, kinds
 from pipeline.formats.manifest import load_manifest
 from pipeline.core.errors import PackageError, TransferError
 from pipeline.formats.isybau import FORMAT_NAME as ISYBAU
@@ -245,15 +245,12 @@ _HEAD = ('<?xml version="1.0" encoding="UTF-8"?>\n<TRANSFER xmlns="http://www.in
          'VERSION="2.3" SENDER="x"><MODELS><MODEL NAME="VSA_KEK_2019_LV95" VERSION="20.01.2021" URI="http://www.vsa.ch/models"/>'
          '</MODELS></HEADERSECTION><DATASECTION><VSA_KEK_2019_LV95.KEK BID="b1">')
 _TAIL = "</VSA_KEK_2019_LV95.KEK></DATASECTION></TRANSFER>\n"
-_LAUGHS = ('<?xml version="1.0"?>\n<!DOCTYPE TRANSFER [<!ENTITY a "aaaaaaaaaa">' +
-           "".join(f'<!ENTITY {chr(98 + i)} "{("&" + chr(97 + i) + ";") * 10}">' for i in range(8)) +
-           ']>\n<TRANSFER xmlns="http://www.interlis.ch/INTERLIS2.3">&i;</TRANSFER>\n')
-_EXTERNAL = ('<?xml version="1.0"?>\n<!DOCTYPE TRANSFER [<!ENTITY x SYSTEM "file:///etc/passwd">]>\n'
-             '<TRANSFER xmlns="http://www.interlis.ch/INTERLIS2.3">&x;</TRANSFER>\n')
-
+_ILI = "http://www.interlis.ch/INTERLIS2.3"
 HOSTILE = {
-    "entity-expansion": (lambda: _LAUGHS, "refused: the file declares a DTD or entities"),
-    "external-entity": (lambda: _EXTERNAL, "refused: the file declares a DTD or entities"),
+    "entity-expansion": (lambda: entity_expansion("TRANSFER", f'<TRANSFER xmlns="{_ILI}">&i;</TRANSFER>'),
+                         "refused: the file declares a DTD or entities"),
+    "external-entity": (lambda: external_entity("TRANSFER", f'<TRANSFER xmlns="{_ILI}">&x;</TRANSFER>'),
+                        "refused: the file declares a DTD or entities"),
     "million-objects": (lambda: _HEAD + '<k TID="t"/>' * 10 ** 6 + _TAIL,
                         f"more than {MAX_OBJECTS} objects (the next is k TID 't')"),
     "million-elements": (lambda: _HEAD + '<k TID="t">' + "<a/>" * 10 ** 6 + "</k>" + _TAIL,
@@ -278,21 +275,12 @@ def test_a_dangling_reference_is_a_problem_of_the_file_and_its_record_is_not_rea
         read_transfer_log(path)
 
 
-@pytest.mark.parametrize("kind", [pytest.param(k, marks=pytest.mark.slow) if k == "million-elements" else k
-                                  for k in HOSTILE])        # a million elements parsed under tracemalloc: seconds
+@pytest.mark.parametrize("kind", kinds(HOSTILE, "million-elements"))   # a million elements under tracemalloc: seconds
 def test_a_hostile_transfer_is_refused_with_a_clear_error_in_bounded_memory(kind, tmp_path):
     make, message = HOSTILE[kind]
     path = tmp_path / f"{kind}.xtf"
     path.write_text(make(), encoding="utf-8")
-    tracemalloc.start()
-    try:
-        with pytest.raises(TransferError) as err:
-            read_log_file(path)
-        peak = tracemalloc.get_traced_memory()[1]
-    finally:
-        tracemalloc.stop()
-    assert str(err.value).startswith(str(path)) and message in str(err.value), str(err.value)
-    assert peak < 64 * 2 ** 20, f"{kind}: {peak} bytes at the peak"
+    assert_refused(path, message)
 
 
 def test_a_transfer_over_the_size_cap_is_refused_before_parsing(tmp_path):
@@ -325,7 +313,7 @@ def test_a_sample_delivered_as_a_transfer_measures_bit_for_bit_as_its_csv_packag
     (hostile / "package.json").write_text(json.dumps(manifest))
     for name in ("video.mp4", "marks.csv"):
         shutil.copy2(good / name, hostile / name)
-    (hostile / "inspection.xtf").write_text(_LAUGHS)
+    (hostile / "inspection.xtf").write_text(HOSTILE["entity-expansion"][0]())
     data = tmp_path / "dataset"
     assert main(["measure", str(hostile), str(good), "--data", str(data)]) == 1   # the hostile one failed
     stored = read_table(data, "inspections").set_index("inspection_id")
@@ -366,7 +354,6 @@ def test_a_sample_delivered_as_a_transfer_measures_bit_for_bit_as_its_csv_packag
         assert f"pipegauge {m['quantity']} " in exported.observations[m["row"]].remark
 
 
-@pytest.mark.slow
 @pytest.mark.slow
 def test_the_samples_exported_by_default_keep_the_contractors_values_and_pass_the_validator(tmp_path, ili_models,
                                                                                            sample_night):
@@ -419,6 +406,7 @@ def test_export_refuses_unknown_suffixes_reversed_dates_and_a_file_for_a_transfe
     write_inspection(data, {"inspection_id": "P1", "inspection_date": dt.date(2026, 11, 20), "status": "ok",
                             "problems": []}, [], [], [])
     for argv, message in ((["--out", str(tmp_path / "x.xlsx")], "no export format writes files ending '.xlsx'"),
+                          (["--out", str(tmp_path / "x.xlsx")], "vsa-kek-2020, isybau-2013)"),    # every transfer
                           (["--out", str(tmp_path / "y.csv"), "--from", "2026-12-01", "--to", "2026-01-01"],
                            "--from 2026-12-01 is after --to 2026-01-01"),
                           (["--format", "vsa-kek-2019", "--out", str(tmp_path / "file.xtf")], "looks like a file"),
@@ -602,3 +590,28 @@ def test_the_csv_export_is_the_condition_log_with_header_and_provenance(tmp_path
     assert main(["export", "--data", str(data), "--out", str(tmp_path / "log.parquet")]) == 0
     meta = pq.read_schema(tmp_path / "log.parquet").metadata
     assert meta[b"pipegauge.values"] == b"delivered" and b"contractor's as delivered" in meta[b"pipegauge.policy"]
+
+
+def test_a_vsa_clock_of_0_or_00_is_no_position_as_in_the_other_job_formats(tmp_path):
+    """SchadenlageAnfang/Ende read through coded_rows.clock_text, the helper of the job formats: 0 and 00 are no
+    position (VSA's 0); before, '00' went on to the log's check and was refused as no clock position 1-12."""
+    text = REAL_XTF.read_text(encoding="utf-8")
+    text = text.replace("<SchadenlageAnfang>0</SchadenlageAnfang>", "<SchadenlageAnfang>00</SchadenlageAnfang>", 1)
+    text = text.replace("<SchadenlageEnde>0</SchadenlageEnde>", "<SchadenlageEnde>3</SchadenlageEnde>", 1)
+    path = tmp_path / "clock.xtf"
+    path.write_text(text, encoding="utf-8")
+    first = read_log_file(path).sections[0].observations[0]
+    assert (first.clock_from, first.clock_to, first.problems) == (None, 3, [])
+
+
+def test_a_transfers_remark_names_a_grade_only_where_the_measurement_decided_it():
+    """S02's crack below resolution read 'pipegauge Q1 < 15.5 mm (below resolution), log undecided, grade EZ1' while
+    its EZ1 is the logged value's class (the report: 'EZ1 from the log: not decidable from the image')."""
+    from pipeline.formats.vsa_kek.write import _measured_note
+
+    below = {"quantity": "Q1", "value": 7.0, "high": 15.5, "unit": "mm", "below_resolution": True, "confident": True,
+             "log_check": "undecided", "grade": "EZ1", "grade_status": "not decidable from the image"}
+    note = _measured_note(below)
+    assert note.startswith("Q1 < ") and note.endswith("(below resolution), log undecided"), note
+    assert _measured_note({**below, "below_resolution": False, "U95": 1.0, "grade_status": "graded"}).endswith(
+        ", log undecided, grade EZ1")

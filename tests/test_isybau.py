@@ -11,6 +11,7 @@ from pathlib import Path
 import pytest
 
 from flows.cli import main
+from hostile import assert_refused
 from pipeline.core.errors import TransferError
 from pipeline.formats import read_log_file
 from pipeline.formats.header import load_header
@@ -101,12 +102,6 @@ def test_an_older_coding_system_is_refused_row_by_row(tmp_path):
     assert all(any("coded in ISYBAU 1996, not EN 13508-2" in p.message for p in o.problems) for o in section.observations)
 
 
-def _hostile(tmp_path: Path, name: str, text: bytes) -> Path:
-    path = tmp_path / f"{name}.xml"
-    path.write_bytes(text)
-    return path
-
-
 HEAD = b'<?xml version="1.0"?>\n'
 HOSTILE = {
     "entity-expansion": (HEAD + b'<!DOCTYPE Identifikation [<!ENTITY a "aaaaaaaaaa"><!ENTITY b "&a;&a;&a;&a;&a;&a;">]>'
@@ -123,14 +118,9 @@ HOSTILE = {
 @pytest.mark.parametrize("name", HOSTILE)
 def test_a_hostile_file_is_refused_with_a_clear_error_in_bounded_memory(tmp_path, name):
     text, message = HOSTILE[name]
-    path = _hostile(tmp_path, name, text)
-    tracemalloc.start()
-    with pytest.raises(TransferError) as err:
-        read_isybau(path)
-    peak = tracemalloc.get_traced_memory()[1]
-    tracemalloc.stop()
-    assert str(path) in str(err.value) and message in str(err.value)
-    assert peak < 600 * 2**20
+    path = tmp_path / f"{name}.xml"
+    path.write_bytes(text)
+    assert_refused(path, message, read_isybau, peak_bytes=600 * 2 ** 20)
 
 
 def test_an_oversize_file_is_refused_before_it_is_parsed(tmp_path):
@@ -221,3 +211,17 @@ def test_every_material_an_exchange_format_maps_to_is_a_material_pipegauge_knows
 
     for table in (MATERIALS, dwa_m150.MATERIALS, en13508_text.MATERIALS):
         assert set(table.values()) <= KNOWN_MATERIALS, sorted(set(table.values()) - KNOWN_MATERIALS)
+
+
+def test_a_manhole_row_is_checked_as_in_the_other_job_formats(tmp_path):
+    """KZustand rows go through coded_rows.parse_manhole_rows, the DWA-M 150 and text readers' check: a pipe code and
+    a position that is no number are each a problem naming the ISYBAU element."""
+    text = JOB_2013.read_text(encoding="iso-8859-1")
+    text = text.replace("<InspektionsKode>DBA</InspektionsKode>", "<InspektionsKode>BBA</InspektionsKode>", 1)
+    text = text.replace("<VertikaleLage>0.40</VertikaleLage>", "<VertikaleLage>0,4x</VertikaleLage>", 1)
+    path = tmp_path / "manhole.xml"
+    path.write_text(text, encoding="iso-8859-1")
+    rows = read_isybau(path).manholes[0].observations
+    said = [(p.field, p.message) for o in rows for p in o.problems]
+    assert ("InspektionsKode", "'BBA' is not a manhole observation code (D and two letters, EN 13508-2)") in said
+    assert any(f == "VertikaleLage" and "'0,4x' is not a vertical position" in m for f, m in said)

@@ -20,20 +20,26 @@ def _text(pdf) -> list[str]:
     return [line for p in PdfReader(pdf).pages for line in p.extract_text().splitlines()]
 
 
+def _store_graded(data, iid: str, grade: str, disagree: bool, **inspection_fields) -> None:
+    """An example inspection stored with every observation of class ``grade``; row 2's logged value contradicted by
+    the measurement when ``disagree``."""
+    inspection, observations, measurements, thumbnails = example_inspection(iid, n_observations=3)
+    inspection.update(section_grade=grade, section_grade_probability=0.9, grading_scheme="vsa-2023",
+                      **inspection_fields)
+    for m in measurements:
+        m.update(log_check="agrees", below_resolution=False, grading_scheme="vsa-2023")
+    for o in observations:
+        o.update(grade=grade, grading_scheme="vsa-2023")
+    if disagree:
+        measurements[1].update(log_check="disagrees", logged_value=10.0, log_difference=-3.0, E_n=3.0)
+    write_inspection(data, inspection, observations, measurements, thumbnails)
+
+
 def _night(tmp_path):
     """Three sections: a clean EZ3 one, an EZ1 one whose row 2 the measurement contradicts, a failed delivery."""
     data = tmp_path / "out" / "dataset"
     for iid, section, grade, disagree in (("CLEAN-1", "C1", "EZ3", False), ("WRONG-1", "W1", "EZ1", True)):
-        inspection, observations, measurements, thumbnails = example_inspection(iid, n_observations=3)
-        inspection.update(section_id=section, section_grade=grade, section_grade_probability=0.9,
-                          grading_scheme="vsa-2023")
-        for m in measurements:
-            m.update(log_check="agrees", below_resolution=False, grading_scheme="vsa-2023")
-        for o in observations:
-            o.update(grade=grade, grading_scheme="vsa-2023")
-        if disagree:
-            measurements[1].update(log_check="disagrees", logged_value=10.0, log_difference=-3.0, E_n=3.0)
-        write_inspection(data, inspection, observations, measurements, thumbnails)
+        _store_graded(data, iid, grade, disagree, section_id=section)
     write_inspection(data, {"inspection_id": "BAD-1", "inspection_date": dt.date(2026, 11, 20), "status": "failed",
                             "section_id": "B1", "error": "video.mp4: no such file", "problems": []}, [], [], [])
     rows = [{"package": i, "inspection_id": i, "status": s, "quantities": 3, "error": "", "processed": True}
@@ -69,6 +75,40 @@ def test_the_summary_ranks_failed_deliveries_then_grades_and_names_each_report(t
     assert printed[1]["report"] == str(reports / "WRONG-1.pdf")
     assert main(["summary", "--data", str(tmp_path / "out")]) == 0
     assert capsys.readouterr().out.splitlines()[0].startswith("1. B1, inspection BAD-1: delivery failed")
+
+
+def test_the_morning_list_is_grouped_by_delivery_the_most_urgent_delivery_first(tmp_path, capsys):
+    """Sections of one delivery stand together; deliveries are ranked by their most urgent section, so the first
+    entry is still the night's most urgent one (ungrouped, the package P1's EZ2 came between D1's EZ1 and EZ3)."""
+    data = tmp_path / "out" / "dataset"
+    for iid, delivery, grade, disagree in (("D1-A", "D1", "EZ3", False), ("D1-B", "D1", "EZ1", True),
+                                           ("P1", None, "EZ2", False)):
+        _store_graded(data, iid, grade, disagree, section_id=iid, delivery_id=delivery, status="ok")
+    write_inspection(data, {"inspection_id": "D2-A", "inspection_date": dt.date(2026, 11, 20), "status": "failed",
+                            "section_id": "D2-A", "delivery_id": "D2", "error": "video.mp4: no such file",
+                            "problems": []}, [], [], [])
+    rows = [{"package": i, "inspection_id": i, "status": s, "quantities": 3, "error": "", "processed": True,
+             "delivery": d} for i, s, d in (("D1-A", "ok", "D1"), ("D1-B", "ok", "D1"), ("P1", "ok", None),
+                                            ("D2-A", "failed", "D2"))]
+    reports = tmp_path / "out" / "reports"
+    reports.mkdir()
+    pdf = render_night_summary(rows, data, reports / "summary-2026-11-21.pdf", night=dt.date(2026, 11, 21))
+    listed = read_summary_csv(reports / "summary-2026-11-21.csv")
+    assert [(r["rank"], r["inspection_id"], r["delivery_id"]) for r in listed] == [
+        (1, "D2-A", "D2"), (2, "D1-B", "D1"), (3, "D1-A", "D1"), (4, "P1", "")]
+    text = " ".join(_text(pdf))
+    assert "Most in need of a person: D2-A: the delivery failed" in text
+    headings = ["Delivery D2: 1 section (0 measured, 0 log-only, 1 failed)",
+                "Delivery D1: 2 sections (2 measured, 0 log-only, 0 failed)", "Package folder P1"]
+    assert all(h in text for h in headings) and [text.index(h) for h in headings] == sorted(
+        text.index(h) for h in headings)
+    capsys.readouterr()
+    assert main(["summary", "--data", str(tmp_path / "out")]) == 0
+    printed = capsys.readouterr().out.splitlines()
+    assert printed[0] == headings[0] and printed[1].startswith("  1. D2-A") and printed[2] == headings[1]
+    assert [line.split(".")[0].strip() for line in printed if line.startswith("  ")] == ["1", "2", "3", "4"]
+    assert main(["summary", "--data", str(tmp_path / "out"), "--json"]) == 0
+    assert [e["inspection_id"] for e in json.loads(capsys.readouterr().out)] == ["D2-A", "D1-B", "D1-A", "P1"]
 
 
 def test_report_takes_a_section_id_as_the_summary_lists_it(tmp_path, capsys):
@@ -294,3 +334,113 @@ def test_paper_refuses_a_certificate_whose_distortion_is_not_linear_over_its_unc
     assert main(["paper", "--certificate", str(cert), "--no-files"]) == 1
     captured = capsys.readouterr()
     assert "its distortion is not linear over its uncertainty" in captured.err and "U95" not in captured.out
+
+
+# -- the thumbnail shows the burned-in overlay whole, as recorded ---------------------------------------------------
+
+def test_the_thumbnail_shows_the_overlay_as_recorded_and_the_ideal_image_elsewhere():
+    import cv2
+    import numpy as np
+
+    from pipeline.reports.thumbnail import THUMBNAIL_WIDTH_PX, measurement_thumbnail
+
+    h, w = 576, 720
+    ideal = np.full((h, w, 3), 40, np.uint8)                 # the undistorted frame: its overlay bent and cut
+    recorded = np.full((h, w, 3), 90, np.uint8)
+    cv2.rectangle(recorded, (0, 40), (260, 120), (255, 255, 255), -1)      # the overlay's band, from the left edge
+    mask = np.full((h, w), 255, np.uint8)
+    mask[40:121, 0:261] = 0
+    s = THUMBNAIL_WIDTH_PX / w
+    jpeg = measurement_thumbnail(ideal, None, (500.0, 400.0), (520.0, 400.0), overlay=(recorded, mask))
+    thumb = cv2.imdecode(np.frombuffer(jpeg, np.uint8), cv2.IMREAD_GRAYSCALE)
+    assert thumb.shape == (round(h * s), THUMBNAIL_WIDTH_PX)
+    band = thumb[round(45 * s):round(115 * s), 0:round(255 * s)]
+    assert band.min() > 235                                  # the band whole, from the thumbnail's left edge
+    assert abs(float(np.median(thumb[round(300 * s):, :round(400 * s)])) - 40) < 4      # elsewhere the ideal image
+    with pytest.raises(ValueError, match="size"):
+        measurement_thumbnail(ideal, None, (500.0, 400.0), (520.0, 400.0), overlay=(recorded[:100], mask))
+
+
+@pytest.mark.slow
+def test_the_samples_thumbnails_show_the_overlay_text_as_recorded(sample_night):
+    """S01's thumbnails: where the recorded frame shows the overlay's white text (its top left, the header band at
+    the frame's left edge), the thumbnail shows it too, at the same place; the undistorted frame alone had moved it
+    out of the picture."""
+    import cv2
+    import numpy as np
+
+    from pipeline.store import read_records
+    from pipeline.vision.video.reader import read_frame
+
+    inspection = read_records(sample_night / "dataset", "inspections", inspection_ids=["S01-circular-clean"])[0]
+    video = sample_night / "inbox" / "S01-circular-clean" / inspection.video_file
+    thumbs = read_records(sample_night / "dataset", "thumbnails", inspection_ids=["S01-circular-clean"])
+    assert thumbs
+    for t in thumbs[:3]:
+        thumb = cv2.imdecode(np.frombuffer(t.image_jpeg, np.uint8), cv2.IMREAD_GRAYSCALE)
+        recorded = cv2.cvtColor(read_frame(video, t.frame), cv2.COLOR_BGR2GRAY)
+        recorded = cv2.resize(recorded, (thumb.shape[1], thumb.shape[0]), interpolation=cv2.INTER_AREA)
+        corner = (slice(0, thumb.shape[0] // 4), slice(0, thumb.shape[1] // 2))
+        text = recorded[corner] > 200
+        assert text.sum() > 50                              # the overlay's text is there, as recorded
+        assert np.mean(thumb[corner][text] > 150) > 0.9, t.frame
+
+
+def test_the_glossary_states_the_log_checks_rule_as_the_judgement_applies_it():
+    """The glossary said 'outline not trusted: undecided unless E_n > 2' and 'E_n ≤ 1 agrees', rules the metrology
+    merge replaced (u widened 1.5 times; agrees on P(right) >= 0.95), and left P(right), which the table prints,
+    undefined."""
+    from pipeline.judgement.verdicts.log_check import P_AGREE, UNTRUSTED_INFLATION
+    from pipeline.reports.inspection_report import GLOSSARY
+    from pipeline.reports.verdict_text import log_check_text
+
+    words = dict(GLOSSARY)
+    assert f"widened {UNTRUSTED_INFLATION:g} times" in words["outline not trusted"]
+    assert "E_n > 2" not in " ".join(words.values()) and "agrees" not in words["E_n"]
+    assert any("P(right)" in k for k in words) and f"agrees at ≥ {P_AGREE:g}" in words["P(right), P(log right)"]
+    shown = log_check_text({"log_check": "undecided", "log_conformity": 0.5, "logged_value": 5.0, "unit": "mm",
+                            "log_difference": 1.0, "E_n": 0.3, "log_check_reason": ""})
+    assert "P(right)" in shown                              # the symbol the table prints is the one defined
+
+
+def test_a_logged_value_contradicted_twice_is_listed_once_as_marked():
+    """S02's row 1 water level was listed twice under "Contractor's log contradicted" (marked, and from the image
+    alone), as the worst observations once did."""
+    from pipeline.domain.results import MeasurementRecord
+    from pipeline.reports.summary_report import log_disagreements
+
+    common = dict(inspection_id="X", status="ok", unit="%", code="BDD", quantity="Q1", log_check="disagrees")
+    m = [MeasurementRecord(row=1, source="marks", E_n=4.1, **common),
+         MeasurementRecord(row=1, source="contour", E_n=4.0, **common),
+         MeasurementRecord(row=2, source="contour", E_n=2.0, **common)]      # only the image contradicts row 2
+    assert [(r.row, r.source) for r in log_disagreements(m)] == [(1, "marks"), (2, "contour")]
+
+
+def test_a_log_only_section_says_it_was_not_measured_and_what_to_deliver(tmp_path):
+    """A delivery's section without its video (log-only) read 'needs a person: nothing' and 'action: none: the log
+    agrees with the measurement', though nothing was measured; it now ranks before a measured section of its grade."""
+    from pipeline.reports.morning import LOG_ONLY_ACTION, morning_list
+
+    data = tmp_path / "dataset"
+    _store_graded(data, "MEASURED", "EZ1", False, section_id="M1", status="ok")
+    _store_graded(data, "JOB-S1", "EZ1", False, section_id="S1", status="log-only", delivery_id="JOB",
+                  error="not measured: no video delivered for section S1: MPEG/S1.mp4 is not in JOB")
+    first, second = morning_list(data)
+    assert (first.inspection_id, second.inspection_id) == ("JOB-S1", "MEASURED")
+    assert first.needs_person.startswith("not measured: no video delivered for section S1")
+    assert first.action == LOG_ONLY_ACTION and "none" not in first.action
+    assert first.headline().startswith("S1 (MH1 → MH2), grade EZ1 from the log: not measured: no video delivered")
+
+
+def test_a_log_only_report_says_nothing_was_checked_and_what_to_deliver():
+    """A log-only section's report read 'Log check: 0 agree, 0 disagree, 0 undecided, 0 not checked' and told the
+    reader to 'correct the delivery as the problems below say', with no problem below."""
+    from pipeline.reports.inspection_report import inspection_warnings
+    from pipeline.reports.verdict_text import verdict_lines
+
+    record = {"status": "log-only", "error": "not measured: no video delivered for section S01", "log_agrees": 0,
+              "log_disagrees": 0, "log_undecided": 0, "log_not_checked": 0, "problems": [], "warnings": []}
+    assert dict(verdict_lines(record))["Log check"].startswith("none: nothing was measured (log-only)")
+    said = inspection_warnings(record, [], dt.date(2026, 12, 2))
+    assert said[0].startswith("Status log-only: not measured: no video delivered for section S01. Action: deliver")
+    assert "problems below" not in " ".join(said)

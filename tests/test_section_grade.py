@@ -119,3 +119,19 @@ def test_a_log_under_a_below_resolution_bound_is_undecided_and_one_above_it_disa
     assert "below resolution: consistent, not confirmed" in log_check_text(under)
     assert over.log_check == "disagrees"                         # 20 mm against < 9 mm
     assert r.inspection.log_undecided == 1 and r.inspection.log_disagrees == 1
+
+
+def test_a_q2_of_a_code_the_scheme_does_not_grade_says_the_codes_reason_not_q1_only():
+    """S01's connection (BCA) read 'does not grade BCA: a connection is an inventory record' for Q1 and 'grades Q1
+    only' for Q2 in the summary's worst observations: two reasons for one code."""
+    m = [MeasurementRecord(row=1, quantity=q, source="marks", code="BCA", char1="A", status="ok", unit="mm",
+                           value=140.0, u=2.0, U95=4.0, low=136.0, high=144.0, k=1.96, confident=True)
+         for q in ("Q1", "Q2")]
+    observations = [Observation(1, 1.0, "BCA", "A", "A", 129.0, "mm", 197.0, "mm", 2, None, False, "", None, "", "",
+                                {})]
+    result = SimpleNamespace(inspection=InspectionRecord(), measurements=m,
+                             observations=[ObservationRecord(row=1, valid=True)])
+    add_verdicts(result, HEADER, observations, None)
+    q1, q2 = result.measurements
+    assert q1.grade_reason and q1.grade_reason.startswith(f"{scheme().name} does not grade BCA")
+    assert q2.grade_reason == q1.grade_reason

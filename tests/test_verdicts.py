@@ -17,7 +17,7 @@ from pipeline.judgement.verdicts.survey import survey_verdict
 def test_a_log_wrong_on_purpose_is_flagged_with_its_E_n_and_an_honest_rounded_log_is_not():
     value, U95 = 30.06, 0.56              # S02's water level as measured, truth 30 %
     wrong = check_logged(20.0, "%", value=value, U95=U95, unit="%")
-    expected = abs(20.0 - value) / math.hypot(U95, U_RES_FACTOR * 5.0)
+    expected = abs(20.0 - value) / math.hypot(U95, U_RES_FACTOR * 10.0)    # 20 % may be logged to 10 %
     assert wrong.verdict == "disagrees" and wrong.E_n == pytest.approx(expected)
     assert wrong.difference == pytest.approx(20.0 - value)
     honest = check_logged(float(5 * round(30.0 / 5)), "%", value=value, U95=U95, unit="%")
@@ -26,6 +26,8 @@ def test_a_log_wrong_on_purpose_is_flagged_with_its_E_n_and_an_honest_rounded_lo
 
 def test_the_logged_resolution_is_inferred_from_the_value():
     assert logging_resolution(15.0, "%") == 5.0
+    assert logging_resolution(20.0, "%") == 10.0        # could be logged to 10 %: the coarser protects the contractor
+    assert logging_resolution(20.0, "%", "BAA") == 1.0  # a deformation is logged in whole percent
     assert logging_resolution(12.0, "%") == 1.0
     assert logging_resolution(12.5, "mm") == 0.1
     assert logging_resolution(151.0, "mm") == 1.0
@@ -195,3 +197,22 @@ def test_the_reports_log_check_text_says_why_a_check_is_undecided():
         "disagrees (P(right) 0.01; logged 25 mm, +5 mm, E_n 1.65)"
     assert log_check_text({**row, "log_check": "undecided", "below_resolution": True}).startswith(
         "undecided (below resolution: consistent, not confirmed; ")
+
+
+def test_an_honest_water_level_rounded_to_ten_percent_is_not_accused():
+    # measured 24.3 +- 0.9 %: a contractor who logs water levels in tens writes 20 %; read as a 5 % step the
+    # tolerance 17.5-22.5 % lies far outside the measurement and the log was called "disagrees" (issue 30)
+    c = check_logged(20.0, "%", value=24.3, U95=0.9, unit="%", code="BDD")
+    assert c.resolution == 10.0 and c.tolerance == 5.0
+    assert c.verdict != "disagrees"
+    # the same figures for a deformation, whose practice is whole percent, stay an accusation
+    assert check_logged(20.0, "%", value=24.3, U95=0.9, unit="%", code="BAA").verdict == "disagrees"
+
+
+def test_a_log_that_fits_a_coarser_step_only_is_neither_accused_nor_confirmed():
+    # 20 % against a measured 24.6 +- 0.6 %: right if logged to 10 % (20 +- 5 holds it), wrong if logged to 5 %:
+    # guarded both ways it stays undecided, and the reason names both readings
+    c = check_logged(20.0, "%", value=24.6, U95=0.6, unit="%", code="BDD")
+    assert c.verdict == "undecided" and "logged to 10 or 5 %" in c.reason
+    # where both readings agree the verdict is plain
+    assert check_logged(20.0, "%", value=20.4, U95=0.6, unit="%", code="BDD").verdict == "agrees"

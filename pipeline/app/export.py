@@ -60,7 +60,7 @@ def check_export_request(name: str | None, out: str | os.PathLike, start: dt.dat
         if name is None:
             raise PipegaugeError(f"--out {out}: no export format writes files ending {out.suffix or 'without a suffix'!r}"
                                  f"; name the file .csv or .parquet, or choose a transfer with --format "
-                                 f"({', '.join(n for n, w in WRITERS.items() if w.out == 'folder')})")
+                                 f"({', '.join(n for n, w in WRITERS.items() if w.out != 'file')})")
     if name not in WRITERS:
         raise PipegaugeError(f"unknown export format {name!r}; one of {', '.join(WRITERS)}")
     if WRITERS[name].out == "file":

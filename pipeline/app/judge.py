@@ -81,14 +81,17 @@ def add_verdicts(result, header, observations, track, scheme_key: str | None = N
         c = check_logged(logged, logged_unit, value=m.get("value"), U95=m.get("U95"), unit=m.get("unit"),
                          confident=m.get("confident"), status=m.get("status", "error"),
                          upper_bound=m.get("high") if m.get("below_resolution") is True else None,
-                         cdf=_distribution(m), class_range=_class_range(s, m, header, logged))
+                         cdf=_distribution(m), class_range=_class_range(s, m, header, logged), code=o.code)
         m.update(logged_value=c.logged, logged_resolution=c.resolution, log_check=c.verdict,
                  log_check_reason=c.reason, log_difference=c.difference, E_n=c.E_n, log_tolerance=c.tolerance,
                  log_conformity=c.conformity, log_check_risk=c.risk)
         if m["quantity"] == "Q1":
             m.update(_grade_fields(_measurement_grade(s, m, header, _f(logged), logged_unit)))
         else:
-            m.update(grading_scheme=s.key, grade_status="ungraded", grade_reason=f"{s.name} grades Q1 only")
+            # a code the scheme does not grade at all says so for each quantity, not "Q1 only"
+            why = (f"{s.name} does not grade {m['code']}: {s.not_graded[m['code']]}" if m.get("code") in s.not_graded
+                   else f"{s.name} grades Q1 only")
+            m.update(grading_scheme=s.key, grade_status="ungraded", grade_reason=why)
 
     grades: list[tuple[Grade, int]] = []
     for rec, o in zip(result.observations, observations):

@@ -18,7 +18,7 @@ from pipeline.domain.results import InspectionRecord
 from pipeline.vision.video.ingest import ChainageIngest, ingest_chainage
 from pipeline.vision.video.overlay_check import overlay_header_mismatches
 from pipeline.vision.video.overlay_ocr import OverlayReader
-from pipeline.vision.video.pipe_contour import overlay_mask_of
+from pipeline.vision.video.pipe_contour import overlay_mask_of, recorded_overlay_mask
 
 __all__ = ["Location", "locate"]
 
@@ -30,6 +30,9 @@ class Location:
     ingest: ChainageIngest                  # the chainage track, the video's facts, frames sampled across it
     undistorter: Undistorter
     mask: np.ndarray | None           # the burned-in overlay's pixels, left out of every fit
+    # where a thumbnail shows the recorded frame's pixels (0): the overlay as recorded, and its bent copy in the ideal
+    # image (pipeline.reports.thumbnail)
+    thumbnail_mask: np.ndarray | None = None
 
     @property
     def info(self):
@@ -57,5 +60,10 @@ def locate(delivery: Delivery, record: InspectionRecord, reader: OverlayReader |
     record.warnings = overlay_header_mismatches(ingest.overlay_text, asdict(delivery.header)) + ingest.track.warnings()
     und = Undistorter(cert, info.width, info.height, what=str(manifest.video))
     mask = overlay_mask_of(ingest.spread_frames.values(), und)
+    recorded = recorded_overlay_mask(ingest.spread_frames.values())
+    x0, y0, x1, y1 = ingest.box                 # the counter's digits change from frame to frame: its box, whole
+    recorded[max(0, y0):max(0, y1), max(0, x0):max(0, x1)] = 0
+    bent = und.frame(255 - recorded)            # the overlay's place in the ideal image (> 0 on it)
+    shown = np.where((recorded == 0) | (bent > 0) | (mask == 0), 0, 255).astype(np.uint8)
     record.time_track_s = time.perf_counter() - t0
-    return Location(ingest, und, mask)
+    return Location(ingest, und, mask, shown)

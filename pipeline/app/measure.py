@@ -37,7 +37,7 @@ from pipeline.measurement.quantity import MODELS, MarkedQuantity, QuantityResult
 from pipeline.measurement.wall import contour_under
 from pipeline.core.numeric import finite_number
 from pipeline.judgement.grading import class_edges, scheme as grading_scheme
-from pipeline.judgement.verdicts.log_check import conformity_interval, logging_resolution
+from pipeline.judgement.verdicts.log_check import conformity_interval, logging_resolutions
 from pipeline.app.judge import add_verdicts, logged_survey
 from pipeline.app.load import LogOnly, load_delivery
 from pipeline.app.locate import locate
@@ -121,6 +121,7 @@ def measure_package(folder: str | os.PathLike, *, certificates: str | os.PathLik
     for o in observations:      # a row number used twice (a problem of the log): its first row stands for it
         by_row.setdefault(o.row, o)
     ideal_frames: dict[int, np.ndarray] = {}
+    recorded_frames: dict[int, np.ndarray] = {}
     by_frame: dict[int, list[Mark]] = defaultdict(list)
     for m in marks:
         by_frame[m.frame].append(m)
@@ -130,7 +131,8 @@ def measure_package(folder: str | os.PathLike, *, certificates: str | os.PathLik
     t0 = time.perf_counter()
     say(f"{manifest.package_id}: pipe contours at {len(frames)} frame(s)")
     contours = contours_at_frames(manifest.video, frames, ingest.track, und, header.shape, height_mm=header.height_mm,
-                                  tolerance_mm=header.height_tolerance_mm, mask=mask, ideal_frames=ideal_frames)
+                                  tolerance_mm=header.height_tolerance_mm, mask=mask, ideal_frames=ideal_frames,
+                                  recorded_frames=recorded_frames)
     t_contour = time.perf_counter() - t0
 
     def under(obs: Observation, contour):
@@ -145,13 +147,21 @@ def measure_package(folder: str | os.PathLike, *, certificates: str | os.PathLik
         logged = finite_number(obs.q1 if quantity == "Q1" else obs.q2)
         spec = obs.quantification(quantity)
         unit = (obs.q1_unit if quantity == "Q1" else obs.q2_unit) or (spec.unit if spec else "")
-        ends = conformity_interval(logged, logging_resolution(logged, unit)) if logged is not None else ()
+        ends = tuple(e for step in logging_resolutions(logged, unit, obs.code)
+                     for e in conformity_interval(logged, step)) if logged is not None else ()
         return tuple(sorted({*graded, *ends}))
 
     def ideal(frame: int) -> np.ndarray:
         if frame not in ideal_frames:        # kept by the contours' pass; a seek only for a frame it did not reach
-            ideal_frames[frame] = und.frame(read_frame(manifest.video, frame))
+            recorded_frames[frame] = read_frame(manifest.video, frame)
+            ideal_frames[frame] = und.frame(recorded_frames[frame])
         return ideal_frames[frame]
+
+    def thumbnail(frame: int, marked, row: int, source: str) -> ThumbnailRecord:
+        image = ideal(frame)                # reads the recorded frame too when the contours' pass did not keep it
+        overlay = (recorded_frames[frame], where.thumbnail_mask) \
+            if frame in recorded_frames and where.thumbnail_mask is not None else None
+        return _thumbnail(image, contours[frame], marked, row, frame, source, overlay)
 
     # the Monte Carlo runs of the quantities are independent (each its own seed) and mostly large NumPy operations
     # that release the GIL: two at once use both cores; results are assembled in the marks' order
@@ -195,7 +205,7 @@ def measure_package(folder: str | os.PathLike, *, certificates: str | os.PathLik
             try:
                 row.update(_quantity_fields(future.result()))
                 _check_distance(row)
-                result.thumbnails.append(_thumbnail(ideal(m.frame), contours[m.frame], marked, m.row, m.frame, "marks"))
+                result.thumbnails.append(thumbnail(m.frame, marked, m.row, "marks"))
             except PipegaugeError as exc:
                 row.update(status="error", error=str(exc))
         result.measurements.append(row)
@@ -224,7 +234,7 @@ def measure_package(folder: str | os.PathLike, *, certificates: str | os.PathLik
             t_measure += time.perf_counter() - t0
             row.update(_quantity_fields(res), u_mark_px=q.u_a)
             _check_distance(row)
-            result.thumbnails.append(_thumbnail(ideal(found), contours[found], q, r, found, "contour"))
+            result.thumbnails.append(thumbnail(found, q, r, "contour"))
         except PipegaugeError as exc:
             row.update(status="error", error=str(exc))
         result.measurements.append(row)
@@ -280,9 +290,10 @@ def _check_distance(row: MeasurementRecord) -> None:
 
 
 def _thumbnail(ideal_bgr: np.ndarray, contour, marked: MarkedQuantity, row: int, frame: int,
-               source: str) -> ThumbnailRecord:
+               source: str, overlay: tuple[np.ndarray, np.ndarray] | None = None) -> ThumbnailRecord:
     plane = contour.at_points([marked.a, marked.b])
-    jpeg = measurement_thumbnail(ideal_bgr, plane.polygon, marked.a, marked.b, confident=plane.confident)
+    jpeg = measurement_thumbnail(ideal_bgr, plane.polygon, marked.a, marked.b, confident=plane.confident,
+                                 overlay=overlay)
     h, w = ideal_bgr.shape[:2]
     return ThumbnailRecord(row=row, quantity=marked.quantity, source=source, frame=frame, width_px=THUMBNAIL_WIDTH_PX,
                            height_px=round(h * THUMBNAIL_WIDTH_PX / w), image_jpeg=jpeg)

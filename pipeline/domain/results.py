@@ -36,6 +36,27 @@ def column(type_: str, unit: str = "", doc: str = "") -> Any:
     return field(default=None, metadata={"type": type_, "unit": unit, "doc": doc})
 
 
+# The grade columns, alike in the observations and the measurements tables: each column's type, unit and meaning
+# declared here once. Each record names them where its table has them (a shared base class would move them to the
+# front of both tables: the field order is the dataset's column order).
+GRADE_COLUMNS: dict[str, tuple[str, str, str]] = {
+    "grading_scheme": ("string", "", "key of the grading scheme (pipeline.judgement.grading), e.g. vsa-2023"),
+    "grade_status": ("string", "", "graded | logged only | not decidable from the image | ungraded | unmeasured"),
+    "grade_reason": ("string", "", "why not graded from a measurement"),
+    "grade": ("string", "", "the most probable class (graded), else the logged value's class"),
+    "grade_probability": ("float64", "1", "probability of the most probable class"),
+    "grade_worst_likely": ("string", "", "the worst class with probability >= 5 %"),
+    "logged_grade": ("string", "", "the class of the contractor's logged value"),
+    "grade_disagrees": ("bool", "", "the logged value's class has probability < 5 %"),
+    "grade_probabilities": ("list<grade>", "", "probability of each class, summing to 1"),
+}
+
+
+def grade_column(name: str) -> Any:
+    """The field of grade column ``name`` (``GRADE_COLUMNS``)."""
+    return column(*GRADE_COLUMNS[name])
+
+
 # A record type's declared fields, in order: asked at every item access, so worked out once per type.
 _FIELD_NAMES: dict[type, tuple[str, ...]] = {}
 
@@ -220,18 +241,15 @@ class ObservationRecord(Record):
     valid: bool | None = column("bool")
     problems: str | None = column("string")
     write_id: str | None = column("string", doc="the store (commit) that wrote this row; null in schema-2 files")
-    grading_scheme: str | None = column(
-        "string", doc="key of the grading scheme (pipeline.judgement.grading), e.g. vsa-2023")
-    grade_status: str | None = column(
-        "string", doc="graded | logged only | not decidable from the image | ungraded | unmeasured")
-    grade_reason: str | None = column("string", doc="why not graded from a measurement")
-    grade: str | None = column("string", doc="the most probable class (graded), else the logged value's class")
-    grade_probability: float | None = column("float64", "1", "probability of the most probable class")
-    grade_worst_likely: str | None = column("string", doc="the worst class with probability >= 5 %")
-    logged_grade: str | None = column("string", doc="the class of the contractor's logged value")
-    grade_disagrees: bool | None = column("bool", doc="the logged value's class has probability < 5 %")
-    grade_probabilities: list[ClassProbability] | None = column(
-        "list<grade>", doc="probability of each class, summing to 1")
+    grading_scheme: str | None = grade_column("grading_scheme")
+    grade_status: str | None = grade_column("grade_status")
+    grade_reason: str | None = grade_column("grade_reason")
+    grade: str | None = grade_column("grade")
+    grade_probability: float | None = grade_column("grade_probability")
+    grade_worst_likely: str | None = grade_column("grade_worst_likely")
+    logged_grade: str | None = grade_column("logged_grade")
+    grade_disagrees: bool | None = grade_column("grade_disagrees")
+    grade_probabilities: list[ClassProbability] | None = grade_column("grade_probabilities")
     grade_source: str | None = column("string", doc="the measurement graded: quantity and source")
     outside_survey: bool | None = column("bool", doc="logged outside the surveyed range")
 
@@ -298,18 +316,15 @@ class MeasurementRecord(Record):
     log_check_reason: str | None = column("string")
     log_difference: float | None = column("float64", "unit", "logged - measured")
     E_n: float | None = column("float64", "1", "|logged - measured| / sqrt(U95^2 + U_res^2)")
-    grading_scheme: str | None = column(
-        "string", doc="key of the grading scheme (pipeline.judgement.grading), e.g. vsa-2023")
-    grade_status: str | None = column(
-        "string", doc="graded | logged only | not decidable from the image | ungraded | unmeasured")
-    grade_reason: str | None = column("string", doc="why not graded from a measurement")
-    grade: str | None = column("string", doc="the most probable class (graded), else the logged value's class")
-    grade_probability: float | None = column("float64", "1", "probability of the most probable class")
-    grade_worst_likely: str | None = column("string", doc="the worst class with probability >= 5 %")
-    logged_grade: str | None = column("string", doc="the class of the contractor's logged value")
-    grade_disagrees: bool | None = column("bool", doc="the logged value's class has probability < 5 %")
-    grade_probabilities: list[ClassProbability] | None = column(
-        "list<grade>", doc="probability of each class, summing to 1")
+    grading_scheme: str | None = grade_column("grading_scheme")
+    grade_status: str | None = grade_column("grade_status")
+    grade_reason: str | None = grade_column("grade_reason")
+    grade: str | None = grade_column("grade")
+    grade_probability: float | None = grade_column("grade_probability")
+    grade_worst_likely: str | None = grade_column("grade_worst_likely")
+    logged_grade: str | None = grade_column("logged_grade")
+    grade_disagrees: bool | None = grade_column("grade_disagrees")
+    grade_probabilities: list[ClassProbability] | None = grade_column("grade_probabilities")
     mc_converged: bool | None = column(
         "bool", doc="the adaptive Monte Carlo met its numerical tolerance before the trial cap (JCGM 101 7.9)")
     class_edges: list[float] | None = column("list<float64>", "unit", "the grading scheme's class edges for this code")

@@ -42,12 +42,12 @@ from pathlib import Path
 
 from pipeline.core.atomic import atomic_path
 from pipeline.core.errors import TransferError
-from pipeline.core.limits import MAX_EXCHANGE_BYTES, MAX_LOG_ROWS, MAX_SECTIONS
+from pipeline.core.limits import MAX_LOG_ROWS, MAX_SECTIONS
 from pipeline.domain.codes import quantification
 from pipeline.domain.records import RowProblem
 from pipeline.formats.coded_rows import (clock_text, continuous_marker, decimal_mark, decimal_text, number,
                                         parse_manhole_rows)
-from pipeline.formats.reading import ExchangeFile, LogReading
+from pipeline.formats.reading import ExchangeFile, LogReading, delivered_file_size
 
 __all__ = ["FORMAT_NAME", "TextSection", "read_log", "write_text", "text_section", "COLUMNS", "DIRECTIONS", "SHAPES", "MATERIALS",
            "MAX_LINE_BYTES", "MAX_FILE_ROWS"]
@@ -148,15 +148,7 @@ def read_log(path: str | os.PathLike) -> ExchangeFile:
     character set unknown or not the one its bytes are in, no inspection, too many inspections or rows.
     """
     path = Path(path)
-    try:
-        if not path.is_file():
-            raise TransferError(f"{path}: no such {WHAT} (or not a regular file)")
-        size = path.stat().st_size
-    except OSError as exc:
-        raise TransferError(f"{path}: the {WHAT} cannot be read ({exc.strerror or exc})") from None
-    if size > MAX_EXCHANGE_BYTES:
-        raise TransferError(f"{path}: {size:,} bytes; an {WHAT} is read up to {MAX_EXCHANGE_BYTES:,} bytes; split the "
-                            "delivery")
+    delivered_file_size(path, WHAT)
     exchange = ExchangeFile(path, FORMAT_NAME)
     inspections, settings = _scan(path, exchange)
     exchange.version = settings.edition

@@ -9,12 +9,15 @@ VSA-KEK transfer) gives one :class:`LogReading` per inspected pipe or lateral, i
 from __future__ import annotations
 
 import dataclasses
+import os
 from dataclasses import dataclass
 from pathlib import Path
 
+from pipeline.core.errors import TransferError
+from pipeline.core.limits import MAX_EXCHANGE_BYTES
 from pipeline.domain.records import Observation
 
-__all__ = ["LogReading", "ExchangeFile", "observation_record", "KINDS"]
+__all__ = ["LogReading", "ExchangeFile", "observation_record", "KINDS", "delivered_file_size"]
 
 KINDS = ("pipe", "lateral", "manhole")
 
@@ -104,3 +107,22 @@ def observation_record(o: Observation) -> dict:
     text as delivered, its problems as text."""
     fields = {f.name: getattr(o, f.name) for f in dataclasses.fields(o) if f.name not in ("fields", "problems")}
     return {**fields, "problems": [str(p) for p in o.problems]}
+
+
+def delivered_file_size(path: str | os.PathLike, what: str, max_bytes: int = MAX_EXCHANGE_BYTES) -> int:
+    """The size [bytes] of a delivered exchange file, checked before a byte of it is read: a regular file (a FIFO
+    would block the night), at most ``max_bytes``. ``what`` names the format in the messages ("ISYBAU XML file").
+
+    Raises TransferError naming the file and the fix.
+    """
+    path = Path(path)
+    try:
+        if not path.is_file():
+            raise TransferError(f"{path}: no such {what} (or not a regular file)")
+        size = path.stat().st_size
+    except OSError as exc:
+        raise TransferError(f"{path}: the {what} cannot be read ({exc.strerror or exc})") from None
+    if size > max_bytes:
+        raise TransferError(f"{path}: {size:,} bytes; the limit for this {what} is {max_bytes:,} bytes "
+                            "(pipeline/core/limits.py); split the delivery")
+    return size

@@ -21,6 +21,7 @@ from defusedxml.ElementTree import DefusedXMLParser
 
 from pipeline.core.errors import TransferError
 from pipeline.core.limits import MAX_EXCHANGE_BYTES, MAX_EXCHANGE_ELEMENTS
+from pipeline.formats.reading import delivered_file_size
 
 __all__ = ["parse_xml", "xml_root_name", "local_name", "child_text", "MAX_TEXT"]
 
@@ -113,15 +114,7 @@ def parse_xml(path: str | os.PathLike, *, what: str, max_bytes: int = MAX_EXCHAN
     Raises TransferError naming the file, the line and the fix.
     """
     path = Path(path)
-    try:
-        if not path.is_file():
-            raise TransferError(f"{path}: no such {what} (or not a regular file)")
-        size = path.stat().st_size
-    except OSError as exc:
-        raise TransferError(f"{path}: the {what} cannot be read ({exc.strerror or exc})") from None
-    if size > max_bytes:
-        raise TransferError(f"{path}: {size:,} bytes; the limit for this {what} is {max_bytes:,} bytes "
-                            "(pipeline/core/limits.py); split the delivery")
+    delivered_file_size(path, what, max_bytes)
     # two passes: the first only counts (a hostile file is refused before any tree is built), the second builds
     _feed(path, _Counter(path, max_elements), encoding, what)
     root = _feed(path, _Builder(path, max_elements), encoding, what)

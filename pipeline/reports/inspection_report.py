@@ -36,6 +36,7 @@ from pipeline.maths.metrology import K95
 from pipeline.core.numeric import is_finite, is_missing
 from pipeline.measurement.quantity import input_unit
 from pipeline.judgement.grading import DEFAULT_SCHEME, SCHEMES, scheme
+from pipeline.judgement.verdicts.log_check import P_AGREE, P_DISAGREE, UNTRUSTED_INFLATION
 
 __all__ = ["render_inspection_report", "inspection_warnings", "report_file_name", "NEAR_EXPIRY_DAYS"]
 
@@ -65,7 +66,11 @@ def inspection_warnings(inspection: dict, measurements: list[dict], today: dt.da
     unmeasured quantities (one per observation and problem; the technical reasons stay in the dataset),
     certificate validity."""
     out = []
-    if inspection.get("status") not in ("ok", "failed"):      # a failed one says so in its own block
+    if inspection.get("status") == "log-only":                # read and graded from the log alone
+        out.append(f"Status log-only: {inspection.get('error') or 'not measured'}. Action: deliver what this names "
+                   "(the video, or the camera's certificate); the next night measures the section. Until then "
+                   "every grade here is the class of the contractor's logged value, unchecked.")
+    elif inspection.get("status") not in ("ok", "failed"):    # a failed one says so in its own block
         out.append(f"Status {inspection.get('status')}: {inspection.get('error') or 'see below'}. Action: correct "
                    "the delivery as the problems below say and deliver it again; the next night measures it anew.")
     for problem in inspection.get("problems") if inspection.get("problems") is not None else []:
@@ -366,10 +371,14 @@ def _source(record: dict) -> str:
 GLOSSARY = (
     ("U95", "expanded uncertainty at 95 % coverage: the true value lies within value ± U95 with 95 % probability"),
     ("u, u_c", "standard uncertainty of an input, and of the result (combined)"),
-    ("E_n", "|logged − measured| / √(U95² + U_res²): the contractor's value against the measurement; ≤ 1 agrees"),
+    ("P(right), P(log right)", "the probability, from the measurement's draws, that the contractor's logged value "
+                               f"is right (the true value rounds to it and lies in its class): the log check agrees "
+                               f"at ≥ {P_AGREE:g}, disagrees at ≤ {P_DISAGREE:g} with E_n > 1, else is undecided"),
+    ("E_n", "|logged − measured| / √(U95² + U_res²): above 1 when the logged value lies outside the measurement's "
+            "95 % interval (a disagreement needs it)"),
     ("U_res", "the step the contractor logged to (e.g. 1 mm, 5 %) taken as an uncertainty of the logged value"),
     ("outline not trusted", "the pipe's outline (contour) in the frame could not be fixed well, so the scale is "
-                            "uncertain: a check is then undecided unless E_n > 2"),
+                            f"uncertain: its u is widened {UNTRUSTED_INFLATION:g} times before the log check"),
     ("grade, worst likely", "the most probable condition class; the worst class with probability ≥ 5 % (it may be "
                             "worse than the grade)"),
     ("SC, p_H", "the scale [mm/px] across the pipe at the observation: the pipe's height H over its height p_H in "
@@ -442,7 +451,8 @@ def render_inspection_report(data: str | os.PathLike, inspection_id: str, path: 
                         "edges, 6 (invert) in the middle; a clock range runs clockwise (10–2 over the crown, across "
                         "the edges; 12–12 all round); measured observations in red"
                         + (f"; {'rows' if len(beyond) > 1 else 'row'} {', '.join(map(str, beyond))} "
-                           f"{'lie' if len(beyond) > 1 else 'lies'} outside this range and stand at its edge"
+                           + ("lie outside this range and stand at its edge" if len(beyond) > 1
+                              else "lies outside this range and stands at its edge")
                            if beyond else "") + ".", st["small"]),
               Spacer(1, 2 * mm),
               _observation_table(observations[:MAX_REPORT_OBSERVATIONS], by_row),
@@ -465,7 +475,9 @@ def render_inspection_report(data: str | os.PathLike, inspection_id: str, path: 
                             "parameters, their u relative (0.01 = 1 %); <i>across</i> is listed but no part of the "
                             "value (c_i = 0). Thumbnails: the frame measured, undistorted, with the pipe's contour "
                             "fitted in it in green (dashed where the fit is not trusted) and in red the two points "
-                            "measured between (marked, or found in the image alone) and the line joining them.",
+                            "measured between (marked, or found in the image alone) and the line joining them; the "
+                            "burned-in overlay (chainage, section) is shown as recorded, not undistorted, so that it "
+                            "reads whole.",
                             st["small"])]
         story += [_quantity_block(m, thumbs.get((m["row"], m["quantity"], _source(m))))
                   for m in measurements[:MAX_REPORT_QUANTITIES]]

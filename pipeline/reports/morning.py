@@ -4,8 +4,13 @@ One entry per stored inspection (and per package refused unread), ranked:
 
 1. deliveries that failed or were refused: nothing of them is known until a person fixes them;
 2. then by the section's grade, the worst class first (ungraded sections after the graded ones);
-3. then by what needs a person: contractor's values the measurement contradicts, and observations the image
-   could not decide (below resolution, or a check left undecided), most first.
+3. then by what needs a person: sections stored log-only (not measured: their whole log is unchecked), then
+   contractor's values the measurement contradicts, and observations the image could not decide (below
+   resolution, or a check left undecided), most first.
+
+When deliveries land, the list is grouped by delivery: a delivery's sections stand together, in the order above,
+and the groups are ranked by their first section (the one of the group that most needs a person), so the list's
+first entry is still the night's most urgent one. A package folder is a delivery of its own section.
 
 Each entry says its grade, the distribution of its observations' classes, its counts, what to do and where its
 report is. The nightly summary (PDF), ``summary.csv`` (``pipeline.formats.tabular.write_summary_csv``) and
@@ -24,9 +29,12 @@ from pipeline.core.numeric import is_missing
 from pipeline.judgement.grading import SCHEMES, scheme
 from pipeline.store import file_stem, read_records
 
-__all__ = ["SectionEntry", "morning_list", "class_rank", "FAILED_ACTION"]
+__all__ = ["SectionEntry", "morning_list", "class_rank", "by_delivery", "group_heading", "FAILED_ACTION",
+           "LOG_ONLY_ACTION"]
 
 FAILED_ACTION = ("correct the delivery as the reason says and deliver it again; the next night measures it anew")
+LOG_ONLY_ACTION = ("deliver what the reason names (the video, or the camera's certificate) to have the section "
+                   "measured; until then its grades are the classes of the contractor's logged values")
 
 
 def class_rank(scheme_key, cls) -> float:
@@ -76,8 +84,9 @@ class SectionEntry:
         if self.status == "failed":
             text = f"{self.section}: the delivery failed ({self.error})"
         else:
-            text = f"{self.section}, grade {self.grade or 'none'}" + (f": {self.needs_person}" if self.needs_person
-                                                                       else ": nothing needs a person")
+            from_log = " from the log" if self.status == "log-only" and self.grade else ""
+            text = f"{self.section}, grade {self.grade or 'none'}{from_log}" + (
+                f": {self.needs_person}" if self.needs_person else ": nothing needs a person")
         return text + (f". Report {Path(self.report).name}" if self.report else "")
 
     def line(self) -> str:
@@ -159,16 +168,38 @@ def morning_list(data: str | os.PathLike, *, inspection_ids: Sequence[str] | Non
                                     f"the delivery was refused unread: {_text(r.get('error'))}",
                                     "give each package its own folder and package id inside the inbox, and deliver "
                                     "it again", "", _text(r.get("error"))))
-    entries.sort(key=_rank_key)
+    entries = [e for group in by_delivery(sorted(entries, key=_rank_key)) for e in group]
     for k, e in enumerate(entries, start=1):
         e.rank = k
     return entries
 
 
+def by_delivery(entries: Sequence[SectionEntry]) -> list[list[SectionEntry]]:
+    """Ranked entries grouped by their delivery: each group in its entries' order, the groups in the order of their
+    first entry; an entry without a delivery (a package folder) is a group of its own."""
+    groups: dict[str, list[SectionEntry]] = {}
+    for e in entries:
+        groups.setdefault(e.delivery_id or f"\0{e.inspection_id}", []).append(e)
+    return list(groups.values())
+
+
+def group_heading(group: Sequence[SectionEntry]) -> str:
+    """A group of ``by_delivery`` in words: 'Delivery D7: 3 sections (1 measured, 1 log-only, 1 failed)', or
+    'Package folder S01-circular-clean' for an entry without a delivery."""
+    first = group[0]
+    if not first.delivery_id:
+        return f"Package folder {first.inspection_id}"
+    failed = sum(e.status == "failed" for e in group)
+    log_only = sum(e.status == "log-only" for e in group)
+    return (f"Delivery {first.delivery_id}: {_n(len(group), 'section', 'sections')} ({len(group) - failed - log_only} "
+            f"measured, {log_only} log-only, {failed} failed)")
+
+
 def _rank_key(e: SectionEntry) -> tuple:
     failed = e.status == "failed"
-    return (not failed, _grade_rank(e.grade or None), -(e.disagree + e.undecided), e.section_id or e.inspection_id,
-            e.inspection_id)
+    unchecked = e.status == "log-only"           # its whole log is unchecked: before a measured one of its grade
+    return (not failed, _grade_rank(e.grade or None), not unchecked, -(e.disagree + e.undecided),
+            e.section_id or e.inspection_id, e.inspection_id)
 
 
 def _grade_rank(cls: str | None) -> float:
@@ -206,6 +237,9 @@ def _entry(i, observations: list, measurements: list, report: str) -> SectionEnt
     if status == "failed":
         needs.insert(0, f"the delivery failed: {_text(i.error) or 'no reason stored'}")
         action = FAILED_ACTION
+    elif status == "log-only":          # read and graded from the log alone: nothing of it is checked yet
+        needs.insert(0, _text(i.error) or "not measured: no reason stored")
+        action = LOG_ONLY_ACTION
     elif disagree or undecided:
         action = "; ".join((["check the contractor's coding of " + _rows_list(disagree)] if disagree else [])
                            + (["look at " + _rows_list(undecided) + " in the video"] if undecided else [])) \

@@ -20,8 +20,8 @@ from pipeline.domain.results import MeasurementRecord
 from pipeline.store import read_records
 from pipeline.domain.value_text import format_record     # the one place a value and its interval are written
 from pipeline.formats.tabular import write_summary_csv
-from pipeline.reports.morning import SectionEntry, class_rank as _class_rank, morning_list
-from pipeline.reports.pdf import TABLE_STYLE, build_pdf, safe_text, styles
+from pipeline.reports.morning import SectionEntry, by_delivery, class_rank as _class_rank, group_heading as _group_heading, morning_list
+from pipeline.reports.pdf import ACCENT, TABLE_STYLE, build_pdf, safe_text, styles
 from pipeline.reports.verdict_text import grade_text
 
 __all__ = ["render_night_summary", "worst_observations", "log_disagreements", "summary_csv_path"]
@@ -72,8 +72,12 @@ def _quantity(r) -> str:
 
 
 def log_disagreements(measurements: Sequence[MeasurementRecord], n: int = 30) -> list[MeasurementRecord]:
-    """The logged quantities the measurement contradicts (log check ``disagrees``), the largest E_n first."""
+    """The logged quantities the measurement contradicts (log check ``disagrees``), the largest E_n first; a logged
+    value contradicted both by its marked measurement and by the one from the image alone is listed once, as
+    marked."""
     wrong = [m for m in measurements if m.log_check == "disagrees"]
+    marked = {(m.inspection_id, m.row, m.quantity) for m in wrong if m.source == "marks"}
+    wrong = [m for m in wrong if not (m.source == "contour" and (m.inspection_id, m.row, m.quantity) in marked)]
     return sorted(wrong, key=lambda m: -(finite_number(m.E_n) or -math.inf))[:n]
 
 
@@ -95,14 +99,29 @@ def _deliveries(rows: list[dict], st) -> list:
     for name, c in sorted(counts.items()):
         table.append([Paragraph(safe_text(name, 80), st["cell"]), Paragraph(str(sum(c.values())), st["cell"]),
                       *(Paragraph(str(c[k]), st["cell"]) for k in ("measured", "log-only", "failed"))])
-    return [Paragraph("Deliveries", st["h2"]), Table(table, colWidths=[60 * mm, 25 * mm, 25 * mm, 25 * mm, 25 * mm],
-                                                     repeatRows=1)]
+    t = Table(table, colWidths=[60 * mm, 25 * mm, 25 * mm, 25 * mm, 25 * mm], repeatRows=1)
+    t.setStyle(TableStyle(TABLE_STYLE))
+    return [Paragraph("Deliveries", st["h2"]), t]
 
 
 def _first_line(entries: list[SectionEntry]) -> str:
     if not entries:
         return "Nothing was delivered: no section to look at."
     return "Most in need of a person: " + entries[0].headline()
+
+
+def _entry_row(e: SectionEntry, st) -> list:
+    """One morning-list entry as a row of the summary's table."""
+    counts_text = ("-" if e.status == "failed" else f"{e.observations} rows, {e.measured} measured"
+                   + (f"; classes {e.grades}" if e.grades else ""))
+    return [Paragraph(str(e.rank), st["cell"]),
+            Paragraph(safe_text(e.section, 120) + "<br/>" + safe_text(e.inspection_id, 80)
+                      + (f"<br/>delivery {safe_text(e.delivery_id, 60)}" if e.delivery_id else ""), st["cell"]),
+            Paragraph(safe_text(e.grade or ("failed" if e.status == "failed" else "-")), st["cell"]),
+            Paragraph(safe_text(counts_text, 200), st["cell"]),
+            Paragraph(safe_text(e.needs_person or "nothing", 500), st["cell"]),
+            Paragraph(safe_text(e.action, 300), st["cell"]),
+            Paragraph(safe_text(Path(e.report).name if e.report else "-", 80), st["cell"])]
 
 
 def render_night_summary(rows: Sequence[dict], data: str | os.PathLike, path: str | os.PathLike, *,
@@ -136,30 +155,32 @@ def render_night_summary(rows: Sequence[dict], data: str | os.PathLike, path: st
              Paragraph("Failed or refused deliveries first (nothing of them is known until they are fixed), then by "
                        "the section's grade, the worst class first, then by the observations that need a person: "
                        "contractor's values the measurement contradicts, and observations the image could not decide "
-                       f"(below resolution, or a check left undecided). The same list: "
+                       "(below resolution, or a check left undecided)"
+                       + (". Grouped by delivery: a delivery's sections together, the delivery whose section most "
+                          "needs a person first" if any(e.delivery_id for e in entries) else "")
+                       + f". The same list: "
                        f"{safe_text(summary_csv_path(path).name)} beside this file, and `pipegauge summary`.",
                        st["small"]), Spacer(1, 1.5 * mm)]
     table = [[Paragraph(h, st["cell"]) for h in ("#", "Section / inspection", "Grade", "Observations", "Needs a person",
                                                  "Action", "Report")]]
-    for e in entries:
-        counts_text = ("-" if e.status == "failed" else f"{e.observations} rows, {e.measured} measured"
-                       + (f"; classes {e.grades}" if e.grades else ""))
-        table.append([Paragraph(str(e.rank), st["cell"]),
-                      Paragraph(safe_text(e.section, 120) + "<br/>" + safe_text(e.inspection_id, 80)
-                                + (f"<br/>delivery {safe_text(e.delivery_id, 60)}" if e.delivery_id else ""), st["cell"]),
-                      Paragraph(safe_text(e.grade or ("failed" if e.status == "failed" else "-")), st["cell"]),
-                      Paragraph(safe_text(counts_text, 200), st["cell"]),
-                      Paragraph(safe_text(e.needs_person or "nothing", 500), st["cell"]),
-                      Paragraph(safe_text(e.action, 300), st["cell"]),
-                      Paragraph(safe_text(Path(e.report).name if e.report else "-", 80), st["cell"])])
+    group_rows = []
+    grouped = any(e.delivery_id for e in entries)
+    for group in by_delivery(entries):
+        if grouped:
+            group_rows.append(len(table))
+            table.append([Paragraph(safe_text(_group_heading(group), 300), st["cell"])] + [""] * 6)
+        table += [_entry_row(e, st) for e in group]
     t = Table(table, colWidths=[6 * mm, 33 * mm, 11 * mm, 25 * mm, 40 * mm, 37 * mm, 28 * mm], repeatRows=1)
-    t.setStyle(TableStyle(TABLE_STYLE))
+    t.setStyle(TableStyle(TABLE_STYLE + [c for r in group_rows for c in (("SPAN", (0, r), (-1, r)),
+                                                                         ("BACKGROUND", (0, r), (-1, r), ACCENT))]))
     story.append(t)
     wrong = log_disagreements(measurements)
     story += [Paragraph("Contractor's log contradicted by the measurement", st["h2"]),
               Paragraph("Logged values outside what the measurement allows: E_n = |logged − measured| / "
                         "√(U95² + U_res²) > 1 (U95: the measurement's expanded uncertainty, 95 %; U_res: the step "
-                        "the contractor logged to, as an uncertainty), the largest first.", st["small"]), Spacer(1, 1.5 * mm)]
+                        "the contractor logged to, as an uncertainty) and a probability of at most 5 % that the logged "
+                        "value is right, the largest E_n first; a value contradicted by its marked measurement and by "
+                        "the one from the image alone once, as marked.", st["small"]), Spacer(1, 1.5 * mm)]
     if len(wrong):
         table = [[Paragraph(h, st["cell"]) for h in ("Inspection", "Row", "Code", "Logged", "Measured (95 %)", "E_n")]]
         for r in wrong:

@@ -12,6 +12,7 @@ import math
 from typing import Any, Mapping
 
 from pipeline.domain.results import Record
+from pipeline.judgement.verdicts.log_check import P_AGREE, P_DISAGREE, UNTRUSTED_INFLATION
 from pipeline.core.numeric import is_missing
 
 __all__ = ["LOG_CHECK_RULE", "json_safe", "log_check_text", "grade_text", "probabilities_text", "verdict_lines", "is_missing"]
@@ -20,10 +21,10 @@ __all__ = ["LOG_CHECK_RULE", "json_safe", "log_check_text", "grade_text", "proba
 # the log check's rule in words, under the report's verdict block (pipeline.judgement.verdicts.log_check)
 LOG_CHECK_RULE = (
     "Log check: P(log right) is the probability, from the measurement's draws, that the true value rounds to the "
-    "contractor's value (within half its step) and lies in its class; agrees when it is at least 0.95, disagrees when it is "
-    "at most 0.05 and the log lies outside the measurement's 95 % interval (E_n = |logged − measured| / "
-    "√(U95² + U_res²) > 1, U_res from the logged value's step), else undecided. Where the pipe's outline is not "
-    "trusted its u is widened 1.5 times first.")
+    f"contractor's value (within half its step) and lies in its class; agrees when it is at least {P_AGREE:g}, "
+    f"disagrees when it is at most {P_DISAGREE:g} and the log lies outside the measurement's 95 % interval (E_n = "
+    "|logged − measured| / √(U95² + U_res²) > 1, U_res from the logged value's step), else undecided. Where the "
+    f"pipe's outline is not trusted its u is widened {UNTRUSTED_INFLATION:g} times first.")
 
 
 def json_safe(x: Any) -> Any:
@@ -101,11 +102,14 @@ def verdict_lines(inspection: Mapping) -> list[tuple[str, str]]:
     lines = []
     if not is_missing(inspection.get("survey_statement")):
         lines.append(("Survey", inspection["survey_statement"]))
-    if not is_missing(inspection.get("log_agrees")):
+    if inspection.get("status") == "log-only":
+        lines.append(("Log check", "none: nothing was measured (log-only), so no logged value is checked"))
+    elif not is_missing(inspection.get("log_agrees")):
         lines.append(("Log check", f"{int(inspection['log_agrees'])} agree, {int(inspection['log_disagrees'])} disagree, "
                                    f"{int(inspection['log_undecided'])} undecided, "
-                                   f"{int(inspection['log_not_checked'])} not checked (agrees: P(log right) >= 0.95; "
-                                   f"disagrees: P(log right) <= 0.05 and E_n > 1; outline not trusted: u x1.5; "
+                                   f"{int(inspection['log_not_checked'])} not checked (agrees: P(log right) >= "
+                                   f"{P_AGREE:g}; disagrees: P(log right) <= {P_DISAGREE:g} and E_n > 1; outline not "
+                                   f"trusted: u x{UNTRUSTED_INFLATION:g}; "
                                    f"below resolution: undecided unless the log exceeds the bound)"))
     grade = inspection.get("section_grade")
     scheme = inspection.get("grading_scheme")

@@ -23,10 +23,10 @@ from pipeline.core.errors import TransferError
 from pipeline.core.limits import MAX_SECTIONS
 from pipeline.core.numeric import finite_number
 from pipeline.domain.codes import quantification
-from pipeline.domain.records import Observation, RowProblem
+from pipeline.domain.records import RowProblem
 from pipeline.formats.isybau.codes import (ANLAGENTYP, CODING_NAMES, CONTINUOUS, DIRECTIONS, EN13508_CODING, FORMAT_NAME,
                                            FPS_RANGE, KIND_OF, MATERIALS, NAMESPACES, NO_MATERIAL, PROFILE_NAMES, PROFILES)
-from pipeline.formats.coded_rows import clock_text
+from pipeline.formats.coded_rows import clock_text, parse_manhole_rows
 from pipeline.formats.observation_log import parse_log_rows
 from pipeline.formats.reading import ExchangeFile, LogReading
 from pipeline.formats.xmlfile import child_text, parse_xml
@@ -34,6 +34,9 @@ from pipeline.formats.xmlfile import child_text, parse_xml
 __all__ = ["read_isybau", "read_log", "Film", "films_of"]
 
 WHAT = "ISYBAU XML file"
+MANHOLE_FIELD_NAMES = {"distance_m": "VertikaleLage", "code": "InspektionsKode", "char1": "Charakterisierung1",
+                       "char2": "Charakterisierung2", "q1": "Quantifizierung1Numerisch",
+                       "q2": "Quantifizierung2Numerisch", "photo": "Fotodatei", "remark": "Kommentar"}
 FIELD_NAMES = {"distance_m": "Station", "code": "InspektionsKode", "char1": "Charakterisierung1",
                "char2": "Charakterisierung2", "q1": "Quantifizierung1Numerisch", "q2": "Quantifizierung2Numerisch",
                "clock_from": "PositionVon", "clock_to": "PositionBis", "at_joint": "Verbindung",
@@ -176,7 +179,8 @@ def _section(path: Path, anlage: Element, key: str, kind: str, orders: dict, fil
     if kind == "manhole":
         knoten = insp.find("Knoten")
         kz = knoten.findall("Inspektionsdaten/KZustand") if knoten is not None else []
-        observations = [_manhole_row(path, n, z) for n, z in enumerate(kz)]
+        observations = parse_manhole_rows((_manhole_row(n, z) for n, z in enumerate(kz)), path.name,
+                                          field_names=MANHOLE_FIELD_NAMES)
         return LogReading(path, FORMAT_NAME, fields, details, observations, key=key, kind=kind,
                           section_problems=problems, line=line)
     pipe = insp.find("Rohrleitung")
@@ -323,21 +327,14 @@ def _classes(z: Element) -> str:
     return "; ".join(parts)
 
 
-def _manhole_row(path: Path, n: int, z: Element) -> Observation:
-    """A KZustand row: its code and text as delivered, checked for a D-code; manholes are not measured."""
-    code = child_text(z, "InspektionsKode").upper()
-    fields = {child.tag: (child.text or "").strip() for child in z if len(child) == 0}
-    depth = finite_number(child_text(z, "VertikaleLage"))
-    problems = [] if re.fullmatch(r"D[A-Z]{2}", code) else [
-        RowProblem(path.name, f"KZustand {n + 1}", "InspektionsKode",
-                   f"{code!r} is not a manhole code (D followed by two letters, EN 13508-2)")]
-    return Observation(row=n, distance_m=depth if depth is not None else float("nan"), code=code,
-                       char1=child_text(z, "Charakterisierung1"), char2=child_text(z, "Charakterisierung2"),
-                       q1=finite_number(child_text(z, "Quantifizierung1Numerisch")), q1_unit="",
-                       q2=finite_number(child_text(z, "Quantifizierung2Numerisch")), q2_unit="",
-                       clock_from=None, clock_to=None, at_joint=False, continuous="", video_time_s=None,
-                       photo=child_text(z, "Fotodatei"), remark=child_text(z, "Kommentar"), fields=fields,
-                       problems=problems)
+def _manhole_row(n: int, z: Element) -> tuple[str, dict]:
+    """A KZustand row as ``coded_rows.parse_manhole_rows`` takes it: its code, texts and numbers as delivered (the
+    vertical position VertikaleLage as its distance); manholes are read and checked, not measured."""
+    raw = {"row": str(n), "distance_m": child_text(z, "VertikaleLage"), "code": child_text(z, "InspektionsKode"),
+           "char1": child_text(z, "Charakterisierung1"), "char2": child_text(z, "Charakterisierung2"),
+           "q1": child_text(z, "Quantifizierung1Numerisch"), "q2": child_text(z, "Quantifizierung2Numerisch"),
+           "photo": child_text(z, "Fotodatei"), "remark": child_text(z, "Kommentar")}
+    return f"KZustand {n + 1} (line {z.get('_line', '?')})", raw
 
 
 def read_log(path: str | os.PathLike) -> ExchangeFile:

@@ -25,6 +25,7 @@ from pipeline.core.errors import TransferError
 from pipeline.core.limits import MAX_TRANSFER_BYTES  # one inspection's transfer is kilobytes; a network's goes elsewhere
 from pipeline.domain.codes import quantification
 from pipeline.domain.records import Observation
+from pipeline.formats.coded_rows import clock_text
 from pipeline.formats.observation_log import finite_number, parse_log_rows
 from pipeline.formats.vsa_kek.model import FIELD_NAMES, FPS, MODELS, VERSION_OF, Transfer, TransferObject, split_code
 
@@ -246,7 +247,8 @@ def _inspection_log(t: Transfer, u: TransferObject) -> TransferLog:
         n = len(rows)
         code, char1, char2 = split_code(ka.get("KanalSchadencode", ""))
         raw = {"row": str(n), "distance_m": ka.get("Distanz", ""), "code": code, "char1": char1, "char2": char2,
-               "clock_from": _clock(ka.get("SchadenlageAnfang", "")), "clock_to": _clock(ka.get("SchadenlageEnde", "")),
+               "clock_from": clock_text(ka.get("SchadenlageAnfang", "")),
+               "clock_to": clock_text(ka.get("SchadenlageEnde", "")),
                "at_joint": {"ja": "Y", "nein": "N"}.get(ka.get("Verbindung", ""), ka.get("Verbindung", "")),
                "continuous": ka.get("Streckenschaden", ""), "video_time": _counter_to_time(ka.get("Videozaehlerstand", "")),
                "photo": ";".join(photos.get(k.tid, [])), "remark": ka.get("Anmerkung", ""), "ref": k.tid,
@@ -259,11 +261,6 @@ def _inspection_log(t: Transfer, u: TransferObject) -> TransferLog:
     assert length is not None                       # a transfer without its length was refused above
     observations = parse_log_rows(rows, t.path.name, length, FIELD_NAMES)
     return TransferLog(t, u, fields, details, observations, video)
-
-
-def _clock(text: str) -> str:
-    """SchadenlageAnfang/Ende 0..12; 0 is VSA's 'no position' (the log's empty clock)."""
-    return "" if text.strip() in ("", "0") else text.strip()
 
 
 def read_log(path: str | os.PathLike):

@@ -116,9 +116,13 @@ def _measured_note(measured: dict) -> str:
         text += " (U95)"
     if measured.get("confident") is not True:
         text += " low confidence"
-    for key, word in (("log_check", "log"), ("grade", "grade")):
-        if isinstance(measured.get(key), str) and measured[key] and measured[key] != "not checked":
-            text += f", {word} {measured[key]}"
+    if isinstance(measured.get("log_check"), str) and measured["log_check"] and measured["log_check"] != "not checked":
+        text += f", log {measured['log_check']}"
+    # a grade the measurement decided; one taken from the log (below resolution, say) is the contractor's class,
+    # already in Einzelschadenklasse, and is no finding of pipegauge's (as in the ISYBAU notes)
+    if isinstance(measured.get("grade"), str) and measured["grade"] and measured.get("grade_status",
+                                                                                       "graded") == "graded":
+        text += f", grade {measured['grade']}"
     return text
 
 

@@ -50,14 +50,30 @@ it is decided as any other.
 A logged value that is absent, not a number, or of another unit than the
 measurement gives ``not checked`` with the reason.
 
-The step r of a logged value: the default of its unit (``RESOLUTION``) when
-the value is a multiple of it, else the coarsest of 1, 0.1, 0.01 of which
-it is a multiple (an operator who logs 12 % logged to 1 %, not to 5 %).
-The defaults are pipegauge's reading of coding practice, not a standard's
-text: whole millimetres (EN 13508-2 quantifies in mm), percentages in 5 %
-steps (the VSA 2023 and NEN 3399 class bands are multiples of 5 %,
-../shared/EN13508-2-notes.md 2.5), whole degrees. Change them here; the
-tolerance T follows them, for every code of that unit.
+The step r of a logged value, per code (``logging_steps``): the coarsest of
+the code's customary steps of which the value is a multiple, else the
+coarsest of 1, 0.1, 0.01 of which it is a multiple (an operator who logs
+12 % logged to 1 %, not to 5 %). Where a value fits several customary steps
+(a water level of 20 % may be logged to 10 % or to 5 %) the coarser is
+taken for a rejection and the finer for an acceptance: the log "disagrees"
+only if it is wrong even to the coarser step (guarded rejection: an honest
+contractor who logs water levels in tens is not accused) and "agrees" only
+if it is right even to the finer one (guarded acceptance: a log off by 5 %
+that lands on a multiple of 10 is not confirmed); in between it is
+undecided. The stored ``resolution``, ``tolerance`` and ``conformity`` are
+the coarser step's; the reason states both. The customary steps are pipegauge's reading of coding
+practice, not a standard's text:
+
+* ``RESOLUTION``, per unit: whole millimetres (EN 13508-2 quantifies in mm),
+  percentages in 10 % or 5 % steps (the VSA 2023 and NEN 3399 class bands
+  are multiples of 5 %, ../shared/EN13508-2-notes.md 2.5; water levels,
+  deposits and intrusions are commonly logged in tens), whole degrees;
+* ``CODE_STEPS``, a code whose practice differs from its unit's: a
+  deformation (BAA) in whole percent (its rigid-pipe class bands are 1, 3, 4
+  and 7 %; a 10 % step would span two classes).
+
+Change them here; the tolerance T follows them. ``benchmarks/verdicts.py``
+measures what each choice costs (docs/verdicts.md).
 
 Without the measurement's distribution function (a caller with value and
 U95 only) the distribution is Normal(value, U95 / K95).
@@ -72,10 +88,13 @@ from typing import Callable
 
 from pipeline.maths.metrology import K95
 
-__all__ = ["RESOLUTION", "LogCheck", "logging_resolution", "check_logged", "U_RES_FACTOR", "finite_number",
+__all__ = ["RESOLUTION", "CODE_STEPS", "LogCheck", "logging_resolution", "logging_resolutions",
+           "logging_steps", "check_logged", "U_RES_FACTOR", "finite_number",
            "TOLERANCE_STEPS", "P_AGREE", "P_DISAGREE", "UNTRUSTED_INFLATION", "conformity_interval"]
 
-RESOLUTION = {"mm": 1.0, "%": 5.0, "deg": 1.0, "count": 1.0}     # default logging step per unit
+# customary logging steps per unit, coarsest first (module docstring)
+RESOLUTION: dict[str, tuple[float, ...]] = {"mm": (1.0,), "%": (10.0, 5.0), "deg": (1.0,), "count": (1.0,)}
+CODE_STEPS: dict[str, tuple[float, ...]] = {"BAA": (1.0,)}      # codes whose practice differs from their unit's
 U_RES_FACTOR = 0.95 / 2          # U_res = 0.95 r / 2: 95 % half-width of a rectangular error over +-r/2
 TOLERANCE_STEPS = 0.5            # the logging tolerance T in steps r: a value logged to r claims the truth within r/2
 P_AGREE = 0.95                   # conformity probability at or above which the log agrees
@@ -89,12 +108,24 @@ def _multiple_of(value: float, step: float) -> bool:
     return abs(q - round(q)) < 1e-6
 
 
-def logging_resolution(value: float, unit: str) -> float:
-    """The step r [unit] a logged value was rounded to (module docstring)."""
-    default = RESOLUTION.get(unit, 1.0)
-    if _multiple_of(value, default):
-        return default
-    return next((s for s in _FINER if s < default and _multiple_of(value, s)), _FINER[-1])
+def logging_steps(unit: str, code: str | None = None) -> tuple[float, ...]:
+    """The customary logging steps [unit] of a code's quantity, coarsest first (module docstring)."""
+    return CODE_STEPS.get(code or "", RESOLUTION.get(unit, (1.0,)))
+
+
+def logging_resolutions(value: float, unit: str, code: str | None = None) -> tuple[float, ...]:
+    """The steps [unit] a logged value may have been rounded to, coarsest first (module docstring): the code's
+    customary steps of which it is a multiple, else the coarsest of 1, 0.1, 0.01 of which it is one."""
+    steps = logging_steps(unit, code)
+    found = tuple(s for s in steps if _multiple_of(value, s))
+    if found:
+        return found
+    return (next((s for s in _FINER if s < steps[-1] and _multiple_of(value, s)), _FINER[-1]),)
+
+
+def logging_resolution(value: float, unit: str, code: str | None = None) -> float:
+    """The coarsest step r [unit] a logged value may have been rounded to (``logging_resolutions``)."""
+    return logging_resolutions(value, unit, code)[0]
 
 
 @dataclass(frozen=True)
@@ -145,8 +176,10 @@ def _widened(cdf: Callable[[float], float], centre: float, factor: float) -> Cal
 
 def check_logged(logged, logged_unit: str | None, *, value, U95, unit: str | None, confident: bool | None = True,
                  status: str = "ok", upper_bound: float | None = None, cdf: Callable[[float], float] | None = None,
-                 class_range: tuple[float, float] | None = None) -> LogCheck:
+                 class_range: tuple[float, float] | None = None, code: str | None = None) -> LogCheck:
     """Check a logged value against a measured one (module docstring); never raises for bad input.
+
+    code : the observation's main code, for its customary logging steps (``CODE_STEPS``)
 
     upper_bound : for a measurement below the image's resolution, the bound it gives [unit]; None otherwise
     cdf : the measurement's distribution function [unit -> 1] (from its draws); None: Normal(value, U95 / K95)
@@ -164,7 +197,8 @@ def check_logged(logged, logged_unit: str | None, *, value, U95, unit: str | Non
     mv, U = finite_number(value), finite_number(U95)
     if mv is None or U is None or U < 0:
         return LogCheck("not checked", "the measurement has no value or U95", lv)
-    r = logging_resolution(lv, unit or logged_unit or "")
+    steps = logging_resolutions(lv, unit or logged_unit or "", code)
+    r, r_fine = steps[0], steps[-1]
     u_res = U_RES_FACTOR * r
     diff = lv - mv
     untrusted = confident is False
@@ -172,10 +206,18 @@ def check_logged(logged, logged_unit: str | None, *, value, U95, unit: str | Non
     U = f * U                          # an honest inflation of a u the fit may have made too small
     en = abs(diff) / math.hypot(U, u_res) if math.hypot(U, u_res) > 0 else math.inf
     F = _widened(cdf, mv, f) if cdf is not None else _normal(mv, U / K95)     # U already widened
-    lo, hi = conformity_interval(lv, r, class_range)
-    p = min(max(F(hi) - F(lo), 0.0), 1.0) if hi > lo else 0.0
+    def conformity(step: float) -> float:
+        lo, hi = conformity_interval(lv, step, class_range)
+        return min(max(F(hi) - F(lo), 0.0), 1.0) if hi > lo else 0.0
+
+    # guarded both ways where the step is ambiguous (20 % may be logged to 10 % or to 5 %): the log is rejected
+    # only if it is wrong even to the coarser step, accepted only if it is right even to the finer one
+    p, p_fine = conformity(r), conformity(r_fine)
     t = TOLERANCE_STEPS * r
     within = f"P(within {lv:g} +- {t:g} {unit}{' and its class' if class_range else ''}) = {p:.2f}"
+    if r_fine != r:
+        within += (f" (logged to {r:g} or {r_fine:g} {unit}: P(within {lv:g} +- {TOLERANCE_STEPS * r_fine:g} "
+                   f"{unit}) = {p_fine:.2f})")
     facts = dict(logged=lv, resolution=r, U_res=u_res, difference=diff, E_n=en, tolerance=t, conformity=p)
     bound = finite_number(upper_bound)
     if bound is not None and lv <= bound:
@@ -183,8 +225,8 @@ def check_logged(logged, logged_unit: str | None, *, value, U95, unit: str | Non
                                      f"which the logged {lv:g} {unit} is under (E_n = {en:.2f})", **facts)
     if untrusted:
         within = (f"contour not trusted at its plane: u widened x{f:g}; " + within)
-    if p >= P_AGREE:
-        return LogCheck("agrees", f"{within} >= {P_AGREE:g}; E_n = {en:.2f}", **facts, risk=1.0 - p)
+    if p_fine >= P_AGREE:
+        return LogCheck("agrees", f"{within} >= {P_AGREE:g}; E_n = {en:.2f}", **facts, risk=1.0 - p_fine)
     if p <= P_DISAGREE and en > 1.0:
         return LogCheck("disagrees", f"logged {lv:g} {unit}, measured {mv:.3g} +- {U:.2g} {unit}: difference "
                                      f"{diff:+.3g} {unit}, E_n = {en:.1f}; {within} <= {P_DISAGREE:g}", **facts, risk=p)

@@ -25,6 +25,10 @@ __all__ = ["K95", "BudgetLine", "LinearResult", "propagate_linear", "coverage_fa
 
 # Relative step of the central differences, in units of each input's u.
 _STEP_IN_U = 1e-3
+# Floor of that step relative to the estimate: an input held nearly fixed (u = 1e-12 standing for "no
+# uncertainty") would otherwise be stepped by a few ulps, and its sensitivity would be rounding noise that
+# changes with the CPU's BLAS; the floor leaves every input with a meaningful u at 1e-3 u.
+_STEP_FLOOR = 1e-8
 
 
 @dataclass(frozen=True)
@@ -131,6 +135,11 @@ def coverage_factor(dof: float, p: float = 0.95) -> float:
     return float(special.stdtrit(dof, 0.5 * (1.0 + p)))
 
 
+def _step(x: float, u: float) -> float:
+    """The central-difference step of an input with estimate x and standard uncertainty u (0: not stepped)."""
+    return max(_STEP_IN_U * u, _STEP_FLOOR * max(abs(x), 1.0)) if u > 0 else 0.0
+
+
 def _numeric_jacobian(model: Model, inputs: InputSet, name: str) -> tuple[dict[str, float], dict[str, np.ndarray], bool]:
     """Values at the estimates and central-difference sensitivities, in one vectorised call."""
     members = inputs.members
@@ -138,7 +147,7 @@ def _numeric_jacobian(model: Model, inputs: InputSet, name: str) -> tuple[dict[s
     values: dict[str, np.ndarray | float] = {}
     for j, m in enumerate(members):
         column = np.full(n, m.x)
-        h = _STEP_IN_U * m.u if m.u > 0 else 0.0
+        h = _step(m.x, m.u)
         column[1 + 2 * j] += h
         column[2 + 2 * j] -= h
         values[m.label] = column
@@ -150,7 +159,7 @@ def _numeric_jacobian(model: Model, inputs: InputSet, name: str) -> tuple[dict[s
         c = np.zeros(len(members))
         for j, m in enumerate(members):
             if m.u > 0:
-                c[j] = (v[1 + 2 * j] - v[2 + 2 * j]) / (2.0 * _STEP_IN_U * m.u)
+                c[j] = (v[1 + 2 * j] - v[2 + 2 * j]) / (2.0 * _step(m.x, m.u))
         jac[k] = c
     return y0, jac, single
 

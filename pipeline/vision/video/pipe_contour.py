@@ -25,7 +25,7 @@ from pipeline.vision.video.chainage_track import ChainageTrack
 from pipeline.vision.video.reader import FrameScan, iter_frames, probe_video
 from pipeline.camera.undistort import Undistorter
 
-__all__ = ["overlay_mask", "overlay_mask_of", "window_frames", "read_ideal_grays", "contours_at_frames"]
+__all__ = ["overlay_mask", "overlay_mask_of", "recorded_overlay_mask", "window_frames", "read_ideal_grays", "contours_at_frames"]
 
 SPAN_M = 2.0       # travel either side of the frame whose rings are used [m]
 STEP_M = 0.1       # chainage step between those frames [m]
@@ -46,6 +46,12 @@ def overlay_mask(path: str | os.PathLike, undistorter: Undistorter, n_frames: in
 def overlay_mask_of(frames: Iterable[np.ndarray], undistorter: Undistorter) -> np.ndarray:
     """``overlay_mask`` from BGR frames already read (``ChainageIngest.spread_frames``)."""
     return static_overlay_mask([_gray(undistorter.frame(f)) for f in frames])
+
+
+def recorded_overlay_mask(frames: Iterable[np.ndarray]) -> np.ndarray:
+    """The burned-in overlay in the recorded frames' own pixels (0 on it, 255 elsewhere), from BGR frames spread over
+    one video: where a thumbnail shows the overlay whole, as recorded (the ideal image shifts and cuts it)."""
+    return static_overlay_mask([_gray(f) for f in frames])
 
 
 def window_frames(track: ChainageTrack, frame: int, span_m: float = SPAN_M, step_m: float = STEP_M) -> list[int]:
@@ -78,7 +84,9 @@ def _read_forward(path: str | os.PathLike, frames: Iterable[int], convert) -> It
 
 def contours_at_frames(path: str | os.PathLike, frames: Iterable[int], track: ChainageTrack, undistorter: Undistorter,
                        shape: str, *, height_mm: float, tolerance_mm: float, mask: np.ndarray | None = None,
-                       ideal_frames: dict[int, np.ndarray] | None = None, step_m: float = STEP_M) -> dict[int, PipeContour]:
+                       ideal_frames: dict[int, np.ndarray] | None = None,
+                       recorded_frames: dict[int, np.ndarray] | None = None,
+                       step_m: float = STEP_M) -> dict[int, PipeContour]:
     """The pipe contours of several frames of one video, checked against one another
     (``pipeline.vision.contour.consensus.reconcile_windows``: the mount does not move, so the fits must agree).
 
@@ -93,6 +101,8 @@ def contours_at_frames(path: str | os.PathLike, frames: Iterable[int], track: Ch
     departure from the nominal profile enters u(p_H)).
     ideal_frames : when given, receives the ideal (undistorted) BGR image of
     each of ``frames`` (for thumbnails: no seeking back into the video).
+    recorded_frames : likewise the recorded (distorted) BGR image of each of
+    ``frames`` (the thumbnail shows the burned-in overlay as recorded).
     step_m : chainage step between a window's frames [m]; the default is the
     validated one (benchmarks try others: docs/speed.md).
     """
@@ -110,6 +120,8 @@ def contours_at_frames(path: str | os.PathLike, frames: Iterable[int], track: Ch
         ideal = undistorter.frame(bgr)
         if ideal_frames is not None and index in windows:
             ideal_frames[index] = ideal
+        if recorded_frames is not None and index in windows:
+            recorded_frames[index] = bgr
         return index, frame_candidates(_gray(ideal), mask)
 
     def fit(frame: int) -> PipeContour:

@@ -25,9 +25,10 @@ __all__ = ["K95", "BudgetLine", "LinearResult", "propagate_linear", "coverage_fa
 
 # Relative step of the central differences, in units of each input's u.
 _STEP_IN_U = 1e-3
-# Floor of that step relative to the estimate: an input held nearly fixed (u = 1e-12 standing for "no
-# uncertainty") would otherwise be stepped by a few ulps, and its sensitivity would be rounding noise that
-# changes with the CPU's BLAS; the floor leaves every input with a meaningful u at 1e-3 u.
+# Floor of that step relative to the estimate (not to 1: a lens coefficient of 1e-7 has a u of 1e-9): an input
+# held nearly fixed (u = 1e-12 standing for "no uncertainty") would otherwise be stepped by a few ulps, and its
+# sensitivity would be rounding noise that changes with the CPU's BLAS; every input with a meaningful u keeps
+# its step of 1e-3 u.
 _STEP_FLOOR = 1e-8
 
 
@@ -137,7 +138,7 @@ def coverage_factor(dof: float, p: float = 0.95) -> float:
 
 def _step(x: float, u: float) -> float:
     """The central-difference step of an input with estimate x and standard uncertainty u (0: not stepped)."""
-    return max(_STEP_IN_U * u, _STEP_FLOOR * max(abs(x), 1.0)) if u > 0 else 0.0
+    return max(_STEP_IN_U * u, _STEP_FLOOR * abs(x)) if u > 0 else 0.0
 
 
 def _numeric_jacobian(model: Model, inputs: InputSet, name: str) -> tuple[dict[str, float], dict[str, np.ndarray], bool]:

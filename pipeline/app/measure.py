@@ -82,7 +82,7 @@ def measure_package(folder: str | os.PathLike, *, certificates: str | os.PathLik
                     model: str = "perspective", reader: OverlayReader | None = None, every: int = 4,
                     progress: Callable[[str], None] | None = None, today: dt.date | None = None,
                     digests: dict[str, str] | None = None, manifest: PackageManifest | None = None,
-                    unmeasurable: str | None = None) -> InspectionResult:
+                    unmeasurable: str | None = None, review_marks: str | os.PathLike | None = None) -> InspectionResult:
     """Measure every logged quantity of a package; never raises for a bad package (the record says why).
 
     The way: load the delivery (``load``), locate the video along the pipe (``locate``), fit the contours at
@@ -93,6 +93,8 @@ def measure_package(folder: str | os.PathLike, *, certificates: str | os.PathLik
     model : "perspective" (default) or "orthographic"; every : overlay sampling interval [frames]
     digests, manifest : the package's ``file_digests`` and manifest when the caller has them already
     unmeasurable : why a delivery's section cannot be measured (no video...): it is then stored log-only
+    review_marks : a reviewer's marks file (``pipeline.formats.review_marks``), measured in place of the
+    contractor's marks for the same quantities, each record naming the reviewer (``marked_by``, ``marked_at``)
     """
     say = progress or (lambda message: None)
     if model not in MODELS:
@@ -104,7 +106,7 @@ def measure_package(folder: str | os.PathLike, *, certificates: str | os.PathLik
                               n_observations=0, n_measurements=0, n_problems=0)
     try:
         delivery = load_delivery(folder, record, certificates=certificates, digests=digests, manifest=manifest,
-                                 unmeasurable=unmeasurable)
+                                 unmeasurable=unmeasurable, review_marks=review_marks)
         where = locate(delivery, record, reader, every=every, say=say)
     except LogOnly as exc:
         return _log_only(record, exc, t_start)
@@ -156,27 +158,44 @@ def measure_package(folder: str | os.PathLike, *, certificates: str | os.PathLik
     # the Monte Carlo runs of the quantities are independent (each its own seed) and mostly large NumPy operations
     # that release the GIL: two at once use both cores; results are assembled in the marks' order
     jobs: list[tuple[MeasurementRecord, Mark, MarkedQuantity | None, Future | None]] = []
+    # a reviewer may mark one quantity on several frames: measured once, from all of them (measure_over_frames)
+    views_of: dict[tuple[int, str], list[Mark]] = defaultdict(list)
+    for frame in sorted(by_frame):
+        for m in by_frame[frame]:
+            views_of[(m.row, m.quantity)].append(m)
     t0 = time.perf_counter()
     pool = ThreadPoolExecutor(max_workers=QUANTITY_THREADS)
     try:
         for frame in sorted(by_frame):
             for m in by_frame[frame]:
+                group = views_of[(m.row, m.quantity)]
+                if m is not group[0]:
+                    continue                  # measured with the group's first frame
                 obs = by_row[m.row]
                 row = _measurement_base(obs, m, ingest.track, model)
+                if (m.row, m.quantity) in delivery.reviewed:
+                    who, when = delivery.reviewed[(m.row, m.quantity)]
+                    row.update(marked_by=who, marked_at=when)
                 marked = future = None
                 try:
                     if obs.problems:
                         raise MeasurementError(f"row {obs.row} of the log is invalid: "
                                                + "; ".join(p.message for p in obs.problems))
-                    bad = check_marks_in_frame(m, info.width, info.height, info.frame_count, manifest.marks.name)
+                    bad = [p for g in group for p in check_marks_in_frame(g, info.width, info.height, info.frame_count,
+                                                                           manifest.marks.name)]
                     if bad:
                         problems += [str(p) for p in bad]
                         raise MeasurementError("; ".join(str(p) for p in bad))
                     marked = marked_quantity(obs, m, und, cert)
-                    future = pool.submit(measure_quantity, marked, under(obs, contours[frame]), cert,
-                                         H=header.height_mm, tolerance=header.height_tolerance_mm, model=model,
-                                         seed=_seed(manifest.package_id, obs.row, m.quantity),
-                                         edges=edges(obs, m.quantity))
+                    common = dict(cert=cert, H=header.height_mm, tolerance=header.height_tolerance_mm, model=model,
+                                  seed=_seed(manifest.package_id, obs.row, m.quantity), edges=edges(obs, m.quantity))
+                    if len(group) == 1:
+                        future = pool.submit(measure_quantity, marked, under(obs, contours[frame]), **common)
+                    else:
+                        from pipeline.measurement.frames import measure_over_frames
+
+                        views = [(marked_quantity(obs, g, und, cert), under(obs, contours[g.frame])) for g in group]
+                        future = pool.submit(measure_over_frames, views, **common)
                 except PipegaugeError as exc:
                     row.update(status="error", error=str(exc))
                 jobs.append((row, m, marked, future))

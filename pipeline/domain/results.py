@@ -321,6 +321,10 @@ class MeasurementRecord(Record):
     log_check_risk: float | None = column(
         "float64", "1", "specific risk of the verdict: false acceptance (agrees) 1 - conformity, false rejection "
                         "(disagrees) conformity")
+    marked_by: str | None = column(
+        "string", doc="the reviewer whose marks this quantity was measured from (pipegauge review); null: the "
+                      "contractor's marks or the image alone")
+    marked_at: dt.datetime | None = column("timestamp", doc="when the reviewer saved those marks (UTC)")
 
 
 @dataclass

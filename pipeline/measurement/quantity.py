@@ -258,7 +258,8 @@ def _h_input(H: float, tolerance: float):
 
 
 def measure_quantity(q: MarkedQuantity, contour: PipeContour, cert: Certificate, *, H: float, tolerance: float,
-                     model: str = "perspective", seed: int = 1, edges: tuple[float, ...] = ()) -> QuantityResult:
+                     model: str = "perspective", seed: int = 1, edges: tuple[float, ...] = (),
+                     monte_carlo: bool = True) -> QuantityResult:
     """Measure one marked quantity with ``model`` ("orthographic" or "perspective").
 
     contour : the pipe contour of the marks' frame (``pipeline.vision.video.pipe_contour``)
@@ -266,6 +267,9 @@ def measure_quantity(q: MarkedQuantity, contour: PipeContour, cert: Certificate,
     seed : seed of the Monte Carlo runs (recorded in the result)
     edges : class edges of the grading scheme [unit of the quantity]; the result gives the share of the
         Monte Carlo draws below each (``class_edges_cdf``), from which the class probabilities are computed
+    monte_carlo : False: the law of propagation only (the model at the estimates with the linear U95, k = 1.96,
+        the class edges' shares from the normal it gives): a preview in milliseconds while a reviewer marks
+        (``pipeline.app.review``); the stored result is always the Monte Carlo one
     Raises MeasurementError when the marks cannot be placed on the pipe.
     """
     if model not in MODELS:
@@ -353,6 +357,9 @@ def measure_quantity(q: MarkedQuantity, contour: PipeContour, cert: Certificate,
         fn = perspective
         nuisance = None if across_from_points(q.method, np.zeros(3), np.zeros(3), H) is None else (across, inputs)
     lin = propagate_linear(fn, inputs, name=q.quantity)
+    if not monte_carlo:
+        return _linear_preview(q, method, model, lin, v_persp, v_ortho, plane, contour, p_X, H, edges, seed,
+                               _budget(lin, q.origin))
     # the stopping rule checks the interval reported: the shortest for the perspective model, the symmetric one
     # (the one the clause 8 check compares) for the orthographic
     mc = propagate_monte_carlo(fn, inputs, seed=seed, name=q.quantity, max_trials=MAX_TRIALS, keep_samples=bool(edges),
@@ -397,3 +404,22 @@ def measure_quantity(q: MarkedQuantity, contour: PipeContour, cert: Certificate,
         confident=plane.confident and contour.confident, reasons=tuple(dict.fromkeys(reasons)), budget=budget,
         extent=method.extent, below_resolution=below_resolution, mc_converged=mc.converged,
         class_edges=[float(e) for e in edges], class_edges_cdf=edges_cdf)
+
+
+def _linear_preview(q: MarkedQuantity, method, model: str, lin, v_persp: float, v_ortho: float, plane, contour,
+                    p_X: float, H: float, edges: tuple[float, ...], seed: int, budget: list) -> QuantityResult:
+    """The law of propagation's result alone (``measure_quantity(..., monte_carlo=False)``)."""
+    value = v_persp if model == "perspective" else float(lin.value)
+    low, high = value - lin.U, value + lin.U
+    u = float(lin.u)
+    cdf = [float(0.5 * (1 + math.erf((e - value) / (u * math.sqrt(2))))) if u > 0 else float(value < e) for e in edges]
+    reasons = [*plane.reasons, "linear preview: the Monte Carlo result replaces it"]
+    return QuantityResult(
+        model=model, method=q.method, unit=method.unit, value=float(value), u=u, U95=float(lin.U), low=float(low),
+        high=float(high), interval="linear, k = 1.96 (preview, Monte Carlo pending)", k=float(lin.k), mc_trials=0,
+        mc_seed=seed, linear_validated=False, d_low=math.nan, d_high=math.nan, delta=math.nan, p_H_px=plane.p_H,
+        u_p_H_px=plane.u_p_H, SC_mm_per_px=H / plane.p_H, p_X_px=p_X, plane_depth_mm=plane.depth * H,
+        orthographic_value=v_ortho, perspective_value=v_persp, confident=plane.confident and contour.confident,
+        reasons=tuple(dict.fromkeys(reasons)), budget=budget, extent=method.extent,
+        below_resolution=p_X < RESOLUTION_PX, mc_converged=False, class_edges=[float(e) for e in edges],
+        class_edges_cdf=cdf)

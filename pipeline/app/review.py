@@ -232,8 +232,10 @@ class ReviewService:
             spec = obs.quantification(q)
             assert spec is not None and spec.method is not None
             method = spec.method_for(obs.char2)
+            candidates = self.candidates(pkg, obs, q, stored["measurements"])
             quantities.append({"quantity": q, "method": method, "unit": spec.unit, "extent": _extent(method),
-                               "candidates": self.candidates(pkg, obs, q, stored["measurements"])})
+                               "candidates": candidates,
+                               "feature_m": candidates[0]["feature_m"] if candidates else None})
         saved = self.saved_marks(inspection_id)
         return {"inspection_id": inspection_id, "row": row, "code": obs.code, "char1": obs.char1, "char2": obs.char2,
                 "meaning": stored["meaning"], "distance_m": obs.distance_m, "q1": obs.q1, "q2": obs.q2,
@@ -241,7 +243,8 @@ class ReviewService:
                 "frame": start, "frames": info.frame_count, "fps": info.fps, "width": info.width,
                 "height": info.height, "joints": self.joint_frames(pkg), "quantities": quantities,
                 "measurements": stored["measurements"],
-                "saved": [asdict(v) | {"reviewer": who, "marked_at": at} for (r, q, v, who, at) in saved if r == row]}
+                "saved": [{"quantity": q, **asdict(v), "reviewer": who, "marked_at": at}
+                          for (r, q, v, who, at) in saved if r == row]}
 
     def candidates(self, pkg: _Package, obs: Observation, quantity: str, stored: list[dict]) -> list[dict]:
         """Candidate frames for marking a quantity, each with its predicted U95, the best first.
@@ -282,6 +285,7 @@ class ReviewService:
             if d <= 0:
                 continue
             rows.append({"frame": int(frame), "chainage_m": round(float(chainage), 3), "depth_mm": round(d),
+                         "feature_m": round(float(feature_m), 3),
                          "U95": predicted_U95(extent, d, header.height_mm, f_px, REVIEW_MARK_U_PX),
                          "unit": spec.unit, "basis": basis})
         rows.sort(key=lambda r: r["U95"])
@@ -339,13 +343,19 @@ class ReviewService:
             raise NotFound(str(exc)) from None
         return pkg.location.undistorter.frame(image) if undistorted else image
 
-    def frame_overlay(self, inspection_id: str, frame: int, depth_mm: float | None = None) -> dict:
-        """The fitted contour (the cross-section at ``depth_mm``, default the best candidate's) and the clock
-        positions on it, in both the recorded and the ideal image [px]; the contour's trust and its reasons."""
+    def frame_overlay(self, inspection_id: str, frame: int, feature_m: float | None = None) -> dict:
+        """The fitted contour (the cross-section through the feature at chainage ``feature_m`` [m], else two pipe
+        heights ahead) and the clock positions on it, in both the recorded and the ideal image [px]; the contour's
+        trust and its reasons."""
         pkg = self.package(inspection_id)
         contour = self.contour(pkg, frame)
         H = pkg.delivery.header.height_mm
-        t = (depth_mm or 2.0 * H) / H
+        try:
+            here, _ = pkg.location.track.at_frame(frame)
+        except IndexError as exc:
+            raise NotFound(str(exc)) from None
+        depth_mm = 1000.0 * (feature_m - here) if feature_m is not None else None
+        t = (depth_mm if depth_mm is not None and depth_mm > 0.5 * H else 2.0 * H) / H
         try:
             ideal = np.asarray(contour.view.ring(t), float)
         except (ValueError, FloatingPointError):

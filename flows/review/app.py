@@ -61,23 +61,27 @@ class Guard:
         length = headers.get("content-length")
         if length is not None and (not length.isdigit() or int(length) > self.max_body):
             return await _send_text(send, *_plain(413, f"request body over {self.max_body} bytes: refused"))
-        seen = 0
-        too_big = False
-
-        async def bounded_receive():
-            nonlocal seen, too_big
+        # the body is read here, whole and counted, before the app sees the request (a few KiB at most)
+        body = b""
+        more = scope.get("method", "GET") not in SAFE_METHODS
+        while more:
             message = await receive()
-            if message["type"] == "http.request":
-                seen += len(message.get("body", b""))
-                if seen > self.max_body:
-                    too_big = True
-                    raise _BodyTooLarge()
-            return message
+            if message["type"] != "http.request":
+                return
+            body += message.get("body", b"")
+            if len(body) > self.max_body:
+                return await _send_text(send, *_plain(413, f"request body over {self.max_body} bytes: refused"))
+            more = message.get("more_body", False)
+        replayed = False
 
-        try:
-            await self.app(scope, bounded_receive, send)
-        except _BodyTooLarge:
-            await _send_text(send, *_plain(413, f"request body over {self.max_body} bytes: refused"))
+        async def replay():
+            nonlocal replayed
+            if not replayed:
+                replayed = True
+                return {"type": "http.request", "body": body, "more_body": False}
+            return await receive()
+
+        await self.app(scope, replay, send)
 
     def _refusal(self, scope, headers: dict[str, str]) -> tuple[int, bytes] | None:
         host = headers.get("host", "")
@@ -97,10 +101,6 @@ class Guard:
         if not offered or not hmac.compare_digest(offered.encode(), self.token.encode()):
             return _plain(403, "no valid review token: open the URL pipegauge review printed")
         return None
-
-
-class _BodyTooLarge(Exception):
-    pass
 
 
 def _cookies(text: str) -> dict[str, str]:

@@ -14,8 +14,9 @@ function marksOf(q = state.quantity) { return state.marks[q] || (state.marks[q] 
 function snapshot() { state.history.push(JSON.stringify(state.marks)); if (state.history.length > 200) state.history.shift(); }
 
 function fitScale() {
-  const room = Math.max(480, window.innerWidth - 480);
-  state.scale = Math.min(2, room / state.obs.width);
+  // the whole frame in view: beside the side panel, under the toolbar
+  const room = Math.max(480, window.innerWidth - 480), tall = Math.max(300, window.innerHeight - 140);
+  state.scale = Math.min(2, room / state.obs.width, tall / state.obs.height);
   canvas.width = Math.round(state.obs.width * state.scale);
   canvas.height = Math.round(state.obs.height * state.scale);
 }
@@ -137,7 +138,7 @@ function showResult(r, preview) {
     ? `<span class="${r.log_check === "disagrees" ? "bad" : ""}" title="E_n = |logged - measured| / sqrt(U95² + U_res²): the contractor's logged value against the measurement">log check: ${review.esc(r.log_check)}</span>`
       + (r.E_n !== null ? `, E_n ${r.E_n.toFixed(2)}` : "") + `<div class="note">${review.esc(r.log_check_reason || "")}</div>` : "";
   document.querySelector("#budget tbody").innerHTML = r.budget.map(b =>
-    `<tr><td title="${review.esc(b.description)}">${review.esc(b.input)}</td><td>${b.share.toFixed(0)} %</td></tr>`).join("");
+    `<tr><td title="input ${review.esc(b.input)} of the model">${review.esc(b.description || b.input)}</td><td>${b.share.toFixed(0)} %</td></tr>`).join("");
   document.getElementById("classes").innerHTML = r.grade_probabilities.length
     ? `<span title="probability of each VSA 2023 class (EZ0 worst ... EZ4 none) from the measurement's distribution">classes:</span> `
       + r.grade_probabilities.map(g => `${review.esc(g.grade)} ${(100 * g.probability).toFixed(0)} %`).join(", ") : "";

@@ -32,6 +32,7 @@ from pipeline.reports.thumbnail import THUMBNAIL_WIDTH_PX, measurement_thumbnail
 from pipeline.vision.video.pipe_contour import contours_at_frames
 from pipeline.vision.video.reader import read_frame
 from pipeline.measurement.automatic import measurable_automatically, measure_automatic
+from pipeline.measurement.frames import measure_over_frames
 from pipeline.measurement.marked import marked_quantity
 from pipeline.measurement.quantity import MODELS, MarkedQuantity, QuantityResult, measure_quantity
 from pipeline.measurement.wall import contour_under
@@ -192,10 +193,8 @@ def measure_package(folder: str | os.PathLike, *, certificates: str | os.PathLik
                     if len(group) == 1:
                         future = pool.submit(measure_quantity, marked, under(obs, contours[frame]), **common)
                     else:
-                        from pipeline.measurement.frames import measure_over_frames
-
                         views = [(marked_quantity(obs, g, und, cert), under(obs, contours[g.frame])) for g in group]
-                        future = pool.submit(measure_over_frames, views, **common)
+                        future = pool.submit(measure_over_frames, views, frames=[g.frame for g in group], **common)
                 except PipegaugeError as exc:
                     row.update(status="error", error=str(exc))
                 jobs.append((row, m, marked, future))

@@ -383,7 +383,7 @@ class ReviewService:
         from pipeline.domain.results import observation_record
         from pipeline.judgement.grading import class_edges, scheme as grading_scheme
         from pipeline.measurement.marked import marked_quantity
-        from pipeline.measurement.quantity import measure_quantity
+        from pipeline.measurement.frames import measure_over_frames
 
         pkg = self.package(inspection_id)
         obs = self._observation(pkg, row)
@@ -400,19 +400,7 @@ class ReviewService:
         common = dict(H=header.height_mm, tolerance=header.height_tolerance_mm, model=self.model,
                       seed=_seed(pkg.delivery.manifest.package_id, row, quantity), edges=tuple(edges))
         views_mq = [(marked_quantity(obs, m, und, cert), under(self.contour(pkg, m.frame))) for m in marks]
-        if len(views_mq) == 1:
-            res = measure_quantity(*views_mq[0], cert, monte_carlo=monte_carlo, **common)
-        elif not monte_carlo:
-            # the preview of several frames: each frame's linear result, combined by inverse variance
-            parts = [measure_quantity(mq, c, cert, monte_carlo=False, **common) for mq, c in views_mq]
-            res = _combined_preview(parts)
-        else:
-            try:
-                from pipeline.measurement.frames import measure_over_frames
-            except ImportError:
-                raise ReviewError("several frames are combined by pipeline.measurement.frames, not in this build; "
-                                  "mark the best frame only") from None
-            res = measure_over_frames(views_mq, cert, **common)
+        res = measure_over_frames(views_mq, cert, frames=[m.frame for m in marks], monte_carlo=monte_carlo, **common)
         record = _measurement_base(obs, marks[0], pkg.location.track, self.model)
         record.update(_quantity_fields(res))
         result = InspectionResult(InspectionRecord(inspection_id=inspection_id),
@@ -579,17 +567,3 @@ def _clock_positions(polygon: np.ndarray) -> list[tuple[int, tuple[float, float]
         i = int(np.argmin(np.abs((angles - target + np.pi) % (2 * np.pi) - np.pi)))
         out.append((hour, (float(polygon[i, 0]), float(polygon[i, 1]))))
     return out
-
-
-def _combined_preview(parts):
-    """Several frames' linear previews combined by inverse variance (the preview only; the stored result is
-    ``measure_over_frames``, which counts the shared inputs once)."""
-    from dataclasses import replace
-
-    w = np.array([1.0 / max(p.u, 1e-12) ** 2 for p in parts])
-    value = float(np.sum(w * [p.value for p in parts]) / w.sum())
-    u = float(1.0 / math.sqrt(w.sum()))
-    U = float(parts[0].U95 / max(parts[0].u, 1e-12) * u)
-    best = int(np.argmax(w))
-    return replace(parts[best], value=value, u=u, U95=U, low=value - U, high=value + U,
-                   interval="linear, k = 1.96 (preview of several frames, as if independent)")

@@ -46,19 +46,16 @@ def _files(folder: Path) -> dict[str, int]:
 
 
 @pytest.fixture(scope="module")
-def night(tmp_path_factory, reader):
-    """S01 measured into an OUT as a run would (without its truth), with its report."""
-    from pipeline.app import Layout, process_package
+def night(tmp_path_factory, sample_night):
+    """The samples' night (three packages measured once for the session), its dataset and reports copied into an
+    OUT of this module's own, so that marking and measuring again leave the session's night as it is; the inbox is
+    the session's (only read)."""
+    from pipeline.app import Layout
 
-    root = tmp_path_factory.mktemp("review-night")
-    inbox = root / "inbox"
-    shutil.copytree(SAMPLES / "certificates", inbox / "certificates")
-    shutil.copytree(SAMPLES / PACKAGE, inbox / PACKAGE, ignore=shutil.ignore_patterns("truth"))
-    layout = Layout(root / "out")
-    outcome = process_package(inbox / PACKAGE, layout.dataset, reader=reader, reports=layout.reports,
-                              review=layout.review)
-    assert outcome.status in ("ok", "partial"), outcome.error
-    return inbox, layout
+    layout = Layout(tmp_path_factory.mktemp("review-night") / "out")
+    shutil.copytree(sample_night / "dataset", layout.dataset)
+    shutil.copytree(sample_night / "reports", layout.reports)
+    return sample_night / "inbox", layout
 
 
 @pytest.fixture(scope="module")
@@ -121,6 +118,7 @@ def _shot(driver, name: str) -> None:
 
 @pytest.mark.slow
 def test_mark_save_measure_again_in_a_browser(night, server, browser):
+    """The issue's walk through the review, in the browser (module docstring)."""
     from pypdf import PdfReader
     from selenium.webdriver.common.action_chains import ActionChains
     from selenium.webdriver.common.by import By
@@ -136,8 +134,13 @@ def test_mark_save_measure_again_in_a_browser(night, server, browser):
     # the night: the inspection listed; its observations open below it, each with a link to mark it
     browser.get(f"{base}/?token={token}")
     _wait(browser, lambda d: d.find_elements(By.CSS_SELECTOR, "#night tbody tr"))
-    assert PACKAGE in browser.find_element(By.ID, "night").text
-    browser.find_element(By.CSS_SELECTOR, "#night a.open").click()
+    listed = browser.find_element(By.ID, "night").text
+    assert all(name in listed for name in (PACKAGE, "S02-circular-water-offset", "S03-egg-concrete"))
+    # sortable: by section grade, then back
+    browser.find_element(By.CSS_SELECTOR, "th[data-key='section_grade']").click()
+    grades = [tr.find_elements(By.TAG_NAME, "td")[4].text for tr in browser.find_elements(By.CSS_SELECTOR, "#night tbody tr")]
+    assert grades == sorted(grades)
+    next(a for a in browser.find_elements(By.CSS_SELECTOR, "#night a.open") if a.text == PACKAGE).click()
     _wait(browser, lambda d: d.find_elements(By.CSS_SELECTOR, "#observation-list a.observation"))
     _shot(browser, "review-night.png")
     link = next(a for a in browser.find_elements(By.CSS_SELECTOR, "#observation-list a.observation")
@@ -147,6 +150,8 @@ def test_mark_save_measure_again_in_a_browser(night, server, browser):
     # the best-frame table: candidates with a predicted U95, the best one first
     cells = browser.find_elements(By.CSS_SELECTOR, "#candidates tbody tr")
     assert len(cells) >= 3 and "(best)" in cells[0].text
+    predicted = [float(c.find_elements(By.TAG_NAME, "td")[3].text.split()[0]) for c in cells]
+    assert predicted == sorted(predicted)          # the best (lowest predicted U95) first
 
     # to the truth's frame, then click its two points scaled to the displayed image
     browser.execute_script(f"showFrame({truth['frame']});")
@@ -168,6 +173,9 @@ def test_mark_save_measure_again_in_a_browser(night, server, browser):
     assert "mm" in value.text and "U95" in value.text
     assert browser.find_elements(By.CSS_SELECTOR, "#budget tbody tr")
     _shot(browser, "review-observation.png")
+    if os.environ.get("PIPEGAUGE_REVIEW_SHOTS"):
+        browser.find_element(By.XPATH, "//table[@id='candidates']/..").screenshot(
+            str(Path(os.environ["PIPEGAUGE_REVIEW_SHOTS"]) / "review-best-frame.png"))
 
     # save: the name is required
     browser.find_element(By.ID, "reviewer").clear()
@@ -222,11 +230,25 @@ def test_review_marks_leave_the_contractor_files_and_an_unchanged_rerun_rewrites
     truth = _truth("Q2")
     a, b = truth["points_px_noise_free"]
     service.save(PACKAGE, ROW, "Q2", [View(truth["frame"], tuple(a), tuple(b))], "Bo Reviewer")
+    # Q1 on two frames (the camera moves 6 mm a frame: the same points one frame on still mark the opening)
+    q1 = _truth("Q1")
+    a1, b1 = (tuple(p) for p in q1["points_px_noise_free"])
+    service.save(PACKAGE, ROW, "Q1", [View(q1["frame"], a1, b1), View(q1["frame"] + 1, a1, b1)], "Bo Reviewer")
     assert _digests(inbox) == before
     assert not any("review" in p for p in _digests(inbox))
 
-    first = process_package(inbox / PACKAGE, layout.dataset, reader=reader, reports=layout.reports, review=layout.review)
+    first = process_package(inbox / PACKAGE, layout.dataset, reader=reader, reports=layout.reports, review=layout.review,
+                            keep_result=True)
     assert first.processed and first.status in ("ok", "partial")
+    assert first.result is not None
+    stored = {m.quantity: m for m in first.result.measurements if m.row == ROW and m.source == "marks"}
+    assert {m.marked_by for m in stored.values()} == {"Bo Reviewer"}
+    assert stored["Q2"].status == "ok" and abs(stored["Q2"].value - truth["true_value"]) <= stored["Q2"].U95
+    # two frames' marks combined into one result, their inputs named by frame in the budget
+    assert stored["Q1"].status == "ok", stored["Q1"].error
+    labels = [line["label"] if isinstance(line, dict) else line.label for line in stored["Q1"].budget or []]
+    assert any(label and label.endswith(f"@f{q1['frame'] + 1}") for label in labels), labels
+    assert abs(stored["Q1"].value - q1["true_value"]) < 0.05 * q1["true_value"]
     written = _files(layout.out)
     again = process_package(inbox / PACKAGE, layout.dataset, reader=reader, reports=layout.reports, review=layout.review)
     assert not again.processed                     # the same input key: skipped

@@ -233,7 +233,8 @@ class ReviewService:
             assert spec is not None and spec.method is not None
             method = spec.method_for(obs.char2)
             candidates = self.candidates(pkg, obs, q, stored["measurements"])
-            quantities.append({"quantity": q, "method": method, "unit": spec.unit, "extent": _extent(method),
+            quantities.append({"quantity": q, "method": method, "meaning": spec.meaning, "unit": spec.unit,
+                               "extent": _extent(method),
                                "candidates": candidates,
                                "feature_m": candidates[0]["feature_m"] if candidates else None})
         saved = self.saved_marks(inspection_id)

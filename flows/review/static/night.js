@@ -60,7 +60,9 @@ document.querySelectorAll("th.sortable").forEach(th => th.addEventListener("clic
 (async () => {
   await review.init();
   const data = await review.get("/api/night");
-  document.getElementById("out").textContent = data.out;
+  const out = document.getElementById("out");
+  out.textContent = data.out.split("/").slice(-2).join("/");
+  out.title = data.out;
   rows = data.inspections;
   renderNight();
   const wanted = new URLSearchParams(location.search).get("inspection");

@@ -237,7 +237,7 @@ window.addEventListener("resize", () => { if (state.obs) { fitScale(); draw(); }
     ${review.esc(o.meaning || "")} at ${o.distance_m} m` + (o.clock_from !== null ? `, ${o.clock_from}${o.clock_to !== null ? "-" + o.clock_to : ""} o'clock` : "")
     + `<div class="note">logged by the contractor: ${review.esc(logged) || "-"}</div>`;
   const sel = document.getElementById("quantity");
-  sel.innerHTML = o.quantities.map(q => `<option value="${q.quantity}">${q.quantity}: ${review.esc(q.method)} (${review.esc(q.extent)}, ${review.esc(q.unit)})</option>`).join("");
+  sel.innerHTML = o.quantities.map(q => `<option value="${q.quantity}" title="method ${review.esc(q.method)}, an extent ${review.esc(q.extent)} the pipe">${q.quantity}: ${review.esc(q.meaning)} [${review.esc(q.unit)}]</option>`).join("");
   state.quantity = o.quantities.length ? o.quantities[0].quantity : null;
   for (const s of o.saved) { (state.marks[s.quantity] ||= {})[s.frame] = {a: s.a, b: s.b}; }
   document.getElementById("reviewer").value = localStorage.getItem("pipegauge-reviewer") || "";

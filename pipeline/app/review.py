@@ -27,14 +27,14 @@ import os
 import threading
 from dataclasses import asdict, dataclass
 from pathlib import Path
-from typing import Any, Sequence
+from typing import Any, Sequence, cast
 
 import numpy as np
 
 from pipeline.app.layout import Layout
 from pipeline.core.errors import PipegaugeError
 from pipeline.domain.records import Mark, Observation
-from pipeline.domain.results import InspectionRecord
+from pipeline.domain.results import InspectionRecord, MeasurementRecord, ObservationRecord
 from pipeline.formats.review_marks import ReviewMark, read_review_marks, reviewer_problem, write_review_marks
 from pipeline.store import read_records
 
@@ -103,7 +103,7 @@ class ReviewService:
 
     def _inspections(self) -> list[InspectionRecord]:
         try:
-            return read_records(self.layout.dataset, "inspections")      # type: ignore[return-value]
+            return cast(list[InspectionRecord], read_records(self.layout.dataset, "inspections"))
         except PipegaugeError:
             return []
 
@@ -117,7 +117,8 @@ class ReviewService:
         """One entry per stored inspection: what a reviewer sorts by to choose what to open."""
         inspections = self._inspections()
         ids = [r.inspection_id for r in inspections if r.inspection_id]
-        measurements = read_records(self.layout.dataset, "measurements", inspection_ids=ids) if ids else []
+        measurements = cast(list[MeasurementRecord], read_records(self.layout.dataset, "measurements",
+                                                                  inspection_ids=ids) if ids else [])
         rows = []
         for r in inspections:
             ms = [m for m in measurements if m.inspection_id == r.inspection_id]
@@ -137,8 +138,10 @@ class ReviewService:
     def observations(self, inspection_id: str) -> list[dict]:
         """The logged observations of an inspection with their stored measurements (one line per quantity)."""
         self.inspection(inspection_id)
-        obs = read_records(self.layout.dataset, "observations", inspection_ids=[inspection_id])
-        ms = read_records(self.layout.dataset, "measurements", inspection_ids=[inspection_id])
+        obs = cast(list[ObservationRecord], read_records(self.layout.dataset, "observations",
+                                                         inspection_ids=[inspection_id]))
+        ms = cast(list[MeasurementRecord], read_records(self.layout.dataset, "measurements",
+                                                        inspection_ids=[inspection_id]))
         out = []
         for o in sorted(obs, key=lambda o: o.row or 0):
             mine = [m for m in ms if m.row == o.row]
@@ -231,7 +234,7 @@ class ReviewService:
         for q in stored["markable"]:
             spec = obs.quantification(q)
             assert spec is not None and spec.method is not None
-            method = spec.method_for(obs.char2)
+            method = spec.method_for(obs.char2) or spec.method
             candidates = self.candidates(pkg, obs, q, stored["measurements"])
             quantities.append({"quantity": q, "method": method, "meaning": spec.meaning, "unit": spec.unit,
                                "extent": _extent(method),
@@ -260,7 +263,7 @@ class ReviewService:
 
         spec = obs.quantification(quantity)
         assert spec is not None and spec.method is not None
-        extent = METHODS[spec.method_for(obs.char2)].extent
+        extent = METHODS[spec.method_for(obs.char2) or spec.method].extent
         header, track, cert = pkg.delivery.header, pkg.location.track, pkg.delivery.certificate
         measured = [m for m in stored if m["quantity"] == quantity and m["status"] == "ok"
                     and m.get("plane_depth_mm") and m.get("chainage_m") is not None]
@@ -300,7 +303,7 @@ class ReviewService:
         unit = header.pipe_unit_length_m
         if not unit or unit <= 0:
             return []
-        out = []
+        out: list[int] = []
         k = 1
         while k * unit <= (header.section_length_m or 0) + unit and len(out) < 500:
             try:
@@ -364,7 +367,7 @@ class ReviewService:
         ideal = ideal[np.all(np.isfinite(ideal), axis=1)] if ideal.size else ideal
         recorded = _distort(pkg.location.undistorter, ideal) if len(ideal) else ideal
         clocks = _clock_positions(ideal)
-        clocks_recorded = _distort(pkg.location.undistorter, np.array([c[1] for c in clocks])) if clocks else []
+        clocks_recorded: Any = _distort(pkg.location.undistorter, np.array([c[1] for c in clocks])) if clocks else []
         chainage, u = pkg.location.track.at_frame(frame)
         return {"frame": frame, "chainage_m": float(chainage), "u_chainage_m": float(u), "depth_mm": t * H,
                 "ideal": ideal.round(1).tolist(), "recorded": np.asarray(recorded).round(1).tolist(),
@@ -380,9 +383,9 @@ class ReviewService:
         """The value with U95 that these marks give, as the run would measure them (linear at once, Monte Carlo
         on request), with the budget's top lines, the class probabilities and the log check."""
         from pipeline.app.judge import add_verdicts
-        from pipeline.app.measure import InspectionResult, _measurement_base, _quantity_fields, _seed
+        from pipeline.app.measure import (InspectionResult, measurement_base, quantity_edges, quantity_fields,
+                                          quantity_seed)
         from pipeline.domain.results import observation_record
-        from pipeline.judgement.grading import class_edges, scheme as grading_scheme
         from pipeline.measurement.marked import marked_quantity
         from pipeline.measurement.frames import measure_over_frames
 
@@ -396,14 +399,13 @@ class ReviewService:
             return contour_under(obs, pkg.delivery.observations, contour, unit_length_m=header.pipe_unit_length_m,
                                  height_mm=header.height_mm)
 
-        edges = class_edges(grading_scheme(), obs.code, obs.char1, header.height_mm, header.material) \
-            if quantity == "Q1" else ()
+        edges = quantity_edges(obs, quantity, header)
         common = dict(H=header.height_mm, tolerance=header.height_tolerance_mm, model=self.model,
-                      seed=_seed(pkg.delivery.manifest.package_id, row, quantity), edges=tuple(edges))
+                      seed=quantity_seed(pkg.delivery.manifest.package_id, row, quantity), edges=tuple(edges))
         views_mq = [(marked_quantity(obs, m, und, cert), under(self.contour(pkg, m.frame))) for m in marks]
         res = measure_over_frames(views_mq, cert, frames=[m.frame for m in marks], monte_carlo=monte_carlo, **common)
-        record = _measurement_base(obs, marks[0], pkg.location.track, self.model)
-        record.update(_quantity_fields(res))
+        record = measurement_base(obs, marks[0], pkg.location.track, self.model)
+        record.update(quantity_fields(res))
         result = InspectionResult(InspectionRecord(inspection_id=inspection_id),
                                   [observation_record(o) for o in pkg.delivery.observations], [record])
         add_verdicts(result, header, pkg.delivery.observations, pkg.location.track)

@@ -81,7 +81,7 @@ def read_marks(path: str | os.PathLike, observations: list[Observation], *,
             bad("u_px", f"{f['u_px']!r} is not a marking uncertainty in px (0 < u < 20)")
         if problems and problems[-1].where == where:
             continue
-        group = groups.setdefault((row, quantity, frame if several_frames else -1), {})
+        group = groups.setdefault((row, quantity, frame if several_frames and frame is not None else -1), {})
         if point in group:
             on = f" on frame {frame}" if several_frames else ""
             bad("point", f"point {point} of row {row} {quantity} is marked twice{on}")

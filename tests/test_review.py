@@ -226,3 +226,49 @@ def test_review_note():
     assert review_note({"marked_by": "Ann Example", "marked_at": AT}) == "marked in review by Ann Example on 2026-12-02"
     assert review_note({"marked_by": None, "marked_at": None}) is None
     assert review_note({"value": 1.0}) is None
+
+
+# -- the verb and the transfers ------------------------------------------------------------------------------------
+
+def test_review_verb_prints_the_url_with_its_token(out, monkeypatch, capsys):
+    import uvicorn
+
+    from flows.cli import main
+
+    served = {}
+    monkeypatch.setattr(uvicorn, "run", lambda app, host, port, **kw: served.update(host=host, port=port, app=app))
+    assert main(["review", str(out), "--port", "8799"]) == 0
+    printed = capsys.readouterr().out
+    assert served["host"] == "127.0.0.1" and served["port"] == 8799
+    url = printed.split("open ", 1)[1].split()[0]
+    assert url.startswith("http://127.0.0.1:8799/?token=")
+    token = url.split("token=", 1)[1]
+    assert len(token) >= 24
+    client = TestClient(served["app"], base_url="http://127.0.0.1:8799")
+    assert client.get("/api/night").status_code == 403
+    assert client.get(f"/api/night?token={token}").status_code == 200
+    # another start, another token
+    assert main(["review", str(out), "--port", "8799"]) == 0
+    assert capsys.readouterr().out.split("token=", 1)[1].split()[0] != token
+
+
+def test_review_verb_wants_a_runs_output(tmp_path, capsys):
+    from flows.cli import main
+
+    assert main(["review", str(tmp_path)]) == 2
+    assert "no dataset/" in capsys.readouterr().err
+
+
+def test_transfers_say_who_marked():
+    from pipeline.formats.isybau.write import measured_notes
+    from pipeline.formats.vsa_kek.write import _measured_note
+
+    m = {"row": 2, "quantity": "Q1", "status": "ok", "value": 144.4, "U95": 3.7, "unit": "mm", "low": 140.7,
+         "high": 148.1, "below_resolution": False, "confident": True, "log_check": "disagrees",
+         "marked_by": "Ann Example", "marked_at": AT, "source": "marks"}
+    assert "marked in review by Ann Example on 2026-12-02" in _measured_note(m)
+    notes = measured_notes([{"row": 2}], [m], version="x", model="perspective")
+    assert "marked in review by Ann Example on 2026-12-02" in notes[2]
+    plain = {**m, "marked_by": None, "marked_at": None}
+    assert "review" not in _measured_note(plain) and "review" not in measured_notes([{"row": 2}], [plain], version="x",
+                                                                                     model="perspective")[2]

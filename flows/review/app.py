@@ -176,7 +176,8 @@ def create_app(service: ReviewService, token: str | None = None, *, hosts: set[s
 
     @app.exception_handler(PipegaugeError)
     async def refused(request: Request, exc: PipegaugeError):
-        return JSONResponse({"error": str(exc)}, status_code=422 if isinstance(exc, ReviewError) else 500)
+        # a refused request, or the domain's reason (a package that cannot be read, the dataset locked by a run)
+        return JSONResponse({"error": str(exc)}, status_code=422 if isinstance(exc, ReviewError) else 409)
 
     def page(name: str, request: Request) -> Response:
         response = FileResponse(STATIC / name, headers={"cache-control": "no-store"})

@@ -228,7 +228,10 @@ class ReviewService:
         pkg = self.package(inspection_id)
         obs = self._observation(pkg, row)
         info, track = pkg.location.info, pkg.location.track
-        stored = [m for m in self.observations(inspection_id) if m["row"] == row][0]
+        rows = [m for m in self.observations(inspection_id) if m["row"] == row]
+        if not rows:
+            raise NotFound(f"no row {row} of {inspection_id} in the dataset")
+        stored = rows[0]
         start = _logged_frame(obs, track, info)
         quantities = []
         for q in stored["markable"]:

@@ -190,7 +190,7 @@ def test_mark_save_measure_again_in_a_browser(night, server, browser):
 
     browser.find_element(By.ID, "again").click()
     _wait(browser, lambda d: "measured again" in d.find_element(By.ID, "message").text, timeout=300)
-    assert REVIEWER in browser.find_element(By.ID, "stored").text
+    _wait(browser, lambda d: REVIEWER in d.find_element(By.ID, "stored").text, timeout=30)
     today = dt.datetime.now(dt.timezone.utc).date().isoformat()
 
     # the dataset: the reviewer's value with the name and the date

@@ -187,12 +187,13 @@ async function measureAgain() {
   message("measuring the package again…");
   try {
     const r = await review.post("/api/measure-again", {id: state.id});
-    message(`measured again: ${r.status}${r.error ? ` (${r.error})` : ""}`, r.status === "failed");
     const data = await review.get(`/api/inspection?id=${encodeURIComponent(state.id)}`);
     const o = data.observations.find(o => o.row === state.row);
     document.getElementById("stored").innerHTML = "<b>stored:</b> " + o.measurements.map(m =>
       `${review.esc(m.quantity)} ${m.status === "ok" ? review.esc(review.result(m.value, m.U95, m.unit)) : "not measured"}`
       + (m.marked_by ? ` — marked in review by ${review.esc(m.marked_by)} on ${review.esc((m.marked_at || "").slice(0, 10))}` : "")).join("<br>");
+    // said last, when what was stored is shown
+    message(`measured again: ${r.status}${r.error ? ` (${r.error})` : ""}`, r.status === "failed");
   } catch (e) { message(e.message, true); }
 }
 

@@ -391,6 +391,22 @@ def cmd_summary(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
+def cmd_review(args: argparse.Namespace) -> int:
+    from flows.review import serve
+
+    if not (args.out / "dataset").is_dir():
+        _say(f"{args.out}: no dataset/ in it; give the output folder of a run (pipegauge run INBOX --out OUT)")
+        return EXIT_USAGE
+    if args.inbox is not None and not args.inbox.is_dir():
+        _say(f"{args.inbox}: no such inbox folder")
+        return EXIT_USAGE
+    if args.host not in ("127.0.0.1", "localhost", "::1"):
+        _say(f"warning: serving on {args.host}, reachable from other machines; the token is the only guard")
+    serve(args.out, args.inbox, host=args.host, port=args.port,
+          announce=lambda url: print(f"review of {args.out}: open {url}  (Ctrl-C stops it)", flush=True))
+    return EXIT_OK
+
+
 def cmd_export(args: argparse.Namespace) -> int:
     from pipeline.app.export import check_export_request, export
     from pipeline.formats import WRITERS
@@ -570,6 +586,20 @@ def build_parser() -> argparse.ArgumentParser:
                     help="a run's output folder or a dataset folder (default: %(default)s)")
     rp.add_argument("--out", type=Path, required=True, help="the PDF to write")
     rp.set_defaults(func=cmd_report)
+
+    rv = verbs.add_parser("review", help="a local web page to mark features on the best frame and see U95 at once",
+                          description="Serve the review of a run's output in the browser (docs/review.md): the "
+                                      "night, each observation's frames with the fitted contour, the predicted U95 "
+                                      "per frame, marking with the value and U95 as you click. Marks are saved to "
+                                      "OUT/review/<inspection>/marks.csv with the reviewer's name; the next run "
+                                      "(or the page's 'measure again') measures from them. Prints the URL with "
+                                      "this start's token.")
+    rv.add_argument("out", type=Path, metavar="OUT", help="a run's output folder (it holds dataset/)")
+    rv.add_argument("--inbox", type=Path, help="the inbox the packages are read from (default: where the run read them)")
+    rv.add_argument("--port", type=int, default=8765, help="port on 127.0.0.1 (default: %(default)s)")
+    rv.add_argument("--host", default="127.0.0.1",
+                    help="address to listen on (default: %(default)s, this machine only)")
+    rv.set_defaults(func=cmd_review)
 
     su = verbs.add_parser("summary", help="the morning list: sections ranked by grade and by what needs a person",
                           description="Every stored inspection, most in need of a person first: failed deliveries "

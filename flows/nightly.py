@@ -61,7 +61,7 @@ def measure_package_task(folder: str, out: str, model: str, certificates: str | 
     """Measure one package (or one section of a delivery folder) into OUT's dataset; returns its summary row."""
     layout = Layout(Path(out))
     outcome = process_package(folder, layout.dataset, model=model, certificates=certificates, reader=_reader(),
-                              reports=layout.reports, section=section)
+                              reports=layout.reports, section=section, review=layout.review)
     return outcome.as_row()
 
 

@@ -380,7 +380,7 @@ def test_the_quantities_run_side_by_side_keep_their_errors_to_their_rows_and_an_
     monkeypatch.setattr(locate_step, "ingest_chainage", once(locate_step.ingest_chainage))
     monkeypatch.setattr(conductor, "contours_at_frames", once(conductor.contours_at_frames))
     real = conductor.measure_quantity
-    doomed = conductor._seed("S03-egg-concrete", 2, "Q1")      # row 2's Q1 (marks.csv), whichever thread runs it
+    doomed = conductor.quantity_seed("S03-egg-concrete", 2, "Q1")      # row 2's Q1 (marks.csv), whichever thread runs it
 
     def failing(kind):
         def measure_quantity(*args, **kwargs):

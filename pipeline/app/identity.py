@@ -1,9 +1,10 @@
 """A package's identity: the digests of its files and the input key that lets a run skip an unchanged package.
 
 The input key is the SHA-256 over the package's files, the certificate it
-names (or its absence), the pipeline version and the model: a run skips a
-package whose key the dataset holds already, and fixing any of its files, or
-delivering its certificate, changes the key.
+names (or its absence), the pipeline version and the model, and a reviewer's
+marks of it when there are any (``OUT/review/<id>/marks.csv``): a run skips a
+package whose key the dataset holds already, and fixing any of its files,
+delivering its certificate, or saving a reviewer's marks changes the key.
 """
 
 from __future__ import annotations
@@ -58,10 +59,12 @@ def package_digest(digests: dict[str, str]) -> str:
 
 
 def input_key(manifest: PackageManifest | None, digests: dict[str, str], certificates: str | os.PathLike | None,
-              model: str) -> str:
+              model: str, review_marks: str | os.PathLike | None = None) -> str:
     """SHA-256 identifying everything a package's result depends on (module docstring).
 
     manifest : the package's manifest, or None when it cannot be read
+    review_marks : the reviewer's marks file of the package; counted only when it exists, so that a package
+        nobody reviewed keeps the key it had before reviews existed
     """
     try:
         if manifest is None:
@@ -70,6 +73,8 @@ def input_key(manifest: PackageManifest | None, digests: dict[str, str], certifi
     except (PipegaugeError, OSError) as exc:
         certificate = f"unavailable: {exc}"
     parts = [package_digest(digests), certificate, __version__, model]
+    if review_marks is not None and Path(review_marks).is_file():
+        parts.append("review " + _digest(Path(review_marks)))
     return hashlib.sha256("\n".join(parts).encode()).hexdigest()
 
 

@@ -3,6 +3,8 @@
     OUT/dataset/                  the Parquet dataset (docs/dataset.md)
     OUT/dataset/.pipegauge.lock   held by the one process writing the dataset (pipeline.store.lock)
     OUT/reports/                  one PDF condition report per inspection, summary-YYYY-MM-DD.pdf per night
+    OUT/review/<stem>/marks.csv   a reviewer's marks of an inspection (pipegauge review; <stem>: the dataset's
+                                  file name of its id, pipeline.store.file_stem)
     OUT/run-log.jsonl             each night's package rows with the worker (host:pid) that measured them
     OUT/.prefect-server.pid       the embedded Prefect server of the run in progress (pipegauge run)
 
@@ -18,9 +20,9 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from pipeline.reports import report_file_name
-from pipeline.store import inspection_files
+from pipeline.store import file_stem, inspection_files
 
-__all__ = ["Layout", "report_is_current"]
+__all__ = ["Layout", "report_is_current", "review_marks_path"]
 
 
 @dataclass(frozen=True)
@@ -51,6 +53,15 @@ class Layout:
         return self.out / "reports"
 
     @property
+    def review(self) -> Path | None:
+        """The reviewers' marks, a folder per inspection (None where the layout keeps none)."""
+        return self.out / "review"
+
+    def review_marks(self, inspection_id: str) -> Path | None:
+        """The reviewer's marks file of an inspection (``pipeline.formats.review_marks``), None where none are kept."""
+        return None if self.review is None else review_marks_path(self.review, inspection_id)
+
+    @property
     def run_log(self) -> Path:
         """Every night's package rows with the worker (host:pid) that measured each, JSON lines."""
         return self.out / "run-log.jsonl"
@@ -78,6 +89,16 @@ class _DatasetOnly(Layout):
     @property
     def reports(self) -> Path | None:
         return None
+
+    @property
+    def review(self) -> Path | None:
+        return None
+
+
+def review_marks_path(review: str | os.PathLike, inspection_id: str) -> Path:
+    """The reviewer's marks file of an inspection under a review folder: its id made file-name-safe by the
+    dataset's rule (``file_stem``), so no id leads out of the folder."""
+    return Path(review) / file_stem(inspection_id) / "marks.csv"
 
 
 def report_is_current(path: Path, dataset: str | os.PathLike, inspection_id: str) -> bool:

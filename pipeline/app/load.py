@@ -7,6 +7,7 @@ holds what was learnt before it.
 
 from __future__ import annotations
 
+import datetime as dt
 import os
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
@@ -22,6 +23,7 @@ from pipeline.formats.registry import load_package_reading
 from pipeline.formats.certificate import load_certificate
 from pipeline.formats.manifest import PackageManifest, certificate_path, load_manifest
 from pipeline.formats.marks import read_marks
+from pipeline.formats.review_marks import read_review_marks
 from pipeline.app.identity import file_digests, package_digest
 
 __all__ = ["Delivery", "load_delivery", "LogOnly"]
@@ -50,6 +52,8 @@ class Delivery:
     certificate: Certificate
     log_problems: list[str] = field(default_factory=list)   # the section's and its file's, not a row's
     header_problems: tuple[str, ...] = ()     # what of the header is read but doubtful (an unknown material)
+    # (row, quantity) -> (reviewer, marked at) of the quantities measured from a reviewer's marks
+    reviewed: dict[tuple[int, str], tuple[str, dt.datetime]] = field(default_factory=dict)
 
     @property
     def video_sha256(self) -> str | None:
@@ -58,12 +62,15 @@ class Delivery:
 
 def load_delivery(folder: str | os.PathLike, record: InspectionRecord, *,
                   certificates: str | os.PathLike | None = None, digests: dict[str, str] | None = None,
-                  manifest: PackageManifest | None = None, unmeasurable: str | None = None) -> Delivery:
+                  manifest: PackageManifest | None = None, unmeasurable: str | None = None,
+                  review_marks: str | os.PathLike | None = None) -> Delivery:
     """Read and validate a package, filling the inspection's record as it goes (id, header, certificate).
 
     certificates : folder of certificate files (default: ``certificates/`` beside the package)
     digests, manifest : the package's ``file_digests`` and manifest when the caller has them already
     unmeasurable : why a delivery's section cannot be measured, known before (its video missing...)
+    review_marks : a reviewer's marks file of the package (``pipeline.formats.review_marks``): its quantities are
+    measured from the reviewer's marks, the contractor's marks of the same (row, quantity) and their problems set aside
     Raises PipegaugeError (the record keeps what was read before); LogOnly for a delivery's section whose log is
     read but that cannot be measured (``unmeasurable``, or its certificate missing).
     """
@@ -94,6 +101,14 @@ def load_delivery(folder: str | os.PathLike, record: InspectionRecord, *,
         mark_problems: list[RowProblem] = []
     else:
         marks, mark_problems = read_marks(manifest.marks, observations)
+    reviewed: dict[tuple[int, str], tuple[str, dt.datetime]] = {}
+    if review_marks is not None:
+        review = read_review_marks(review_marks, observations)
+        # the reviewer's marks take precedence for the same quantity; the contractor's stay in their file, unread
+        # for it (their value is still the logged one, checked against the measurement)
+        marks = [m for m in marks if (m.row, m.quantity) not in review.by] + review.marks
+        mark_problems = [p for p in mark_problems if p.quantity not in review.by] + review.problems
+        reviewed = review.by
     cert = load_certificate(certificate_path(manifest, certificates))
     if cert.certificate_id != manifest.certificate_id:
         raise CertificateError(f"{cert.source}: holds certificate {cert.certificate_id!r}, but the package names "
@@ -104,4 +119,5 @@ def load_delivery(folder: str | os.PathLike, record: InspectionRecord, *,
     cert.check_valid_on(header.inspection_date)
     source = manifest.header or manifest.transfer
     doubtful = tuple(f"{source.name if source else 'header'}: {p}" for p in [material_problem(header.material)] if p)
-    return Delivery(folder, manifest, digests, header, observations, marks, mark_problems, cert, log_problems, doubtful)
+    return Delivery(folder, manifest, digests, header, observations, marks, mark_problems, cert, log_problems, doubtful,
+                    reviewed)

@@ -32,6 +32,7 @@ from pipeline.reports.thumbnail import THUMBNAIL_WIDTH_PX, measurement_thumbnail
 from pipeline.vision.video.pipe_contour import contours_at_frames
 from pipeline.vision.video.reader import read_frame
 from pipeline.measurement.automatic import measurable_automatically, measure_automatic
+from pipeline.measurement.frames import measure_over_frames
 from pipeline.measurement.marked import marked_quantity
 from pipeline.measurement.quantity import MODELS, MarkedQuantity, QuantityResult, measure_quantity
 from pipeline.measurement.wall import contour_under
@@ -44,7 +45,8 @@ from pipeline.app.locate import locate
 from pipeline.domain.results import (InspectionRecord, MeasurementRecord, ObservationRecord, ThumbnailRecord,
                                      observation_record)
 
-__all__ = ["InspectionResult", "measure_package"]
+__all__ = ["InspectionResult", "measure_package", "measurement_base", "quantity_fields", "quantity_seed",
+           "quantity_edges"]
 
 # quantities whose Monte Carlo runs at once: two where this process may use two cores
 QUANTITY_THREADS = min(2, len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1)
@@ -68,7 +70,7 @@ class InspectionResult:
         return self.inspection.status == "ok"
 
 
-def _seed(inspection_id: str, row: int, quantity: str) -> int:
+def quantity_seed(inspection_id: str, row: int, quantity: str) -> int:
     """A Monte Carlo seed fixed by what is measured, so a re-run repeats every trial."""
     return zlib.crc32(f"{inspection_id}/{row}/{quantity}".encode())
 
@@ -82,7 +84,7 @@ def measure_package(folder: str | os.PathLike, *, certificates: str | os.PathLik
                     model: str = "perspective", reader: OverlayReader | None = None, every: int = 4,
                     progress: Callable[[str], None] | None = None, today: dt.date | None = None,
                     digests: dict[str, str] | None = None, manifest: PackageManifest | None = None,
-                    unmeasurable: str | None = None) -> InspectionResult:
+                    unmeasurable: str | None = None, review_marks: str | os.PathLike | None = None) -> InspectionResult:
     """Measure every logged quantity of a package; never raises for a bad package (the record says why).
 
     The way: load the delivery (``load``), locate the video along the pipe (``locate``), fit the contours at
@@ -93,6 +95,8 @@ def measure_package(folder: str | os.PathLike, *, certificates: str | os.PathLik
     model : "perspective" (default) or "orthographic"; every : overlay sampling interval [frames]
     digests, manifest : the package's ``file_digests`` and manifest when the caller has them already
     unmeasurable : why a delivery's section cannot be measured (no video...): it is then stored log-only
+    review_marks : a reviewer's marks file (``pipeline.formats.review_marks``), measured in place of the
+    contractor's marks for the same quantities, each record naming the reviewer (``marked_by``, ``marked_at``)
     """
     say = progress or (lambda message: None)
     if model not in MODELS:
@@ -104,7 +108,7 @@ def measure_package(folder: str | os.PathLike, *, certificates: str | os.PathLik
                               n_observations=0, n_measurements=0, n_problems=0)
     try:
         delivery = load_delivery(folder, record, certificates=certificates, digests=digests, manifest=manifest,
-                                 unmeasurable=unmeasurable)
+                                 unmeasurable=unmeasurable, review_marks=review_marks)
         where = locate(delivery, record, reader, every=every, say=say)
     except LogOnly as exc:
         return _log_only(record, exc, t_start)
@@ -140,16 +144,7 @@ def measure_package(folder: str | os.PathLike, *, certificates: str | os.PathLik
                              height_mm=header.height_mm)
 
     def edges(obs: Observation, quantity: str) -> tuple[float, ...]:
-        # where judge reads the draws' distribution function: the grading scheme's class edges (Q1 is graded) and
-        # the ends of the logged value's tolerance (the log check's conformity probability)
-        graded = class_edges(grading_scheme(), obs.code, obs.char1, header.height_mm, header.material) \
-            if quantity == "Q1" else ()
-        logged = finite_number(obs.q1 if quantity == "Q1" else obs.q2)
-        spec = obs.quantification(quantity)
-        unit = (obs.q1_unit if quantity == "Q1" else obs.q2_unit) or (spec.unit if spec else "")
-        ends = tuple(e for step in logging_resolutions(logged, unit, obs.code)
-                     for e in conformity_interval(logged, step)) if logged is not None else ()
-        return tuple(sorted({*graded, *ends}))
+        return quantity_edges(obs, quantity, header)
 
     def ideal(frame: int) -> np.ndarray:
         if frame not in ideal_frames:        # kept by the contours' pass; a seek only for a frame it did not reach
@@ -166,27 +161,45 @@ def measure_package(folder: str | os.PathLike, *, certificates: str | os.PathLik
     # the Monte Carlo runs of the quantities are independent (each its own seed) and mostly large NumPy operations
     # that release the GIL: two at once use both cores; results are assembled in the marks' order
     jobs: list[tuple[MeasurementRecord, Mark, MarkedQuantity | None, Future | None]] = []
+    # a reviewer may mark one quantity on several frames: measured once, from all of them (measure_over_frames)
+    views_of: dict[tuple[int, str], list[Mark]] = defaultdict(list)
+    for frame in sorted(by_frame):
+        for m in by_frame[frame]:
+            views_of[(m.row, m.quantity)].append(m)
     t0 = time.perf_counter()
     pool = ThreadPoolExecutor(max_workers=QUANTITY_THREADS)
     try:
         for frame in sorted(by_frame):
             for m in by_frame[frame]:
+                group = views_of[(m.row, m.quantity)]
+                if m is not group[0]:
+                    continue                  # measured with the group's first frame
                 obs = by_row[m.row]
-                row = _measurement_base(obs, m, ingest.track, model)
+                row = measurement_base(obs, m, ingest.track, model)
+                if (m.row, m.quantity) in delivery.reviewed:
+                    who, when = delivery.reviewed[(m.row, m.quantity)]
+                    row.update(marked_by=who, marked_at=when)
                 marked = future = None
                 try:
                     if obs.problems:
                         raise MeasurementError(f"row {obs.row} of the log is invalid: "
                                                + "; ".join(p.message for p in obs.problems))
-                    bad = check_marks_in_frame(m, info.width, info.height, info.frame_count, manifest.marks.name)
+                    bad = [p for g in group for p in check_marks_in_frame(g, info.width, info.height, info.frame_count,
+                                                                           manifest.marks.name)]
                     if bad:
                         problems += [str(p) for p in bad]
                         raise MeasurementError("; ".join(str(p) for p in bad))
                     marked = marked_quantity(obs, m, und, cert)
-                    future = pool.submit(measure_quantity, marked, under(obs, contours[frame]), cert,
-                                         H=header.height_mm, tolerance=header.height_tolerance_mm, model=model,
-                                         seed=_seed(manifest.package_id, obs.row, m.quantity),
-                                         edges=edges(obs, m.quantity))
+                    seed, wanted = quantity_seed(manifest.package_id, obs.row, m.quantity), edges(obs, m.quantity)
+                    if len(group) == 1:
+                        future = pool.submit(measure_quantity, marked, under(obs, contours[frame]), cert,
+                                             H=header.height_mm, tolerance=header.height_tolerance_mm, model=model,
+                                             seed=seed, edges=wanted)
+                    else:
+                        views = [(marked_quantity(obs, g, und, cert), under(obs, contours[g.frame])) for g in group]
+                        future = pool.submit(measure_over_frames, views, cert, H=header.height_mm,
+                                             tolerance=header.height_tolerance_mm, model=model, seed=seed,
+                                             edges=wanted, frames=[g.frame for g in group])
                 except PipegaugeError as exc:
                     row.update(status="error", error=str(exc))
                 jobs.append((row, m, marked, future))
@@ -203,7 +216,7 @@ def measure_package(folder: str | os.PathLike, *, certificates: str | os.PathLik
         if future is not None:
             assert marked is not None               # a run is queued only for a marked quantity
             try:
-                row.update(_quantity_fields(future.result()))
+                row.update(quantity_fields(future.result()))
                 _check_distance(row)
                 result.thumbnails.append(thumbnail(m.frame, marked, m.row, "marks"))
             except PipegaugeError as exc:
@@ -230,9 +243,9 @@ def measure_package(folder: str | os.PathLike, *, certificates: str | os.PathLik
             t0 = time.perf_counter()
             q, res = measure_automatic(obs, under(obs, contours[found]), ideal(found), cert, H=header.height_mm,
                                        tolerance=header.height_tolerance_mm, model=model, mask=mask,
-                                       seed=_seed(manifest.package_id, r, "Q1 contour"), edges=edges(obs, "Q1"))
+                                       seed=quantity_seed(manifest.package_id, r, "Q1 contour"), edges=edges(obs, "Q1"))
             t_measure += time.perf_counter() - t0
-            row.update(_quantity_fields(res), u_mark_px=q.u_a)
+            row.update(quantity_fields(res), u_mark_px=q.u_a)
             _check_distance(row)
             result.thumbnails.append(thumbnail(found, q, r, "contour"))
         except PipegaugeError as exc:
@@ -247,6 +260,19 @@ def measure_package(folder: str | os.PathLike, *, certificates: str | os.PathLik
                   n_problems=len(problems), problems=problems, time_contour_s=t_contour, time_measure_s=t_measure,
                   time_total_s=time.perf_counter() - t_start)
     return result
+
+
+def quantity_edges(obs: Observation, quantity: str, header) -> tuple[float, ...]:
+    """Where judge reads a quantity's draws' distribution function: the grading scheme's class edges (Q1 is
+    graded) and the ends of the logged value's tolerance (the log check's conformity probability) [its unit]."""
+    graded = class_edges(grading_scheme(), obs.code, obs.char1, header.height_mm, header.material) \
+        if quantity == "Q1" else ()
+    logged = finite_number(obs.q1 if quantity == "Q1" else obs.q2)
+    spec = obs.quantification(quantity)
+    unit = (obs.q1_unit if quantity == "Q1" else obs.q2_unit) or (spec.unit if spec else "")
+    ends = tuple(e for step in logging_resolutions(logged, unit, obs.code)
+                 for e in conformity_interval(logged, step)) if logged is not None else ()
+    return tuple(sorted({*graded, *ends}))
 
 
 def _log_only(record: InspectionRecord, why: LogOnly, t_start: float) -> InspectionResult:
@@ -328,7 +354,7 @@ def _automatic_base(obs: Observation, frame: int | None, track, model: str) -> M
                              distance_m=obs.distance_m, operator_value=obs.q1, status="ok")
 
 
-def _measurement_base(obs: Observation, m: Mark, track, model: str) -> MeasurementRecord:
+def measurement_base(obs: Observation, m: Mark, track, model: str) -> MeasurementRecord:
     chainage, u_chainage = _chainage_at(track, m.frame)
     q = obs.q1 if m.quantity == "Q1" else obs.q2
     return MeasurementRecord(row=obs.row, quantity=m.quantity, source="marks", code=obs.code, char1=obs.char1,
@@ -337,7 +363,7 @@ def _measurement_base(obs: Observation, m: Mark, track, model: str) -> Measureme
                              b_y_px=m.b[1], u_mark_px=m.u_px, status="ok")
 
 
-def _quantity_fields(res: QuantityResult) -> dict:
+def quantity_fields(res: QuantityResult) -> dict:
     """A measured quantity's fields of its measurement record (its model is the row's already)."""
     fields = {k: v for k, v in asdict(res).items() if k not in ("budget", "reasons", "model")}
     fields["warnings"] = "; ".join(res.reasons) or None

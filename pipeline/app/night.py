@@ -148,4 +148,4 @@ def measure_packages(folders: Sequence[str | os.PathLike], layout: Layout, *, mo
                 # the same path as a run's, input key included: a later run skips what measure stored
                 yield process_package(unit.folder, layout.dataset, model=model, certificates=certificates,
                                       reader=reader, skip_known=False, keep_result=True, progress=progress,
-                                      reports=layout.reports, section=unit.section)
+                                      reports=layout.reports, section=unit.section, review=layout.review)

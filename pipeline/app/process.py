@@ -19,7 +19,7 @@ from typing import Callable
 from pipeline.app.delivery import section_digests, section_manifest
 from pipeline.app.identity import file_digests, input_key
 from pipeline.app.inbox import link_out, package_id_of
-from pipeline.app.layout import report_is_current
+from pipeline.app.layout import report_is_current, review_marks_path
 from pipeline.app.measure import InspectionResult, measure_package
 from pipeline.core.errors import PackageError, PipegaugeError, StoreError
 from pipeline.domain.results import InspectionRecord
@@ -60,7 +60,7 @@ class PackageOutcome:
 
 
 def refused_outcome(folder: str | os.PathLike, error: str, package_id: str | None = None,
-                    section: str | None = None) -> PackageOutcome:
+                    section: str | None = None, review: str | os.PathLike | None = None) -> PackageOutcome:
     """The outcome of a package (or a delivery's section) that is neither read nor stored."""
     return PackageOutcome(str(folder), package_id or Path(folder).name, "failed", error, processed=False, refused=True,
                           section=section)
@@ -70,7 +70,7 @@ def process_package(folder: str | os.PathLike, dataset: str | os.PathLike, *, mo
                     certificates: str | os.PathLike | None = None, reader: OverlayReader | None = None,
                     skip_known: bool = True, reports: str | os.PathLike | None = None,
                     progress: Callable[[str], None] | None = None, keep_result: bool = False,
-                    section: str | None = None) -> PackageOutcome:
+                    section: str | None = None, review: str | os.PathLike | None = None) -> PackageOutcome:
     """Measure one package and store its records in the dataset folder ``dataset``; never raises for a bad package.
 
     section : a section of the delivery folder ``folder`` (``pipeline.app.delivery``), processed as a package of
@@ -81,6 +81,8 @@ def process_package(folder: str | os.PathLike, dataset: str | os.PathLike, *, mo
     skip_known : skip the package when ``dataset`` holds it with the same input key; the
     outcome then repeats the stored status and error, with ``processed`` False.
     keep_result : the outcome carries the measured records (``result``), for a caller that prints them.
+    review : the reviewers' marks folder (``Layout.review``): a reviewer's marks of the package there are measured
+    in place of the contractor's for the same quantities, and are part of its input key.
     Errors writing the dataset (OSError) do raise: they may be transient.
     """
     t0 = time.perf_counter()
@@ -103,8 +105,9 @@ def process_package(folder: str | os.PathLike, dataset: str | os.PathLike, *, mo
             manifest = load_manifest(folder)
         except PipegaugeError:
             manifest = None             # measure_package records why
-    key = input_key(manifest, digests, certificates, model)
     package_id = manifest.package_id if manifest else folder.name
+    reviewed = review_marks_path(review, package_id) if review is not None else None
+    key = input_key(manifest, digests, certificates, model, reviewed)
     stored = stored_input_key(dataset, package_id) if skip_known else None
     if stored and (other := _other_claimant(stored, folder, package_id)):
         return refused_outcome(folder, f"package id {package_id!r} is stored from {other}, which still holds it; nothing "
@@ -119,7 +122,8 @@ def process_package(folder: str | os.PathLike, dataset: str | os.PathLike, *, mo
                               stored["n_measurements"] or 0, time.perf_counter() - t0, processed=False,
                               section=section)
     result = measure_package(folder, certificates=certificates, model=model, reader=reader, progress=progress,
-                             digests=digests, manifest=manifest, unmeasurable=unmeasurable)
+                             digests=digests, manifest=manifest, unmeasurable=unmeasurable,
+                             review_marks=reviewed if reviewed is not None and reviewed.is_file() else None)
     result.inspection["input_sha256"] = key
     rec = result.inspection
     if rec.get("inspection_date") is None:

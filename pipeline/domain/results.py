@@ -339,6 +339,10 @@ class MeasurementRecord(Record):
     nu_eff: float | None = column(
         "float64", "1", "effective degrees of freedom of u (Welch-Satterthwaite over the budget; the pose's nu from "
                         "its rings); inf when every input is known (Type B)")
+    marked_by: str | None = column(
+        "string", doc="the reviewer whose marks this quantity was measured from (pipegauge review); null: the "
+                      "contractor's marks or the image alone")
+    marked_at: dt.datetime | None = column("timestamp", doc="when the reviewer saved those marks (UTC)")
 
 
 @dataclass

@@ -7,7 +7,7 @@ from typing import Any
 from pipeline.core.numeric import finite_number, is_missing
 from pipeline.maths.metrology.display import format_result
 
-__all__ = ["format_record"]
+__all__ = ["format_record", "review_note"]
 
 
 def format_record(m: Any, plus_minus: str = "±") -> str:
@@ -22,3 +22,17 @@ def format_record(m: Any, plus_minus: str = "±") -> str:
     flag = get("below_resolution")
     return format_result(get("value"), get("U95"), get("unit") or "", get("low"), get("high"),
                          not is_missing(flag) and bool(flag), plus_minus)
+
+
+def review_note(m: Any) -> str | None:
+    """'marked in review by NAME on YYYY-MM-DD' for a quantity measured from a reviewer's marks, else None.
+
+    m : a ``MeasurementRecord``, or any mapping of its fields (``marked_by``, ``marked_at``)
+    """
+    get = m.get if hasattr(m, "get") else (lambda k, d=None: getattr(m, k, d))
+    who = get("marked_by")
+    if is_missing(who) or not str(who).strip():
+        return None
+    when = get("marked_at")
+    day = "" if is_missing(when) else f" on {when.date().isoformat() if hasattr(when, 'date') else str(when)[:10]}"
+    return f"marked in review by {str(who).strip()}{day}"

@@ -24,10 +24,13 @@ MARK_OPTIONAL_COLUMNS = ("u_px",)   # a mark's coordinate u [px]; DEFAULT_MARK_U
 DEFAULT_MARK_U_PX = 1.0      # standard uncertainty of a marked coordinate when marks.csv gives none [px]
 
 
-def read_marks(path: str | os.PathLike, observations: list[Observation]) -> tuple[list[Mark], list[RowProblem]]:
+def read_marks(path: str | os.PathLike, observations: list[Observation], *,
+               several_frames: bool = False) -> tuple[list[Mark], list[RowProblem]]:
     """Parse marks.csv into one Mark per (row, quantity); problems name the file's line and field.
 
     observations : the parsed log, to check that each mark belongs to a measurable quantity
+    several_frames : one Mark per (row, quantity, frame): a quantity marked on several frames (a reviewer's
+        marks, ``pipeline.formats.review_marks``); points a and b of a mark are then on one frame by construction
     """
     path = Path(path)
     name = path.name
@@ -38,7 +41,7 @@ def read_marks(path: str | os.PathLike, observations: list[Observation]) -> tupl
             twice.add(o.row)
         by_row.setdefault(o.row, o)
     problems: list[RowProblem] = []
-    groups: dict[tuple[int, str], dict[str, tuple]] = {}
+    groups: dict[tuple[int, str, int], dict[str, tuple]] = {}
     for line, raw in enumerate(read_table(path, MARK_COLUMNS, "marks file", MAX_MARK_LINES), start=2):
         f = {k: (raw.get(k) or "").strip() for k in (*MARK_COLUMNS, *MARK_OPTIONAL_COLUMNS)}
         where = f"line {line}"
@@ -78,13 +81,14 @@ def read_marks(path: str | os.PathLike, observations: list[Observation]) -> tupl
             bad("u_px", f"{f['u_px']!r} is not a marking uncertainty in px (0 < u < 20)")
         if problems and problems[-1].where == where:
             continue
-        group = groups.setdefault((row, quantity), {})
+        group = groups.setdefault((row, quantity, frame if several_frames and frame is not None else -1), {})
         if point in group:
-            bad("point", f"point {point} of row {row} {quantity} is marked twice")
+            on = f" on frame {frame}" if several_frames else ""
+            bad("point", f"point {point} of row {row} {quantity} is marked twice{on}")
             continue
         group[point] = (frame, (x, y), u, line)
     marks = []
-    for (row, quantity), group in sorted(groups.items()):
+    for (row, quantity, _), group in sorted(groups.items()):
         if set(group) != {"a", "b"}:
             problems.append(RowProblem(name, f"row {row}", "point", f"{quantity} needs two points a and b, got {sorted(group)}",
                                        (row, quantity)))

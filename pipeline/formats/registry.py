@@ -33,6 +33,7 @@ FILE_FORMATS = {
     "header": "pipeline.formats.header",                 # header.json
     "observations": "pipeline.formats.observation_log",  # observations.csv
     "marks": "pipeline.formats.marks",                   # marks.csv
+    "review-marks": "pipeline.formats.review_marks",     # OUT/review/<id>/marks.csv: a reviewer's marks
     "certificate": "pipeline.formats.certificate",       # the camera's calibration certificate (JSON)
     "tabular": "pipeline.formats.tabular",               # CSV / Parquet exports of the measurements
     "vsa-kek": "pipeline.formats.vsa_kek",               # Swiss VSA-KEK INTERLIS 2 transfers

@@ -19,7 +19,7 @@ from pipeline.core.atomic import atomic_path
 from pipeline.core.numeric import is_missing
 from pipeline.formats.observation_log import read_log, read_log_with_header
 from pipeline.domain.results import InspectionRecord, ObservationRecord
-from pipeline.domain.value_text import format_record
+from pipeline.domain.value_text import format_record, review_note
 from pipeline.maths.metrology.display import significant_step
 
 # pandas and pyarrow are imported inside the export functions: the ``log`` verb reads CSV logs through this
@@ -44,6 +44,8 @@ EXPORT_COLUMNS = [
     "certificate_id", "pipeline_version", "processed_at",
     # issue 32: where the log came from: the delivery folder and the section's id in its file, the format
     "delivery_id", "section_key", "log_format",
+    # issue 33: a quantity measured from a reviewer's marks (pipegauge review): who, when, and the sentence
+    "marked_by", "marked_at", "reviewed",
 ]
 SORT_COLUMNS = ["inspection_date", "inspection_id", "row", "quantity", "source"]     # the export's row order
 
@@ -57,7 +59,8 @@ _OBSERVATION_FIELDS = [f for f in ObservationRecord.field_names() if f not in _N
 # per logged quantity (Q1, Q2): the measurement the log notes beside the contractor's value (marks before the
 # image alone, a confident one first), and the value the export's policy gives ("Q1_value")
 _MEASURED_FIELDS = ["value", "source", "measured", "U95", "unit", "low", "high", "interval", "result",
-                    "below_resolution", "confident", "decides", "log_check", "E_n", "log_check_reason"]
+                    "below_resolution", "confident", "decides", "log_check", "E_n", "log_check_reason",
+                    "marked_by", "marked_at", "reviewed"]
 _COLLIDING = {"status", "error", "problems", "warnings", "grading_scheme", "model"}
 
 
@@ -166,7 +169,9 @@ def export_table(rows):
         With ``result`` (the value as the report writes it) and the display roundings (``display_columns``).
     """
     out = rows.copy()
-    out["result"] = [format_record(r) for r in out.to_dict("records")]
+    records = out.to_dict("records")
+    out["result"] = [format_record(r) for r in records]
+    out["reviewed"] = [review_note(r) for r in records]
     out = display_columns(out)
     return out.reindex(columns=EXPORT_COLUMNS).sort_values(SORT_COLUMNS, ignore_index=True)
 
@@ -233,7 +238,8 @@ def _log_row(ins: dict, o: dict | None, measured: dict, values: str) -> dict:
                     f"{q}_interval": m.get("interval"), f"{q}_result": format_record(m),
                     f"{q}_below_resolution": m.get("below_resolution"), f"{q}_confident": m.get("confident"),
                     f"{q}_decides": decides, f"{q}_log_check": m.get("log_check"), f"{q}_E_n": m.get("E_n"),
-                    f"{q}_log_check_reason": m.get("log_check_reason")})
+                    f"{q}_log_check_reason": m.get("log_check_reason"), f"{q}_marked_by": m.get("marked_by"),
+                    f"{q}_marked_at": m.get("marked_at"), f"{q}_reviewed": review_note(m)})
         if values == "measured" and decides and not is_missing(m.get("value")):
             row[f"{q}_value"] = m["value"]
     return row

@@ -120,13 +120,14 @@ def frame_weights(variances: Sequence[float]) -> np.ndarray:
 
 def measure_over_frames(views: Sequence[tuple[MarkedQuantity, PipeContour]], cert: Certificate, *, H: float,
                         tolerance: float, model: str = "perspective", seed: int = 1, edges: tuple[float, ...] = (),
-                        frames: Sequence[int] | None = None) -> QuantityResult:
+                        frames: Sequence[int] | None = None, monte_carlo: bool = True) -> QuantityResult:
     """One quantity marked on several frames, combined with the shared inputs counted once (module docstring).
 
     views : (marked quantity, its frame's pipe contour) per frame, the same code, quantity and method in each
     H, tolerance : the header's nominal height and the half-width of its tolerance [mm]
     seed, edges : as ``measure_quantity``
     frames : frame numbers naming the frames' own inputs in the budget (``xa@f1234``); 1, 2, ... by default
+    monte_carlo : False: the law of propagation only, as ``measure_quantity``'s preview (``pipegauge review``)
     Raises ValueError for no view or views of different quantities, MeasurementError as ``measure_quantity``.
     """
     views = list(views)
@@ -141,7 +142,7 @@ def measure_over_frames(views: Sequence[tuple[MarkedQuantity, PipeContour]], cer
     built = [_frame_model(q, c, cert, H=H, tolerance=tolerance, model=model, seed=seed) for q, c in views]
     tags = [f"f{n}" for n in numbers]
     if len(built) == 1:
-        return _measure_frame(built[0], seed, edges)
+        return _measure_frame(built[0], seed, edges, monte_carlo)
 
     group = _pose_groups([c for _, c in views])
     n_groups = max(group) + 1
@@ -215,4 +216,4 @@ def measure_over_frames(views: Sequence[tuple[MarkedQuantity, PipeContour]], cer
                    # resolved when one frame resolves it: the combination then says more than an upper bound
                    p_X=max(f.p_X for f in built),
                    confident=all(f.plane.confident and f.contour.confident for f in built),
-                   nuisance_lines=nuisance, seed=seed, edges=edges, suffixes=words)
+                   nuisance_lines=nuisance, seed=seed, edges=edges, suffixes=words, monte_carlo=monte_carlo)

@@ -421,16 +421,20 @@ def _frame_model(q: MarkedQuantity, contour: PipeContour, cert: Certificate, *, 
 def _result(fn, inputs: InputSet, *, value_at_estimates: float, v_ortho: float, v_persp: float, reasons: list[str],
             model_reasons: list[str], main: _FrameModel, p_X: float, confident: bool,
             nuisance_lines: list[BudgetEntry], seed: int, edges: tuple[float, ...],
-            suffixes: dict[str, str] | None = None) -> QuantityResult:
+            suffixes: dict[str, str] | None = None, monte_carlo: bool = True) -> QuantityResult:
     """Propagate ``fn`` over ``inputs`` and state the result by the rules every measured quantity follows.
 
     main : the frame whose image geometry the result reports (p_H, the plane's depth); p_X : the image separation
     the resolution rule reads [px]; value_at_estimates : the model at the estimates [unit]; reasons,
     model_reasons : what the frames say of their planes and of the model (``_FrameModel.model_reasons``).
+    monte_carlo : False: the law of propagation alone (``_linear_preview``), for a reviewer's preview.
     """
     q, model = main.q, main.model
     method = main.method
     lin = propagate_linear(fn, inputs, name=q.quantity)
+    if not monte_carlo:
+        return _linear_preview(main, lin, value_at_estimates, v_ortho, v_persp, [*reasons, *model_reasons], p_X,
+                               confident, _budget(lin, q.origin, suffixes) + nuisance_lines, seed, edges)
     # the stopping rule checks the interval reported: the shortest for the perspective model, the symmetric one
     # (the one the clause 8 check compares) for the orthographic
     # a t-distributed input (the pose's nu) has tails that can put a marked ray past the wall: those trials are drawn
@@ -478,8 +482,28 @@ def _result(fn, inputs: InputSet, *, value_at_estimates: float, v_ortho: float, 
         class_edges=[float(e) for e in edges], class_edges_cdf=edges_cdf, nu_eff=float(lin.dof))
 
 
+def _linear_preview(main: _FrameModel, lin, value: float, v_ortho: float, v_persp: float, reasons: list[str],
+                    p_X: float, confident: bool, budget: list, seed: int, edges: tuple[float, ...]) -> QuantityResult:
+    """The law of propagation's result alone (``measure_quantity(..., monte_carlo=False)``): the model at the
+    estimates with the linear U95 (k = 1.96), the class edges' shares from the normal it gives."""
+    method, plane = main.method, main.plane
+    value = float(value if main.model == "perspective" else lin.value)
+    u = float(lin.u)
+    cdf = [float(0.5 * (1 + math.erf((e - value) / (u * math.sqrt(2))))) if u > 0 else float(value < e) for e in edges]
+    return QuantityResult(
+        model=main.model, method=main.q.method, unit=method.unit, value=value, u=u, U95=float(lin.U),
+        low=value - float(lin.U), high=value + float(lin.U), interval="linear, k = 1.96 (preview, Monte Carlo pending)",
+        k=float(lin.k), mc_trials=0, mc_seed=seed, linear_validated=False, d_low=math.nan, d_high=math.nan,
+        delta=math.nan, p_H_px=plane.p_H, u_p_H_px=plane.u_p_H, SC_mm_per_px=main.H / plane.p_H, p_X_px=p_X,
+        plane_depth_mm=plane.depth * main.H, orthographic_value=v_ortho, perspective_value=v_persp,
+        confident=confident, reasons=tuple(dict.fromkeys([*reasons, "linear preview: the Monte Carlo result replaces it"])),
+        budget=budget, extent=method.extent, below_resolution=p_X < RESOLUTION_PX, mc_converged=False,
+        class_edges=[float(e) for e in edges], class_edges_cdf=cdf)
+
+
 def measure_quantity(q: MarkedQuantity, contour: PipeContour, cert: Certificate, *, H: float, tolerance: float,
-                     model: str = "perspective", seed: int = 1, edges: tuple[float, ...] = ()) -> QuantityResult:
+                     model: str = "perspective", seed: int = 1, edges: tuple[float, ...] = (),
+                     monte_carlo: bool = True) -> QuantityResult:
     """Measure one marked quantity with ``model`` ("orthographic" or "perspective").
 
     contour : the pipe contour of the marks' frame (``pipeline.vision.video.pipe_contour``)
@@ -487,15 +511,18 @@ def measure_quantity(q: MarkedQuantity, contour: PipeContour, cert: Certificate,
     seed : seed of the Monte Carlo runs (recorded in the result)
     edges : class edges of the grading scheme [unit of the quantity]; the result gives the share of the
         Monte Carlo draws below each (``class_edges_cdf``), from which the class probabilities are computed
+    monte_carlo : False: the law of propagation only (``_linear_preview``): a preview in milliseconds while a
+        reviewer marks (``pipeline.app.review``); a stored result is always the Monte Carlo one
     Raises MeasurementError when the marks cannot be placed on the pipe.
     """
-    return _measure_frame(_frame_model(q, contour, cert, H=H, tolerance=tolerance, model=model, seed=seed), seed, edges)
+    return _measure_frame(_frame_model(q, contour, cert, H=H, tolerance=tolerance, model=model, seed=seed), seed, edges,
+                          monte_carlo)
 
 
-def _measure_frame(frame: _FrameModel, seed: int, edges: tuple[float, ...]) -> QuantityResult:
+def _measure_frame(frame: _FrameModel, seed: int, edges: tuple[float, ...], monte_carlo: bool = True) -> QuantityResult:
     """The result of one frame's model: ``measure_quantity``, and ``measure_over_frames`` with one view."""
     nuisance = [] if frame.nuisance is None else [_across_line(*frame.nuisance, frame.model)]
     return _result(frame.fn, frame.inputs, value_at_estimates=frame.value, v_ortho=frame.v_ortho,
                    v_persp=frame.v_persp, reasons=list(frame.plane.reasons), model_reasons=frame.model_reasons,
                    main=frame, p_X=frame.p_X, confident=frame.plane.confident and frame.contour.confident,
-                   nuisance_lines=nuisance, seed=seed, edges=edges)
+                   nuisance_lines=nuisance, seed=seed, edges=edges, monte_carlo=monte_carlo)

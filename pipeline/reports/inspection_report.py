@@ -25,7 +25,7 @@ from pipeline.domain.codes import plain_description
 from pipeline.core.errors import StoreError
 from pipeline.core.limits import MAX_REPORT_OBSERVATIONS, MAX_REPORT_QUANTITIES, MAX_REPORT_WARNINGS
 from pipeline.store import file_stem, read_records
-from pipeline.domain.value_text import format_record     # the one place a value and its interval are written
+from pipeline.domain.value_text import format_record, review_note     # the one place a value and its interval are written
 from pipeline.reports.pdf import FRAME_WIDTH, build_pdf, cell, grid_table, key_value_table, safe_text, styles
 from pipeline.reports.graphics import pipe_strip, strip_span
 from pipeline.reports.method import method_statement
@@ -327,6 +327,8 @@ _THUMB = 50 * mm        # thumbnail width: the marks (3 px circles at 360 px) st
 def _quantity_block(m: dict, thumbnail: bytes | None) -> KeepTogether:
     """One measured quantity in about a quarter of a page: thumbnail, budget table and key numbers side by side."""
     source = " (from the image alone, no marks)" if _source(m) == "contour" else ""
+    if (reviewed := review_note(m)) is not None:
+        source = f" ({safe_text(reviewed)})"
     title = Paragraph(f"Row {m['row']} {m['quantity']}{source}: {safe_text(_name(m))}", styles()["h3"])
     if m["status"] != "ok":
         return KeepTogether([title, _p(f"Not measured: {_txt(m.get('error'))}", "warning"), Spacer(1, 3 * mm)])

@@ -240,13 +240,13 @@ def _annotate(z: Element, note: str) -> None:
 def measured_notes(observations: list[dict], measurements: list[dict], *, version: str, model: str) -> dict[int, str]:
     """What pipegauge adds to each measured row's Kommentar: every quantity's value with U95 (or why it was not
     measured), the log check and the grade; row -> text. The contractor's values are never replaced."""
-    from pipeline.domain.value_text import format_record
+    from pipeline.domain.value_text import format_record, review_note
 
     by_row: dict[int, list[str]] = {}
     for m in sorted(measurements, key=lambda m: (m["row"], m["quantity"], m.get("source") != "marks")):
         source = "image" if m.get("source") == "contour" else "marks"
         if m.get("status") == "ok":
-            text = f"{m['quantity']} {format_record(m)} ({source})"
+            text = f"{m['quantity']} {format_record(m)} ({review_note(m) or source})"
             if m.get("log_check"):
                 text += f", log {m['log_check']}"
             if m.get("grade") and m.get("grade_status") == "graded":

@@ -109,11 +109,13 @@ def _ref(role: str, ref: tuple[str, str | None]) -> str:
 
 def _measured_note(measured: dict) -> str:
     """'Q1 30.1 ± 1.0 % (U95), log agrees, grade EZ2' for one quantity: pipegauge's value, U95, log check and grade."""
-    from pipeline.domain.value_text import format_record
+    from pipeline.domain.value_text import format_record, review_note
 
     text = f"{measured['quantity']} {format_record(measured)}"
     if not text.endswith("(below resolution)"):
         text += " (U95)"
+    if (reviewed := review_note(measured)) is not None:
+        text += f" {reviewed}"
     if measured.get("confident") is not True:
         text += " low confidence"
     if isinstance(measured.get("log_check"), str) and measured["log_check"] and measured["log_check"] != "not checked":

@@ -1,0 +1,256 @@
+"""pipegauge review (issue 33) in a real browser, and what a reviewer's marks do to a run.
+
+Headless Chromium (Debian's ``chromium`` and ``chromium-driver``; ``.ci/run`` installs them) driven by Selenium:
+open the night, open a sample observation, click the truth's points (the synthetic generator's noise-free image
+points, ``truth/truth.json``) scaled to the displayed image, see a value whose U95 covers the truth, save, measure
+again, and find the reviewer's value, name and date in the dataset, the PDF's text and the CSV export.
+The screenshots of docs/review.md are taken by this test when PIPEGAUGE_REVIEW_SHOTS names a folder.
+"""
+
+from __future__ import annotations
+
+import datetime as dt
+import hashlib
+import json
+import os
+import shutil
+import tempfile
+import threading
+import time
+from pathlib import Path
+
+import pytest
+
+from processes import free_port
+
+SAMPLES = Path(__file__).resolve().parent.parent / "sample_videos"
+PACKAGE = "S01-circular-clean"
+ROW, QUANTITY = 2, "Q1"          # BCA A: a connection's height around the pipe (truth 143.7 mm)
+REVIEWER = "Ann Example"
+CHROMIUM, CHROMEDRIVER = Path("/usr/bin/chromium"), Path("/usr/bin/chromedriver")
+
+
+def _truth(quantity: str = QUANTITY, row: int = ROW) -> dict:
+    truth = json.loads((SAMPLES / PACKAGE / "truth" / "truth.json").read_text())
+    obs = next(o for o in truth["observations"] if o["row"] == row)
+    return next(q for q in obs["quantities"] if q["quantity"] == quantity) | {"frame": obs["frame"]}
+
+
+def _digests(folder: Path) -> dict[str, str]:
+    return {str(p.relative_to(folder)): hashlib.sha256(p.read_bytes()).hexdigest()
+            for p in sorted(folder.rglob("*")) if p.is_file()}
+
+
+def _files(folder: Path) -> dict[str, int]:
+    return {str(p.relative_to(folder)): p.stat().st_mtime_ns for p in sorted(folder.rglob("*")) if p.is_file()}
+
+
+@pytest.fixture(scope="module")
+def night(tmp_path_factory, sample_night):
+    """The samples' night (three packages measured once for the session), its dataset and reports copied into an
+    OUT of this module's own, so that marking and measuring again leave the session's night as it is; the inbox is
+    the session's (only read)."""
+    from pipeline.app import Layout
+
+    layout = Layout(tmp_path_factory.mktemp("review-night") / "out")
+    shutil.copytree(sample_night / "dataset", layout.dataset)
+    shutil.copytree(sample_night / "reports", layout.reports)
+    return sample_night / "inbox", layout
+
+
+@pytest.fixture(scope="module")
+def server(night, reader):
+    """The review app on a free loopback port, in this process (uvicorn in a thread)."""
+    import uvicorn
+
+    from flows.review.app import create_app
+    from pipeline.app.review import ReviewService
+
+    inbox, layout = night
+    port = free_port()
+    app, token = create_app(ReviewService(layout.out, inbox, reader=reader),
+                            hosts={f"127.0.0.1:{port}", f"localhost:{port}"})
+    config = uvicorn.Config(app, host="127.0.0.1", port=port, log_level="warning")
+    srv = uvicorn.Server(config)
+    thread = threading.Thread(target=srv.run, daemon=True)
+    thread.start()
+    deadline = time.monotonic() + 30
+    while not srv.started and time.monotonic() < deadline:
+        time.sleep(0.1)
+    assert srv.started
+    yield f"http://127.0.0.1:{port}", token
+    srv.should_exit = True
+    thread.join(10)
+
+
+@pytest.fixture(scope="module")
+def browser():
+    from selenium import webdriver
+    from selenium.webdriver.chrome.service import Service
+
+    assert CHROMIUM.exists() and CHROMEDRIVER.exists(), \
+        "install Debian's chromium and chromium-driver (apt-get install chromium chromium-driver; .ci/run does)"
+    options = webdriver.ChromeOptions()
+    options.binary_location = str(CHROMIUM)
+    profile = tempfile.mkdtemp(prefix="pipegauge-chromium-")
+    for flag in ("--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
+                 "--disable-background-networking", "--disable-component-update", "--disable-sync",
+                 f"--user-data-dir={profile}", "--window-size=1920,1150"):
+        options.add_argument(flag)
+    driver = webdriver.Chrome(service=Service(str(CHROMEDRIVER)), options=options)
+    yield driver
+    driver.quit()
+    shutil.rmtree(profile, ignore_errors=True)
+
+
+def _wait(driver, check, timeout: float = 120):
+    from selenium.webdriver.support.ui import WebDriverWait
+
+    return WebDriverWait(driver, timeout, poll_frequency=0.2).until(lambda d: check(d))
+
+
+def _shot(driver, name: str) -> None:
+    folder = os.environ.get("PIPEGAUGE_REVIEW_SHOTS")
+    if folder:
+        Path(folder).mkdir(parents=True, exist_ok=True)
+        driver.save_screenshot(str(Path(folder) / name))
+
+
+@pytest.mark.slow
+def test_mark_save_measure_again_in_a_browser(night, server, browser):
+    """The issue's walk through the review, in the browser (module docstring)."""
+    from pypdf import PdfReader
+    from selenium.webdriver.common.action_chains import ActionChains
+    from selenium.webdriver.common.by import By
+
+    from pipeline.app.export import export
+    from pipeline.store import read_records
+
+    inbox, layout = night
+    base, token = server
+    contractor = _digests(inbox / PACKAGE)
+    truth = _truth()
+
+    # the night: the inspection listed; its observations open below it, each with a link to mark it
+    browser.get(f"{base}/?token={token}")
+    _wait(browser, lambda d: d.find_elements(By.CSS_SELECTOR, "#night tbody tr"))
+    listed = browser.find_element(By.ID, "night").text
+    assert all(name in listed for name in (PACKAGE, "S02-circular-water-offset", "S03-egg-concrete"))
+    # sortable: by section grade, then back
+    browser.find_element(By.CSS_SELECTOR, "th[data-key='section_grade']").click()
+    grades = [tr.find_elements(By.TAG_NAME, "td")[4].text for tr in browser.find_elements(By.CSS_SELECTOR, "#night tbody tr")]
+    assert grades == sorted(grades)
+    next(a for a in browser.find_elements(By.CSS_SELECTOR, "#night a.open") if a.text == PACKAGE).click()
+    _wait(browser, lambda d: d.find_elements(By.CSS_SELECTOR, "#observation-list a.observation"))
+    _shot(browser, "review-night.png")
+    link = next(a for a in browser.find_elements(By.CSS_SELECTOR, "#observation-list a.observation")
+                if f"row={ROW}" in a.get_attribute("href"))
+    link.click()
+    _wait(browser, lambda d: d.execute_script("return document.body.dataset.ready === '1'"))
+    # the best-frame table: candidates with a predicted U95, the best one first
+    cells = browser.find_elements(By.CSS_SELECTOR, "#candidates tbody tr")
+    assert len(cells) >= 3 and "(best)" in cells[0].text
+    predicted = [float(c.find_elements(By.TAG_NAME, "td")[3].text.split()[0]) for c in cells]
+    assert predicted == sorted(predicted)          # the best (lowest predicted U95) first
+
+    # to the truth's frame, then click its two points scaled to the displayed image
+    browser.execute_script(f"showFrame({truth['frame']});")
+    _wait(browser, lambda d: d.execute_script(f"return reviewState.frame === {truth['frame']} && reviewState.overlay "
+                                              f"&& reviewState.overlay.frame === {truth['frame']}"))
+    canvas = browser.find_element(By.ID, "canvas")
+    scale = browser.execute_script("return reviewState.scale")
+    width, height = canvas.size["width"], canvas.size["height"]
+    for x, y in truth["points_px_noise_free"]:
+        dx, dy = (x + 0.5) * scale - width / 2, (y + 0.5) * scale - height / 2
+        ActionChains(browser).move_to_element_with_offset(canvas, round(dx), round(dy)).click().perform()
+    clicked = browser.execute_script(f"return reviewState.marks['{QUANTITY}'][{truth['frame']}]")
+    for got, want in zip((clicked["a"], clicked["b"]), truth["points_px_noise_free"]):
+        assert abs(got[0] - want[0]) < 1 and abs(got[1] - want[1]) < 1, (got, want)     # within a CSS pixel
+    value = browser.find_element(By.ID, "value")
+    _wait(browser, lambda d: value.get_attribute("data-final") == "1")
+    shown, U95 = float(value.get_attribute("data-value")), float(value.get_attribute("data-u95"))
+    assert abs(shown - truth["true_value"]) <= U95, (shown, U95, truth["true_value"])
+    assert "mm" in value.text and "U95" in value.text
+    assert browser.find_elements(By.CSS_SELECTOR, "#budget tbody tr")
+    _shot(browser, "review-observation.png")
+    if os.environ.get("PIPEGAUGE_REVIEW_SHOTS"):
+        browser.find_element(By.XPATH, "//table[@id='candidates']/..").screenshot(
+            str(Path(os.environ["PIPEGAUGE_REVIEW_SHOTS"]) / "review-best-frame.png"))
+
+    # save: the name is required
+    browser.find_element(By.ID, "reviewer").clear()
+    browser.find_element(By.ID, "save").click()
+    _wait(browser, lambda d: "required" in d.find_element(By.ID, "message").text)
+    assert not (layout.out / "review").exists()
+    browser.find_element(By.ID, "reviewer").send_keys(REVIEWER)
+    browser.find_element(By.ID, "save").click()
+    _wait(browser, lambda d: "saved to" in d.find_element(By.ID, "message").text)
+    marks = layout.review_marks(PACKAGE)
+    assert marks is not None and marks.is_file() and REVIEWER in marks.read_text()
+
+    browser.find_element(By.ID, "again").click()
+    _wait(browser, lambda d: "measured again" in d.find_element(By.ID, "message").text, timeout=300)
+    _wait(browser, lambda d: REVIEWER in d.find_element(By.ID, "stored").text, timeout=30)
+    today = dt.datetime.now(dt.timezone.utc).date().isoformat()
+
+    # the dataset: the reviewer's value with the name and the date
+    stored = [m for m in read_records(layout.dataset, "measurements", inspection_ids=[PACKAGE])
+              if m.row == ROW and m.quantity == QUANTITY and m.source == "marks"]
+    assert len(stored) == 1
+    m = stored[0]
+    assert m.status == "ok" and m.marked_by == REVIEWER and m.marked_at.date().isoformat() == today
+    assert abs(m.value - truth["true_value"]) <= m.U95
+    assert abs(m.value - shown) <= 0.5 * U95          # the page measured as the run does
+    note = f"marked in review by {REVIEWER} on {today}"
+    # the PDF's text
+    text = " ".join(" ".join(page.extract_text() for page in PdfReader(layout.report(PACKAGE)).pages).split())
+    assert note in text
+    # the CSV export (the condition log, and the table of quantities)
+    log_csv, table_csv = layout.out / "log.csv", layout.out / "quantities.csv"
+    export("csv", layout.dataset, log_csv)
+    export("csv", layout.dataset, table_csv, level="quantity")
+    assert note in log_csv.read_text() and f"{m.value:.3g}"[:3] in log_csv.read_text()
+    assert note in table_csv.read_text()
+    # and nothing of the contractor's package changed
+    assert _digests(inbox / PACKAGE) == contractor
+
+
+@pytest.mark.slow
+def test_review_marks_leave_the_contractor_files_and_an_unchanged_rerun_rewrites_nothing(night, reader, tmp_path):
+    """Marks saved by the service for a package in the inbox: every contractor file byte for byte as delivered;
+    a run measures from the marks once, and a rerun with the marks unchanged rewrites nothing."""
+    from pipeline.app import Layout, process_package
+    from pipeline.app.review import ReviewService, View
+
+    inbox, night_layout = night
+    layout = Layout(tmp_path / "out")
+    shutil.copytree(night_layout.dataset, layout.dataset)
+    before = _digests(inbox)
+    service = ReviewService(layout.out, inbox, reader=reader)
+    truth = _truth("Q2")
+    a, b = truth["points_px_noise_free"]
+    service.save(PACKAGE, ROW, "Q2", [View(truth["frame"], tuple(a), tuple(b))], "Bo Reviewer")
+    # Q1 on two frames (the camera moves 6 mm a frame: the same points one frame on still mark the opening)
+    q1 = _truth("Q1")
+    a1, b1 = (tuple(p) for p in q1["points_px_noise_free"])
+    service.save(PACKAGE, ROW, "Q1", [View(q1["frame"], a1, b1), View(q1["frame"] + 1, a1, b1)], "Bo Reviewer")
+    assert _digests(inbox) == before
+    assert not any("review" in p for p in _digests(inbox))
+
+    first = process_package(inbox / PACKAGE, layout.dataset, reader=reader, reports=layout.reports, review=layout.review,
+                            keep_result=True)
+    assert first.processed and first.status in ("ok", "partial")
+    assert first.result is not None
+    stored = {m.quantity: m for m in first.result.measurements if m.row == ROW and m.source == "marks"}
+    assert {m.marked_by for m in stored.values()} == {"Bo Reviewer"}
+    assert stored["Q2"].status == "ok" and abs(stored["Q2"].value - truth["true_value"]) <= stored["Q2"].U95
+    # two frames' marks combined into one result, their inputs named by frame in the budget
+    assert stored["Q1"].status == "ok", stored["Q1"].error
+    labels = [line["label"] if isinstance(line, dict) else line.label for line in stored["Q1"].budget or []]
+    assert any(label and label.endswith(f"@f{q1['frame'] + 1}") for label in labels), labels
+    assert abs(stored["Q1"].value - q1["true_value"]) < 0.05 * q1["true_value"]
+    written = _files(layout.out)
+    again = process_package(inbox / PACKAGE, layout.dataset, reader=reader, reports=layout.reports, review=layout.review)
+    assert not again.processed                     # the same input key: skipped
+    assert _files(layout.out) == written           # nothing rewritten, the report included
+    assert _digests(inbox) == before

@@ -39,7 +39,7 @@ from pipeline.camera.undistort import Undistorter
 from pipeline.core.errors import PipegaugeError
 from pipeline.formats.certificate import load_certificate
 from pipeline.maths.profiles import clock_to_theta, wall_point
-from pipeline.measurement.connections import DEPOSIT_VIEW_H, VIEW_DEPTHS_H, measure_connection, measure_deposit
+from pipeline.measurement.connections import DEPOSIT_SPAN_H, DEPOSIT_VIEW_H, VIEW_DEPTHS_H, measure_connection, measure_deposit
 from pipeline.synth.render import Renderer
 from pipeline.synth.scene import Connection, Deposit, Pipe, Scene
 from pipeline.vision.contour import detect_contour
@@ -126,7 +126,7 @@ def _through_codec(raw, codec: str, tmp: Path, cert):
 def run_case(kind: str, i: int, rng, cert, codec: str, with_feature: bool, tmp: Path) -> dict:
     scene, z, truth, clock, mount = case(kind, rng, with_feature)
     H, shape = scene.pipe.height_mm, scene.pipe.shape
-    depths = VIEW_DEPTHS_H if kind == "bca" else (DEPOSIT_VIEW_H, DEPOSIT_VIEW_H + 0.5)
+    depths = VIEW_DEPTHS_H if kind == "bca" else DEPOSIT_VIEW_H
     frames, K = frames_of(scene, z, cert, mount, depths, i, codec, tmp)
     contour = detect_contour([cv2.cvtColor(f, cv2.COLOR_BGR2GRAY) for f in frames], K, shape,
                              wall_u=wall_u_from_tolerance(H, 0.0))
@@ -137,7 +137,7 @@ def run_case(kind: str, i: int, rng, cert, codec: str, with_feature: bool, tmp: 
             views = [(contour, frames[k], t) for k, t in enumerate(depths)]
             auto = measure_connection("BCA", "A", clock, views, cert, H=H, tolerance=0.0, seed=i)
         else:
-            views = [(contour, frames[k], (t, t + 2.6)) for k, t in enumerate(depths)]
+            views = [(contour, frames[k], (t, t + DEPOSIT_SPAN_H)) for k, t in enumerate(depths)]
             auto = measure_deposit("BBC", "A", views, cert, H=H, tolerance=0.0, seed=i)
     except PipegaugeError as exc:
         row["reason"] = str(exc)

@@ -32,14 +32,14 @@ import numpy as np
 
 from pipeline.camera import Certificate
 from pipeline.core.errors import MeasurementError
-from pipeline.maths.profiles import clock_to_theta
 from pipeline.measurement.quantity import MarkedQuantity, QuantityResult, measure_quantity
 from pipeline.vision.contour import PipeContour
 from pipeline.vision.contour.lateral import Lateral, find_lateral
 from pipeline.vision.contour.deposit import find_deposit_surface
 
 __all__ = ["CONNECTION_CODES", "DEPOSIT_CODES", "FEATURE_CODES", "Automatic", "lateral_points", "deposit_points",
-           "measure_connection", "measure_deposit", "VIEW_DEPTHS_H"]
+           "measure_connection", "measure_deposit", "VIEW_DEPTHS_H",
+           "DEPOSIT_VIEW_H", "DEPOSIT_SPAN_H"]
 
 CONNECTION_CODES = frozenset({"BCA"})
 DEPOSIT_CODES = frozenset({"BBC", "BBB"})
@@ -47,7 +47,8 @@ FEATURE_CODES = CONNECTION_CODES | DEPOSIT_CODES
 # where the camera stands before the feature's logged distance, in pipe heights: the nearest frame in which
 # an opening of up to 0.9 H is wholly in view of a wide-angle CCTV lens, then a second, farther one to confirm
 VIEW_DEPTHS_H = (1.6, 2.3)
-DEPOSIT_VIEW_H = 1.2           # a deposit's surface is looked for from 1.2 H before its logged start
+DEPOSIT_VIEW_H = (1.2, 1.7)    # a deposit's surface is looked for from these distances before its logged start [H]
+DEPOSIT_SPAN_H = 2.6           # and along this much of the pipe beyond its start [H]
 LATERAL_SEARCH_H = 0.9         # an opening is looked for this far either side of its expected depth [H]
 ORIGIN = {"BCA": "lateral rim fit", "deposit": "deposit surface edge fit"}
 
@@ -60,6 +61,7 @@ class Automatic:
     result: QuantityResult
     frames_found: int
     frames_tried: int
+    view: int = 0              # the index of the view measured on (the nearest where the feature was found)
 
     @property
     def measured(self) -> bool:
@@ -99,11 +101,13 @@ def measure_connection(code: str, char1: str, clock: float | None, views: Sequen
     Raises MeasurementError when no frame shows an opening (the feature not found).
     """
     found: list[tuple[PipeContour, Lateral]] = []
-    for contour, ideal, depth in views:
+    used = -1
+    for k, (contour, ideal, depth) in enumerate(views):
         _pose_reason(contour, code)
         lat = _find_lateral(contour.view, ideal, clock, depth, mask)
         if lat is not None:
             found.append((contour, lat))
+            used = k if used < 0 else used
     if not found:
         where = f"at {clock:g} o'clock " if clock is not None else ""
         raise MeasurementError(f"{code}: no lateral opening {where}was found near the logged distance "
@@ -120,7 +124,7 @@ def measure_connection(code: str, char1: str, clock: float | None, views: Sequen
         if spread > math.radians(15):
             reasons.append(f"the frames disagree on the opening's clock position by {math.degrees(spread):.0f} deg")
     _add(res, reasons)
-    return Automatic(q, res, len(found), len(views))
+    return Automatic(q, res, len(found), len(views), used)
 
 
 def deposit_points(contour: PipeContour, ideal: np.ndarray, cert: Certificate, code: str, char1: str,
@@ -144,11 +148,13 @@ def measure_deposit(code: str, char1: str, views: Sequence[tuple[PipeContour, np
     """A deposit's cross-sectional loss [%] from the frames before it (nearest first): (contour, ideal frame,
     depths [H] the deposit covers there) per frame. Measured on the nearest frame where its surface is found."""
     results = []
-    for contour, ideal, depths in views:
+    used = -1
+    for k, (contour, ideal, depths) in enumerate(views):
         try:
             results.append((contour, *deposit_points(contour, ideal, cert, code, char1, depths, mask)))
         except MeasurementError:
             continue
+        used = k if used < 0 else used
     if not results:
         raise MeasurementError(f"{code}: no deposit surface stands out along the pipe wall in {len(views)} frame(s)")
     contour, q, problems = results[0]
@@ -157,7 +163,7 @@ def measure_deposit(code: str, char1: str, views: Sequence[tuple[PipeContour, np
     if len(results) < 2:
         reasons.append(f"found in only one of {len(views)} frame(s): nothing confirms it")
     _add(res, reasons)
-    return Automatic(q, res, len(results), len(views))
+    return Automatic(q, res, len(results), len(views), used)
 
 
 def _add(res: QuantityResult, reasons: list[str]) -> None:
@@ -165,7 +171,3 @@ def _add(res: QuantityResult, reasons: list[str]) -> None:
         res.confident = False
         res.reasons = tuple(dict.fromkeys(res.reasons + tuple(reasons)))
 
-
-def expected_clock_theta(clock: float | None) -> float | None:
-    """The logged clock position as an angle [rad], or None."""
-    return None if clock is None else clock_to_theta(clock)

@@ -4,11 +4,12 @@ Each case is a random scene (DN 150-1000, circular or egg, camera offset and
 tilt, some water) with one feature, or none (the false-find cases): a
 lateral of random diameter at a random clock position (BCA Q1, the
 opening's height around the pipe: the chord of its rim at its centre
-cross-section, as ``pipeline.synth.package`` states it), or a settled deposit
-of random area (BBC, % of the cross-section). Frames are rendered small
+cross-section, as ``pipeline.synth.package`` states it), an intruding
+lateral (BAG, its length inside the pipe as % of the height: 5-30 %), or a
+settled deposit of random area (BBC, % of the cross-section). Frames are rendered small
 (the 720x576 certificate, a few frames per case): the two frames the night
 measures on (the camera 1.6 H and 2.3 H before the lateral; 1.2 H and 1.7 H
-before a deposit's start) and four more behind for the contour's rings.
+before a deposit's start) and four more within 0.9 m for the contour's rings.
 With ``--codec h264`` the frames are written as a video (OpenCV's MPEG-4,
 as the samples are), re-encoded as H.264 (``pipeline.synth.delivery``) and
 read back; ``--codec mp4v`` stops after OpenCV's MPEG-4; ``none`` keeps the
@@ -20,7 +21,7 @@ U95 interval with its Wilson interval, median z and robust SD of z
 (z = (value - truth) / u), median U95 (for BCA also as % of the diameter);
 and the false-find rate on cases without the feature.
 
-    nice -n 10 python benchmarks/automatic_connections.py --cases 150 --codec none --codec h264 [--kind bca|bbc]
+    nice -n 10 python benchmarks/automatic_connections.py --cases 150 --codec none --codec h264 [--kind bca|bag|bbc]
 """
 
 from __future__ import annotations
@@ -49,10 +50,9 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from coverage_stats import robust_sd, wilson  # noqa: E402
 
 SAMPLES = Path(__file__).resolve().parent.parent / "sample_videos"
-KINDS = ("bca", "bbc")
+KINDS = ("bca", "bbc", "bag")
 DNS = (150, 200, 300, 400, 600, 800, 1000)
-RING_FRAMES = 4          # frames behind the measured ones for the contour's rings
-RING_STEP_H = 0.35       # their spacing [H]
+RING_OFFSETS_MM = (-300.0, -600.0, -900.0, 300.0)   # frames about the nearest measured one for the contour's rings
 
 
 def case(kind: str, rng: np.random.Generator, with_feature: bool):
@@ -77,6 +77,12 @@ def case(kind: str, rng: np.random.Generator, with_feature: bool):
         a, b = np.array(wall_point(shape, H, th + dt)), np.array(wall_point(shape, H, th - dt))
         truth = float(np.linalg.norm(a - b))
         return Scene(pipe, water_percent=water, features=features), z, truth, clock, mount
+    if kind == "bag":
+        d = float(rng.uniform(0.2, 0.4) * H)
+        L = float(rng.uniform(0.05, 0.3) * H)
+        clock = float(rng.choice([1, 2, 3, 9, 10, 11, 12]))
+        features = (Connection("g", z, clock, d, intrusion_mm=L),) if with_feature else ()
+        return Scene(pipe, water_percent=float(rng.uniform(0, 15)), features=features), z, 100.0 * L / H, clock, mount
     area = float(rng.uniform(5, 30))
     features = (Deposit("d", z, z + 3.0 * H, area),) if with_feature else ()
     return Scene(pipe, features=features), z, area, None, mount
@@ -88,11 +94,12 @@ def _r_eq(shape: str, H: float) -> float:
 
 
 def frames_of(scene: Scene, z: float, cert, mount, depths, seed: int, codec: str, tmp: Path):
-    """Ideal BGR frames: one at each of ``depths`` [H] before z, then RING_FRAMES behind the farthest."""
+    """Ideal BGR frames: one at each of ``depths`` [H] before z, then those of RING_OFFSETS_MM about the first (the
+    night fits the pose to the frames within 2 m either side)."""
     H = scene.pipe.height_mm
     r = Renderer(scene, cert, offset_mm=mount["offset_mm"], yaw=mount["yaw"], pitch=mount["pitch"], roll=mount["roll"],
                  seed=seed)
-    zs = [z - t * H for t in depths] + [z - (depths[-1] + RING_STEP_H * (k + 1)) * H for k in range(RING_FRAMES)]
+    zs = [z - t * H for t in depths] + [z - depths[0] * H + dz for dz in RING_OFFSETS_MM]
     raw = [r.render(float(zc), 0.0, i) for i, zc in enumerate(zs)]
     if codec != "none":
         raw = _through_codec(raw, codec, tmp, cert)
@@ -126,16 +133,17 @@ def _through_codec(raw, codec: str, tmp: Path, cert):
 def run_case(kind: str, i: int, rng, cert, codec: str, with_feature: bool, tmp: Path) -> dict:
     scene, z, truth, clock, mount = case(kind, rng, with_feature)
     H, shape = scene.pipe.height_mm, scene.pipe.shape
-    depths = VIEW_DEPTHS_H if kind == "bca" else DEPOSIT_VIEW_H
+    depths = DEPOSIT_VIEW_H if kind == "bbc" else VIEW_DEPTHS_H
     frames, K = frames_of(scene, z, cert, mount, depths, i, codec, tmp)
     contour = detect_contour([cv2.cvtColor(f, cv2.COLOR_BGR2GRAY) for f in frames], K, shape,
                              wall_u=wall_u_from_tolerance(H, 0.0))
     row = dict(kind=kind, dn=round(H, -1), shape=shape, codec=codec, feature=with_feature, truth=truth,
                found=False, measured=False, value=None, u=None, U95=None, low=None, high=None, reason="")
     try:
-        if kind == "bca":
+        if kind in ("bca", "bag"):
             views = [(contour, frames[k], t) for k, t in enumerate(depths)]
-            auto = measure_connection("BCA", "A", clock, views, cert, H=H, tolerance=0.0, seed=i)
+            auto = measure_connection(kind.upper(), "A" if kind == "bca" else "", clock, views, cert, H=H,
+                                      tolerance=0.0, seed=i)
         else:
             views = [(contour, frames[k], (t, t + DEPOSIT_SPAN_H)) for k, t in enumerate(depths)]
             auto = measure_deposit("BBC", "A", views, cert, H=H, tolerance=0.0, seed=i)

@@ -105,3 +105,16 @@ def test_deposit_loss_inside_u95():
                            cert, H=H, tolerance=0.0, seed=1)
     res = auto.result
     assert res.low <= area <= res.high, (area, res.value, res.low, res.high, res.reasons)
+
+
+@pytest.mark.slow
+def test_intrusion_inside_u95():
+    length = 60.0
+    scene = Scene(Pipe("circular", H, "concrete", 1000.0), water_percent=5.0,
+                  features=(Connection("g", Z, 10, 100.0, intrusion_mm=length),))
+    cert, contour, frames = _views(scene, VIEW_DEPTHS_H)
+    auto = measure_connection("BAG", "", 10, [(contour, frames[k], t) for k, t in enumerate(VIEW_DEPTHS_H)], cert,
+                              H=H, tolerance=0.0, seed=1)
+    res, truth = auto.result, 100.0 * length / H
+    assert res.method == "intrusion" and res.unit == "%"
+    assert res.low <= truth <= res.high, (truth, res.value, res.low, res.high, res.reasons)

@@ -9,6 +9,9 @@ the standard uncertainty of their position from the image fit itself, and
   cross-section through its centre (``pipeline.vision.contour.lateral``);
   Q2, its width along the pipe: its two ends along at its centre angle (the
   axial extent is foreshortened, its U95 much wider);
+* BAG, the intrusion as a share of the pipe's height (the code's unit): the
+  lateral's base on the wall (its side facing the camera) and its tip in the
+  base's cross-section (``pipeline.vision.contour.intrusion``);
 * BBC, BBB: the deposit surface's chord, found as the water line is (a level
   surface meeting the wall in two lines along the pipe,
   ``pipeline.vision.contour.water_line``), over the depths the deposit covers;
@@ -34,14 +37,15 @@ from pipeline.camera import Certificate
 from pipeline.core.errors import MeasurementError
 from pipeline.measurement.quantity import MarkedQuantity, QuantityResult, measure_quantity
 from pipeline.vision.contour import PipeContour
+from pipeline.vision.contour.intrusion import Intrusion, find_intrusion
 from pipeline.vision.contour.lateral import Lateral, find_lateral
 from pipeline.vision.contour.deposit import find_deposit_surface
 
-__all__ = ["CONNECTION_CODES", "DEPOSIT_CODES", "FEATURE_CODES", "Automatic", "lateral_points", "deposit_points",
+__all__ = ["CONNECTION_CODES", "DEPOSIT_CODES", "FEATURE_CODES", "Automatic", "lateral_points", "intrusion_points", "deposit_points",
            "measure_connection", "measure_deposit", "VIEW_DEPTHS_H",
            "DEPOSIT_VIEW_H", "DEPOSIT_SPAN_H"]
 
-CONNECTION_CODES = frozenset({"BCA"})
+CONNECTION_CODES = frozenset({"BCA", "BAG"})
 DEPOSIT_CODES = frozenset({"BBC", "BBB"})
 FEATURE_CODES = CONNECTION_CODES | DEPOSIT_CODES
 # where the camera stands before the feature's logged distance, in pipe heights: the nearest frame in which
@@ -49,8 +53,9 @@ FEATURE_CODES = CONNECTION_CODES | DEPOSIT_CODES
 VIEW_DEPTHS_H = (1.6, 2.3)
 DEPOSIT_VIEW_H = (1.2, 1.7)    # a deposit's surface is looked for from these distances before its logged start [H]
 DEPOSIT_SPAN_H = 2.6           # and along this much of the pipe beyond its start [H]
+CLOCK_AGREEMENT_DEG = 25.0     # the frames must place the lateral within this of one another around the pipe
 LATERAL_SEARCH_H = 0.9         # an opening is looked for this far either side of its expected depth [H]
-ORIGIN = {"BCA": "lateral rim fit", "deposit": "deposit surface edge fit"}
+ORIGIN = {"BCA": "lateral rim fit", "BAG": "intruding lateral's base and tip", "deposit": "deposit surface edge fit"}
 
 
 @dataclass
@@ -89,31 +94,44 @@ def _find_lateral(view, ideal, clock, depth, mask) -> Lateral | None:
                         expected_depth=depth, mask=mask)
 
 
+def _find_intrusion(view, ideal, clock, depth, mask) -> Intrusion | None:
+    return find_intrusion(ideal, view, clock=clock, depths=(max(0.9, depth - LATERAL_SEARCH_H), depth + LATERAL_SEARCH_H),
+                          expected_depth=depth, mask=mask)
+
+
+def intrusion_points(found: Intrusion, cert: Certificate, code: str = "BAG", char1: str = "") -> MarkedQuantity:
+    """The two points of an intrusion: the wall at the lateral's base, and its tip in the base's cross-section."""
+    u_a, u_b = (math.hypot(u, cert.image_coordinate_u_px) for u in (found.u_base_px, found.u_tip_px))
+    return MarkedQuantity(code, char1, "Q1", "intrusion", found.base, found.tip, u_a, u_b, origin=ORIGIN["BAG"])
+
+
 def measure_connection(code: str, char1: str, clock: float | None, views: Sequence[tuple[PipeContour, np.ndarray, float]],
                        cert: Certificate, *, H: float, tolerance: float, quantity: str = "Q1",
                        model: str = "perspective", seed: int = 1, mask: np.ndarray | None = None,
                        edges: tuple[float, ...] = ()) -> Automatic:
-    """A connection's opening measured from the frames before it (nearest first).
+    """A connection's opening (BCA) or intrusion (BAG) measured from the frames before it (nearest first).
 
     views : (contour, ideal BGR frame, depth [H] at which the log puts the opening in that frame) per frame;
     clock : the logged clock position (None: anywhere around).
     The quantity is measured on the nearest frame where the opening is found; the other frames confirm it.
     Raises MeasurementError when no frame shows an opening (the feature not found).
     """
-    found: list[tuple[PipeContour, Lateral]] = []
+    intruding = code == "BAG"
+    found: list = []
     used = -1
     for k, (contour, ideal, depth) in enumerate(views):
         _pose_reason(contour, code)
-        lat = _find_lateral(contour.view, ideal, clock, depth, mask)
+        lat = (_find_intrusion if intruding else _find_lateral)(contour.view, ideal, clock, depth, mask)
         if lat is not None:
             found.append((contour, lat))
             used = k if used < 0 else used
     if not found:
         where = f"at {clock:g} o'clock " if clock is not None else ""
-        raise MeasurementError(f"{code}: no lateral opening {where}was found near the logged distance "
+        what = "intruding lateral" if intruding else "lateral opening"
+        raise MeasurementError(f"{code}: no {what} {where}was found near the logged distance "
                                f"in {len(views)} frame(s)")
     contour, lat = found[0]
-    q = lateral_points(lat, cert, quantity, code, char1)
+    q = intrusion_points(lat, cert, code, char1) if intruding else lateral_points(lat, cert, quantity, code, char1)
     res = measure_quantity(q, contour, cert, H=H, tolerance=tolerance, model=model, seed=seed, edges=edges)
     reasons = [f"lateral: {p}" for p in lat.problems]
     if len(found) < 2:
@@ -121,7 +139,7 @@ def measure_connection(code: str, char1: str, clock: float | None, views: Sequen
     elif len(found) >= 2:
         # the frames must agree on where the opening is around the pipe (a confirmation, not a second value)
         spread = abs((found[1][1].theta - lat.theta + math.pi) % (2 * math.pi) - math.pi)
-        if spread > math.radians(15):
+        if spread > math.radians(CLOCK_AGREEMENT_DEG):
             reasons.append(f"the frames disagree on the opening's clock position by {math.degrees(spread):.0f} deg")
     _add(res, reasons)
     return Automatic(q, res, len(found), len(views), used)

@@ -118,3 +118,29 @@ def test_intrusion_inside_u95():
     res, truth = auto.result, 100.0 * length / H
     assert res.method == "intrusion" and res.unit == "%"
     assert res.low <= truth <= res.high, (truth, res.value, res.low, res.high, res.reasons)
+
+
+class _Track:
+    def at_frame(self, frame):
+        return 1.8 - (0.48, 0.69)[frame], 0.005
+
+
+@pytest.mark.slow
+def test_night_stores_found_not_measured_without_a_value(lateral):
+    """The night's row of an automatic result that is not confident: status error, "found, not measured" and
+    its reasons, no value (so no grade and no log check read it)."""
+    from types import SimpleNamespace
+
+    from pipeline.app.measure import _measure_feature
+    from pipeline.domain.records import Observation
+
+    cert, contour, frames = lateral
+    doubtful = replace(contour, problems=["only 2 ring(s) follow the profile: too few to fix the pose"])
+    obs = Observation(4, 1.8, "BCA", "A", "A", 150.0, "mm", None, "", 2, None, False, "", None, "", "", {})
+    header = SimpleNamespace(height_mm=H, height_tolerance_mm=0.0)
+    row = _measure_feature(obs, [(0, 1.6), (1, 2.3)], _Track(), "perspective", contours={0: doubtful, 1: doubtful},
+                           under=lambda o, c: c, ideal=lambda f: frames[f], cert=cert, header=header, mask=None,
+                           seed=1, edges=(), thumbnails=[])
+    assert row.status == "error" and row.source == "contour"
+    assert row.error.startswith("found, not measured") and "too few to fix the pose" in row.error
+    assert row.value is None and row.frame == 0

@@ -315,7 +315,7 @@ def _feature_frames(obs: Observation, track, info, height_mm: float) -> list[tup
     """(frame, depth of the logged position in it [H]) of the frames a connection or deposit is measured on: the
     camera ``VIEW_DEPTHS_H`` (``DEPOSIT_VIEW_H``) pipe heights before the logged distance, nearest first."""
     depths = VIEW_DEPTHS_H if obs.code in CONNECTION_CODES else DEPOSIT_VIEW_H
-    out = []
+    out: list[tuple[int, float]] = []
     for t in depths:
         try:
             frame = track.frame_at(obs.distance_m - t * height_mm / 1000.0)[0]

@@ -311,21 +311,32 @@ def _automatic_frame(obs: Observation, marks: list[Mark], track, info) -> int | 
         return None
 
 
+# A log may state the camera's chainage when an observation was recorded, up to about a metre before the feature
+# (the crawler stops short of it): frames are also taken this much further on, and the feature is searched for
+# that far beyond its logged distance.
+LOG_AHEAD_M = 1.0
+AHEAD_STEPS_M = (0.5, 1.0)
+
+
 def _feature_frames(obs: Observation, track, info, height_mm: float) -> list[tuple[int, float]]:
     """(frame, depth of the logged position in it [H]) of the frames a connection or deposit is measured on: the
-    camera ``VIEW_DEPTHS_H`` (``DEPOSIT_VIEW_H``) pipe heights before the logged distance, nearest first."""
+    camera ``VIEW_DEPTHS_H`` (``DEPOSIT_VIEW_H``) pipe heights before the logged distance, then ``AHEAD_STEPS_M``
+    further on from the nearest of them."""
     depths = VIEW_DEPTHS_H if obs.code in CONNECTION_CODES else DEPOSIT_VIEW_H
+    chainages = [obs.distance_m - t * height_mm / 1000.0 for t in depths]
+    chainages += [chainages[0] + step for step in AHEAD_STEPS_M]
+    ahead = LOG_AHEAD_M * 1000.0 / height_mm
     out: list[tuple[int, float]] = []
-    for t in depths:
+    for c in chainages:
         try:
-            frame = track.frame_at(obs.distance_m - t * height_mm / 1000.0)[0]
+            frame = track.frame_at(c)[0]
         except ValueError:
             continue
         if not 0 <= frame < info.frame_count or frame in [f for f, _ in out]:
             continue
         chainage, _ = _chainage_at(track, frame)
         depth = (obs.distance_m - chainage) * 1000.0 / height_mm
-        if np.isfinite(depth) and depth > 0.5:
+        if np.isfinite(depth) and depth + ahead > 0.9:
             out.append((frame, float(depth)))
     return out
 
@@ -340,13 +351,15 @@ def _measure_feature(obs: Observation, views: list[tuple[int, float]], track, mo
             raise MeasurementError(f"row {obs.row}: no frame before its logged distance")
         common = dict(H=header.height_mm, tolerance=header.height_tolerance_mm, model=model, seed=seed, mask=mask,
                       edges=edges)
+        ahead = LOG_AHEAD_M * 1000.0 / header.height_mm
         if obs.code in CONNECTION_CODES:
             auto = measure_connection(obs.code, obs.char1, obs.clock_from,
-                                      [(under(obs, contours[f]), ideal(f), t) for f, t in views], cert, **common)
+                                      [(under(obs, contours[f]), ideal(f), t) for f, t in views], cert, ahead=ahead,
+                                      **common)
         else:
             auto = measure_deposit(obs.code, obs.char1,
-                                   [(under(obs, contours[f]), ideal(f), (t, t + DEPOSIT_SPAN_H)) for f, t in views],
-                                   cert, **common)
+                                   [(under(obs, contours[f]), ideal(f), (max(t, 0.9), t + ahead + DEPOSIT_SPAN_H))
+                                    for f, t in views], cert, **common)
     except PipegaugeError as exc:
         row.update(status="error", error=f"not found: {exc}")
         return row

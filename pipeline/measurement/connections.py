@@ -88,15 +88,12 @@ def lateral_points(lateral: Lateral, cert: Certificate, quantity: str, code: str
                           origin=ORIGIN["BCA"])
 
 
-def _find_lateral(view, ideal, clock, depth, mask) -> Lateral | None:
-    return find_lateral(ideal, view, clock=clock,
-                        depths=(max(0.9, depth - LATERAL_SEARCH_H), depth + LATERAL_SEARCH_H),
-                        expected_depth=depth, mask=mask)
+def _find_lateral(view, ideal, clock, depths, expected, mask) -> Lateral | None:
+    return find_lateral(ideal, view, clock=clock, depths=depths, expected_depth=expected, mask=mask)
 
 
-def _find_intrusion(view, ideal, clock, depth, mask) -> Intrusion | None:
-    return find_intrusion(ideal, view, clock=clock, depths=(max(0.9, depth - LATERAL_SEARCH_H), depth + LATERAL_SEARCH_H),
-                          expected_depth=depth, mask=mask)
+def _find_intrusion(view, ideal, clock, depths, expected, mask) -> Intrusion | None:
+    return find_intrusion(ideal, view, clock=clock, depths=depths, expected_depth=expected, mask=mask)
 
 
 def intrusion_points(found: Intrusion, cert: Certificate, code: str = "BAG", char1: str = "") -> MarkedQuantity:
@@ -108,23 +105,32 @@ def intrusion_points(found: Intrusion, cert: Certificate, code: str = "BAG", cha
 def measure_connection(code: str, char1: str, clock: float | None, views: Sequence[tuple[PipeContour, np.ndarray, float]],
                        cert: Certificate, *, H: float, tolerance: float, quantity: str = "Q1",
                        model: str = "perspective", seed: int = 1, mask: np.ndarray | None = None,
-                       edges: tuple[float, ...] = ()) -> Automatic:
-    """A connection's opening (BCA) or intrusion (BAG) measured from the frames before it (nearest first).
+                       edges: tuple[float, ...] = (), ahead: float = 0.0) -> Automatic:
+    """A connection's opening (BCA) or intrusion (BAG) measured from the frames before it.
 
     views : (contour, ideal BGR frame, depth [H] at which the log puts the opening in that frame) per frame;
-    clock : the logged clock position (None: anywhere around).
-    The quantity is measured on the nearest frame where the opening is found; the other frames confirm it.
+    clock : the logged clock position (None: anywhere around); ahead : how far beyond its logged distance the
+    feature may lie [H] (a log may state the camera's chainage when it was recorded, not the feature's).
+    The quantity is measured on the frame where the opening is found nearest ``VIEW_DEPTHS_H[0]`` (wholly in
+    view, and as near as that allows); the other frames confirm it.
     Raises MeasurementError when no frame shows an opening (the feature not found).
     """
     intruding = code == "BAG"
     found: list = []
     used = -1
+    index = []
     for k, (contour, ideal, depth) in enumerate(views):
         _pose_reason(contour, code)
-        lat = (_find_intrusion if intruding else _find_lateral)(contour.view, ideal, clock, depth, mask)
+        search = (max(0.9, depth - LATERAL_SEARCH_H), depth + ahead + LATERAL_SEARCH_H)
+        lat = (_find_intrusion if intruding else _find_lateral)(contour.view, ideal, clock, search,
+                                                              depth + 0.5 * ahead, mask)
         if lat is not None:
             found.append((contour, lat))
-            used = k if used < 0 else used
+            index.append(k)
+    if found:
+        best = int(np.argmin([abs(math.log(lat.depth / VIEW_DEPTHS_H[0])) for _, lat in found]))
+        found.insert(0, found.pop(best))
+        used = index[best]
     if not found:
         where = f"at {clock:g} o'clock " if clock is not None else ""
         what = "intruding lateral" if intruding else "lateral opening"

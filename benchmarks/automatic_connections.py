@@ -148,7 +148,7 @@ def run_case(kind: str, i: int, rng, cert, codec: str, with_feature: bool, tmp: 
             views = [(contour, frames[k], (t, t + DEPOSIT_SPAN_H)) for k, t in enumerate(depths)]
             auto = measure_deposit("BBC", "A", views, cert, H=H, tolerance=0.0, seed=i)
     except PipegaugeError as exc:
-        row["reason"] = str(exc)
+        row.update(reason=str(exc), found=str(exc).startswith("found"))
         return row
     res = auto.result
     row.update(found=True, measured=auto.measured, value=res.value, u=res.u, U95=res.U95, low=res.low, high=res.high,

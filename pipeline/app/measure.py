@@ -360,8 +360,8 @@ def _measure_feature(obs: Observation, views: list[tuple[int, float]], track, mo
             auto = measure_deposit(obs.code, obs.char1,
                                    [(under(obs, contours[f]), ideal(f), (max(t, 0.9), t + ahead + DEPOSIT_SPAN_H))
                                     for f, t in views], cert, **common)
-    except PipegaugeError as exc:
-        row.update(status="error", error=f"not found: {exc}")
+    except PipegaugeError as exc:          # "not found: ...", "found, not measured: ..." or a pose not fitted
+        row.update(status="error", error=str(exc))
         return row
     frame = views[auto.view][0]
     chainage, u_chainage = _chainage_at(track, frame)

@@ -134,11 +134,14 @@ def measure_connection(code: str, char1: str, clock: float | None, views: Sequen
     if not found:
         where = f"at {clock:g} o'clock " if clock is not None else ""
         what = "intruding lateral" if intruding else "lateral opening"
-        raise MeasurementError(f"{code}: no {what} {where}was found near the logged distance "
+        raise MeasurementError(f"not found: {code}: no {what} {where}was found near the logged distance "
                                f"in {len(views)} frame(s)")
     contour, lat = found[0]
     q = intrusion_points(lat, cert, code, char1) if intruding else lateral_points(lat, cert, quantity, code, char1)
-    res = measure_quantity(q, contour, cert, H=H, tolerance=tolerance, model=model, seed=seed, edges=edges)
+    try:
+        res = measure_quantity(q, contour, cert, H=H, tolerance=tolerance, model=model, seed=seed, edges=edges)
+    except MeasurementError as exc:
+        raise MeasurementError(f"found, not measured: {exc}") from exc
     reasons = [f"lateral: {p}" for p in lat.problems]
     if len(found) < 2:
         reasons.append(f"found in only one of {len(views)} frame(s): nothing confirms it")
@@ -180,9 +183,13 @@ def measure_deposit(code: str, char1: str, views: Sequence[tuple[PipeContour, np
             continue
         used = k if used < 0 else used
     if not results:
-        raise MeasurementError(f"{code}: no deposit surface stands out along the pipe wall in {len(views)} frame(s)")
+        raise MeasurementError(f"not found: {code}: no deposit surface stands out along the pipe wall in {len(views)} "
+                               "frame(s)")
     contour, q, problems = results[0]
-    res = measure_quantity(q, contour, cert, H=H, tolerance=tolerance, model=model, seed=seed, edges=edges)
+    try:
+        res = measure_quantity(q, contour, cert, H=H, tolerance=tolerance, model=model, seed=seed, edges=edges)
+    except MeasurementError as exc:
+        raise MeasurementError(f"found, not measured: {exc}") from exc
     reasons = list(problems)
     if len(results) < 2:
         reasons.append(f"found in only one of {len(views)} frame(s): nothing confirms it")

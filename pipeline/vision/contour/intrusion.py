@@ -107,10 +107,17 @@ def find_intrusion(ideal_bgr: np.ndarray, view: PipeView, *, clock: float | None
     if not first:
         return None
     j = int(np.median(first))
-    # sub-sample: where the unlikeness crosses its threshold between the rows j - 1 and j, at the centre column
-    s0, s1 = float(smooth[max(j - 1, 0), col]), float(smooth[j, col])
-    f = np.clip((UNLIKE - s0) / (s1 - s0), 0.0, 1.0) if s1 != s0 else 0.5
-    log_t = np.log(ts[max(j - 1, 0)]) + f * (np.log(ts[j]) - np.log(ts[max(j - 1, 0)]))
+    # sub-sample: where the unlikeness (blurred) crosses half its height inside the region, at the centre column;
+    # its threshold would lie short of the edge by part of the blur, and a base placed nearer overstates the tip
+    column = smooth[:, col].astype(float)
+    inside = float(np.median(column[j:j + 5]))
+    level = 0.5 * inside if inside > 2 * UNLIKE else UNLIKE
+    rows = np.arange(max(j - 6, 0), min(j + 5, len(column) - 1))
+    up = rows[(column[rows] < level) & (column[rows + 1] >= level)]
+    j0 = int(up[-1]) if up.size else max(j - 1, 0)
+    s0, s1 = column[j0], column[j0 + 1]
+    f = float(np.clip((level - s0) / (s1 - s0), 0.0, 1.0)) if s1 != s0 else 0.5
+    log_t = np.log(ts[j0]) + f * (np.log(ts[j0 + 1]) - np.log(ts[j0]))
     t_base = float(np.exp(log_t))
     wx, wy = wall_point(view.shape, 1.0, theta)
     base, ahead = view.project(np.array([[wx, wy, t_base], [wx, wy, t_base * np.exp(np.log(ts[1] / ts[0]))]]))

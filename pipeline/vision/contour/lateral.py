@@ -51,6 +51,8 @@ SECTORS = 8                       # independent groups of edge points around the
 MIN_RAYS = 0.6                    # share of the rays that must find the rim
 MIN_CONTRAST = 12.0               # least grey step from the opening to the wall [8-bit levels]
 GLARE_LEVEL = 250.0               # a grey level this bright near the rim is glare (clipped)
+RIM_WEIGHT = 1.0 / 3.0           # the rim's place between the two half-way crossings (set on the generator's response:
+                                  # the mean overshot by about a third of a pixel, the grey crossing fell short)
 DISPLAY_GAMMA = 2.2               # the response assumed to linearise grey levels (sRGB-like)
 EDGE_FLOOR_PX = 0.25              # a blurred, compressed edge is not located better than this [px]
 
@@ -205,13 +207,14 @@ def _edges(gray, view, theta0, t0, radius, mask):
             continue
         # where the rim lies between the two half-way levels of the grey and of the light (a camera's response is
         # compressive, about a 2.2 power, unknown in detail: half-way in grey levels lies inside the blurred rim,
-        # half-way in light outside it for a response flatter than the power): their mean, and their spread
+        # half-way in light outside it for a response flatter than the power): RIM_WEIGHT of the way from the first
+        # to the second, and their spread (the rectangular term of the rim's definition covers the whole of it)
         light = 255.0 * (0.5 * ((lo / 255.0) ** DISPLAY_GAMMA + (hi / 255.0) ** DISPLAY_GAMMA)) ** (1 / DISPLAY_GAMMA)
         q = np.convolve(p, np.ones(3) / 3, mode="same")
         rims = [_crossing(q, s, level, radius) for level in (0.5 * (lo + hi), light)]
         if any(x is None for x in rims):
             continue
-        r = 0.5 * (rims[0] + rims[1])
+        r = rims[0] + RIM_WEIGHT * (rims[1] - rims[0])
         spread[k] = 0.5 * abs(rims[1] - rims[0])
         if not 0.4 * radius <= r <= 1.6 * radius:
             continue

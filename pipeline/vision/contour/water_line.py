@@ -119,10 +119,13 @@ def _contrast(image: np.ndarray, view: PipeView, level: float, depths: np.ndarra
     return float(np.median(np.linalg.norm(diff, axis=-1))), int(ok.sum())
 
 
-def _edges(image: np.ndarray, points: np.ndarray, normals: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Sub-pixel offsets [px] along the normals of the strongest colour change, and its size."""
+def _edges(image: np.ndarray, points: np.ndarray, normals: np.ndarray,
+           chromatic: bool = False) -> tuple[np.ndarray, np.ndarray]:
+    """Sub-pixel offsets [px] along the normals of the strongest colour change (of hue: ``chromatic``), and its size."""
     offsets = np.arange(-SEARCH_PX, SEARCH_PX + 1e-9, 0.5)
     profile = _sample(image, points[:, None, :] + offsets[None, :, None] * normals[:, None, :])
+    if chromatic and profile.shape[-1] == 3:
+        profile = _chroma(profile)
     step = np.linalg.norm(profile[:, 2:] - profile[:, :-2], axis=-1)      # colour change over 1 px
     k = np.clip(np.argmax(step, axis=1), 1, step.shape[1] - 2)
     rows = np.arange(len(points))
@@ -158,7 +161,7 @@ def find_water_line(ideal_bgr: np.ndarray, view: PipeView, *, depths: tuple[floa
     depth_of = np.broadcast_to(t, side_of.shape)
     ok = _usable(pts, image.shape[:2], mask, SEARCH_PX + 2)
     pts, normals, side_of, depth_of = pts[ok], normals[ok], side_of[ok], depth_of[ok]
-    offset, strength = _edges(image, pts, normals)
+    offset, strength = _edges(image, pts, normals, chromatic)
     strong = strength >= 0.5 * np.median(strength)
     edges = pts[strong] + offset[strong, None] * normals[strong]
     side_of, depth_of = side_of[strong], depth_of[strong]

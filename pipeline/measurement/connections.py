@@ -34,7 +34,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from pipeline.camera import Certificate
-from pipeline.core.errors import MeasurementError
+from pipeline.core.errors import MeasurementError, PipegaugeError
 from pipeline.measurement.quantity import MarkedQuantity, QuantityResult, measure_quantity
 from pipeline.vision.contour import PipeContour
 from pipeline.vision.contour.intrusion import Intrusion, find_intrusion
@@ -140,7 +140,7 @@ def measure_connection(code: str, char1: str, clock: float | None, views: Sequen
     q = intrusion_points(lat, cert, code, char1) if intruding else lateral_points(lat, cert, quantity, code, char1)
     try:
         res = measure_quantity(q, contour, cert, H=H, tolerance=tolerance, model=model, seed=seed, edges=edges)
-    except MeasurementError as exc:
+    except PipegaugeError as exc:      # the points do not meet the wall, or Monte Carlo draws leave the model's domain
         raise MeasurementError(f"found, not measured: {exc}") from exc
     reasons = [f"lateral: {p}" for p in lat.problems]
     if len(found) < 2:
@@ -188,7 +188,7 @@ def measure_deposit(code: str, char1: str, views: Sequence[tuple[PipeContour, np
     contour, q, problems = results[0]
     try:
         res = measure_quantity(q, contour, cert, H=H, tolerance=tolerance, model=model, seed=seed, edges=edges)
-    except MeasurementError as exc:
+    except PipegaugeError as exc:      # the points do not meet the wall, or Monte Carlo draws leave the model's domain
         raise MeasurementError(f"found, not measured: {exc}") from exc
     reasons = list(problems)
     if len(results) < 2:

@@ -140,7 +140,9 @@ def measure_connection(code: str, char1: str, clock: float | None, views: Sequen
     q = intrusion_points(lat, cert, code, char1) if intruding else lateral_points(lat, cert, quantity, code, char1)
     try:
         res = measure_quantity(q, contour, cert, H=H, tolerance=tolerance, model=model, seed=seed, edges=edges)
-    except PipegaugeError as exc:      # the points do not meet the wall, or Monte Carlo draws leave the model's domain
+    except (PipegaugeError, ValueError) as exc:
+        # the points do not meet the wall, Monte Carlo draws leave the model's domain, or the pose fit's covariance
+        # is not a covariance (seen once on an H.264 case: not symmetric)
         raise MeasurementError(f"found, not measured: {exc}") from exc
     reasons = [f"lateral: {p}" for p in lat.problems]
     if len(found) < 2:
@@ -188,7 +190,9 @@ def measure_deposit(code: str, char1: str, views: Sequence[tuple[PipeContour, np
     contour, q, problems = results[0]
     try:
         res = measure_quantity(q, contour, cert, H=H, tolerance=tolerance, model=model, seed=seed, edges=edges)
-    except PipegaugeError as exc:      # the points do not meet the wall, or Monte Carlo draws leave the model's domain
+    except (PipegaugeError, ValueError) as exc:
+        # the points do not meet the wall, Monte Carlo draws leave the model's domain, or the pose fit's covariance
+        # is not a covariance (seen once on an H.264 case: not symmetric)
         raise MeasurementError(f"found, not measured: {exc}") from exc
     reasons = list(problems)
     if len(results) < 2:

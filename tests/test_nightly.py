@@ -253,7 +253,8 @@ def test_run_on_a_local_dask_cluster_with_two_workers(tmp_path, env):
     inspections = read_table(out / "dataset", "inspections")
     assert sorted(inspections.inspection_id) == sorted(GOOD) and (inspections.status == "ok").all()
     m = read_table(out / "dataset", "measurements")
-    assert (m.source == "marks").sum() == 12 and (m.source == "contour").sum() == 2    # S01's BAA, S02's BDD
+    # from the image alone: S01's BAA and BCA, S02's BDD and BAG
+    assert (m.source == "marks").sum() == 12 and (m.source == "contour").sum() == 4
 
 
 def test_served_deployment_on_a_real_prefect_server(tmp_path, env):

@@ -64,7 +64,8 @@ def test_every_stored_quantity_appears_with_its_U95_and_unit(measured):
     text = _text(path)
     found = [(float(v), float(U), unit) for v, U, unit in QUANTITY.findall(text)]
     m = read_table(measured / "dataset", "measurements")
-    assert len(m) == 6 and list(m.source).count("contour") == 1      # the water level also from the image alone
+    # the water level and the intruding connection also from the image alone
+    assert len(m) == 7 and list(m.source).count("contour") == 2
     flat = " ".join(text.split())
     for r in m.itertuples():
         if r.below_resolution or is_lopsided(r.value, r.low, r.high):

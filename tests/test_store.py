@@ -103,8 +103,9 @@ def test_measure_a_sample_and_a_broken_package_in_one_run(tmp_path):
     m = read_table(data, "measurements")
     truth = json.loads((SAMPLES / "S02-circular-water-offset" / "truth" / "truth.json").read_text())
     true = {(o["row"], q["quantity"]): q["true_value"] for o in truth["observations"] for q in o["quantities"]}
-    # every logged quantity from its marks, and the water level (row 1) once more from the image alone
-    assert sorted(m[m.source == "contour"].row) == [1]
+    # every logged quantity from its marks, and the water level (row 1) and the intruding connection (row 2) once
+    # more from the image alone
+    assert sorted(m[m.source == "contour"].row) == [1, 2]
     assert len(m[m.source == "marks"]) == len(true) and (m.status == "ok").all()
     assert not m.duplicated(["inspection_id", "row", "quantity", "source"]).any()
     inside = [r.low <= true[(r.row, r.quantity)] <= r.high for r in m.itertuples()]

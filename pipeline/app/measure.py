@@ -33,6 +33,8 @@ from pipeline.vision.video.pipe_contour import contours_at_frames
 from pipeline.vision.video.reader import read_frame
 from pipeline.measurement.automatic import measurable_automatically, measure_automatic
 from pipeline.measurement.frames import measure_over_frames
+from pipeline.measurement.connections import (CONNECTION_CODES, DEPOSIT_SPAN_H, DEPOSIT_VIEW_H, FEATURE_CODES, VIEW_DEPTHS_H,
+                                              measure_connection, measure_deposit)
 from pipeline.measurement.marked import marked_quantity
 from pipeline.measurement.quantity import MODELS, MarkedQuantity, QuantityResult, measure_quantity
 from pipeline.measurement.wall import contour_under
@@ -131,7 +133,11 @@ def measure_package(folder: str | os.PathLike, *, certificates: str | os.PathLik
         by_frame[m.frame].append(m)
     automatic = {o.row: _automatic_frame(o, [m for m in marks if m.row == o.row], ingest.track, info)
                  for o in by_row.values() if measurable_automatically(o)}
-    frames = sorted({f for f in [*by_frame, *(f for f in automatic.values() if f is not None)] if 0 <= f < info.frame_count})
+    # connections and deposits: the frames before the logged distance, decoded in the contours' pass
+    features = {o.row: _feature_frames(o, ingest.track, info, header.height_mm) for o in by_row.values()
+                if o.code in FEATURE_CODES and not o.problems}
+    frames = sorted({f for f in [*by_frame, *(f for f in automatic.values() if f is not None),
+                                 *(f for views in features.values() for f, _ in views)] if 0 <= f < info.frame_count})
     t0 = time.perf_counter()
     say(f"{manifest.package_id}: pipe contours at {len(frames)} frame(s)")
     contours = contours_at_frames(manifest.video, frames, ingest.track, und, header.shape, height_mm=header.height_mm,
@@ -251,6 +257,11 @@ def measure_package(folder: str | os.PathLike, *, certificates: str | os.PathLik
         except PipegaugeError as exc:
             row.update(status="error", error=str(exc))
         result.measurements.append(row)
+    for r, views in sorted(features.items()):
+        result.measurements.append(_measure_feature(
+            by_row[r], views, ingest.track, model, contours=contours, under=under, ideal=ideal, cert=cert, header=header,
+            mask=mask, seed=_seed(manifest.package_id, r, "Q1 feature"), edges=edges(by_row[r], "Q1"),
+            thumbnails=result.thumbnails))
     add_verdicts(result, header, observations, ingest.track)
     # what the image alone could not give is reported on its row, but the logged quantities decide the status
     n_bad = sum(r.status != "ok" for r in result.measurements if r.source == "marks")
@@ -335,6 +346,73 @@ def _automatic_frame(obs: Observation, marks: list[Mark], track, info) -> int | 
         return track.frame_at(obs.distance_m)[0]
     except ValueError:
         return None
+
+
+# A log may state the camera's chainage when an observation was recorded, up to about a metre before the feature
+# (the crawler stops short of it): frames are also taken this much further on, and the feature is searched for
+# that far beyond its logged distance.
+LOG_AHEAD_M = 1.0
+AHEAD_STEPS_M = (0.5, 1.0)
+
+
+def _feature_frames(obs: Observation, track, info, height_mm: float) -> list[tuple[int, float]]:
+    """(frame, depth of the logged position in it [H]) of the frames a connection or deposit is measured on: the
+    camera ``VIEW_DEPTHS_H`` (``DEPOSIT_VIEW_H``) pipe heights before the logged distance, then ``AHEAD_STEPS_M``
+    further on from the nearest of them."""
+    depths = VIEW_DEPTHS_H if obs.code in CONNECTION_CODES else DEPOSIT_VIEW_H
+    chainages = [obs.distance_m - t * height_mm / 1000.0 for t in depths]
+    chainages += [chainages[0] + step for step in AHEAD_STEPS_M]
+    ahead = LOG_AHEAD_M * 1000.0 / height_mm
+    out: list[tuple[int, float]] = []
+    for c in chainages:
+        try:
+            frame = track.frame_at(c)[0]
+        except ValueError:
+            continue
+        if not 0 <= frame < info.frame_count or frame in [f for f, _ in out]:
+            continue
+        chainage, _ = _chainage_at(track, frame)
+        depth = (obs.distance_m - chainage) * 1000.0 / height_mm
+        if np.isfinite(depth) and depth + ahead > 0.9:
+            out.append((frame, float(depth)))
+    return out
+
+
+def _measure_feature(obs: Observation, views: list[tuple[int, float]], track, model: str, *, contours, under, ideal,
+                     cert, header, mask, seed: int, edges: tuple[float, ...], thumbnails: list) -> MeasurementRecord:
+    """A connection's height around the pipe (BCA Q1) or a deposit's loss (BBC, BBB) from the image alone; one not
+    confident is stored "found, not measured" with its reasons (status error: no grade, no log check)."""
+    row = _automatic_base(obs, views[0][0] if views else None, track, model)
+    try:
+        if not views:
+            raise MeasurementError(f"row {obs.row}: no frame before its logged distance")
+        common = dict(H=header.height_mm, tolerance=header.height_tolerance_mm, model=model, seed=seed, mask=mask,
+                      edges=edges)
+        ahead = LOG_AHEAD_M * 1000.0 / header.height_mm
+        if obs.code in CONNECTION_CODES:
+            auto = measure_connection(obs.code, obs.char1, obs.clock_from,
+                                      [(under(obs, contours[f]), ideal(f), t) for f, t in views], cert, ahead=ahead,
+                                      **common)
+        else:
+            auto = measure_deposit(obs.code, obs.char1,
+                                   [(under(obs, contours[f]), ideal(f), (max(t, 0.9), t + ahead + DEPOSIT_SPAN_H))
+                                    for f, t in views], cert, **common)
+    except PipegaugeError as exc:          # "not found: ...", "found, not measured: ..." or a pose not fitted
+        row.update(status="error", error=str(exc))
+        return row
+    frame = views[auto.view][0]
+    chainage, u_chainage = _chainage_at(track, frame)
+    q, res = auto.quantity, auto.result
+    row.update(frame=frame, chainage_m=chainage, u_chainage_m=u_chainage, a_x_px=q.a[0], a_y_px=q.a[1],
+               b_x_px=q.b[0], b_y_px=q.b[1], u_mark_px=q.u_a)
+    if not auto.measured:
+        row.update(status="error", confident=False, warnings="; ".join(res.reasons) or None,
+                   error="found, not measured: " + "; ".join(res.reasons))
+        return row
+    # the frame stands before the feature on purpose: its chainage is not compared with the logged distance
+    row.update(_quantity_fields(res))
+    thumbnails.append(_thumbnail(ideal(frame), contours[frame], q, obs.row, frame, "contour"))
+    return row
 
 
 def _chainage_at(track, frame: int | None) -> tuple[float, float]:

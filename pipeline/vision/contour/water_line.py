@@ -100,20 +100,32 @@ def _usable(points: np.ndarray, shape: tuple[int, int], mask: np.ndarray | None,
     return ok
 
 
-def _contrast(image: np.ndarray, view: PipeView, level: float, depths: np.ndarray, mask) -> tuple[float, int]:
+def _chroma(colour: np.ndarray) -> np.ndarray:
+    """Colour (..., 3) without its brightness: each channel's share of their sum, scaled to 8-bit levels."""
+    return 255.0 * colour / np.maximum(colour.sum(axis=-1, keepdims=True), 1.0)
+
+
+def _contrast(image: np.ndarray, view: PipeView, level: float, depths: np.ndarray, mask,
+              chromatic: bool = False) -> tuple[float, int]:
     pts, normals, _ = _line_points(view, level, depths)
     ok = _usable(pts, image.shape[:2], mask, SEARCH_PX + 2)
     if ok.sum() < MIN_EDGE_POINTS:
         return 0.0, int(ok.sum())
     p, n = pts[ok], normals[ok]
-    diff = _sample(image, p + SIDE_OFFSET_PX * n) - _sample(image, p - SIDE_OFFSET_PX * n)
+    above, below = _sample(image, p + SIDE_OFFSET_PX * n), _sample(image, p - SIDE_OFFSET_PX * n)
+    if chromatic and image.shape[-1] == 3:
+        above, below = _chroma(above), _chroma(below)
+    diff = above - below
     return float(np.median(np.linalg.norm(diff, axis=-1))), int(ok.sum())
 
 
-def _edges(image: np.ndarray, points: np.ndarray, normals: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Sub-pixel offsets [px] along the normals of the strongest colour change, and its size."""
+def _edges(image: np.ndarray, points: np.ndarray, normals: np.ndarray,
+           chromatic: bool = False) -> tuple[np.ndarray, np.ndarray]:
+    """Sub-pixel offsets [px] along the normals of the strongest colour change (of hue: ``chromatic``), and its size."""
     offsets = np.arange(-SEARCH_PX, SEARCH_PX + 1e-9, 0.5)
     profile = _sample(image, points[:, None, :] + offsets[None, :, None] * normals[:, None, :])
+    if chromatic and profile.shape[-1] == 3:
+        profile = _chroma(profile)
     step = np.linalg.norm(profile[:, 2:] - profile[:, :-2], axis=-1)      # colour change over 1 px
     k = np.clip(np.argmax(step, axis=1), 1, step.shape[1] - 2)
     rows = np.arange(len(points))
@@ -124,28 +136,32 @@ def _edges(image: np.ndarray, points: np.ndarray, normals: np.ndarray) -> tuple[
 
 
 def find_water_line(ideal_bgr: np.ndarray, view: PipeView, *, depths: tuple[float, float] = (1.0, 4.0),
-                    reference_depth: float | None = None, mask: np.ndarray | None = None) -> WaterLine | None:
+                    reference_depth: float | None = None, mask: np.ndarray | None = None,
+                    chromatic: bool = False, min_contrast: float = MIN_CONTRAST) -> WaterLine | None:
     """The water line in an ideal frame seen with the fitted pose ``view``, or None when no line stands out.
 
     ideal_bgr : (rows, cols, 3) or (rows, cols) undistorted frame; depths :
     range of depths along the pipe [H] searched; reference_depth : depth [H]
     of the cross-section whose chord is returned (default: the middle of the
-    edge points); mask : non-zero where the image may be used (overlay out).
+    edge points); mask : non-zero where the image may be used (overlay out);
+    chromatic : the coarse search compares the colours' hue, not their brightness (a deposit's lit surface
+    grows darker along the pipe as the wall does; only its hue tells it from the wall); min_contrast : the
+    least median colour difference across the line [8-bit levels].
     """
     image = ideal_bgr if ideal_bgr.ndim == 3 else ideal_bgr[..., None]
     t = np.geomspace(depths[0], depths[1], 48)
-    scores = np.array([_contrast(image, view, h, t, mask)[0] for h in LEVELS])
+    scores = np.array([_contrast(image, view, h, t, mask, chromatic)[0] for h in LEVELS])
     if not np.any(scores > 0):
         return None
     best = int(np.argmax(scores))
-    if scores[best] < MIN_CONTRAST:
+    if scores[best] < min_contrast:
         return None                 # texture, not a water line: a dry pipe or a hidden line
     coarse = float(LEVELS[best])
     pts, normals, side_of = _line_points(view, coarse, t)
     depth_of = np.broadcast_to(t, side_of.shape)
     ok = _usable(pts, image.shape[:2], mask, SEARCH_PX + 2)
     pts, normals, side_of, depth_of = pts[ok], normals[ok], side_of[ok], depth_of[ok]
-    offset, strength = _edges(image, pts, normals)
+    offset, strength = _edges(image, pts, normals, chromatic)
     strong = strength >= 0.5 * np.median(strength)
     edges = pts[strong] + offset[strong, None] * normals[strong]
     side_of, depth_of = side_of[strong], depth_of[strong]

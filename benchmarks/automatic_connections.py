@@ -1,0 +1,228 @@
+"""Connections (BCA) and deposits (BBC) measured from the image alone, against the generator's truth.
+
+Each case is a random scene (DN 150-1000, circular or egg, camera offset and
+tilt, some water) with one feature, or none (the false-find cases): a
+lateral of random diameter at a random clock position (BCA Q1, the
+opening's height around the pipe: the chord of its rim at its centre
+cross-section, as ``pipeline.synth.package`` states it), an intruding
+lateral (BAG, its length inside the pipe as % of the height: 5-30 %), or a
+settled deposit of random area (BBC, % of the cross-section). Frames are rendered small
+(the 720x576 certificate, a few frames per case): the two frames the night
+measures on (the camera 1.6 H and 2.3 H before the lateral; 1.2 H and 1.7 H
+before a deposit's start) and four more within 0.9 m for the contour's rings.
+With ``--codec h264`` the frames are written as a video (OpenCV's MPEG-4,
+as the samples are), re-encoded as H.264 (``pipeline.synth.delivery``) and
+read back; ``--codec mp4v`` stops after OpenCV's MPEG-4; ``none`` keeps the
+rendered frames.
+
+Prints per kind: the share found and measured (confident), found but not
+measured, not found; over the measured ones, coverage of the truth by the
+U95 interval with its Wilson interval, median z and robust SD of z
+(z = (value - truth) / u), median U95 (for BCA also as % of the diameter);
+and the false-find rate on cases without the feature.
+
+    nice -n 10 python benchmarks/automatic_connections.py --cases 150 --codec none --codec h264 [--kind bca|bag|bbc]
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from pipeline.camera.undistort import Undistorter
+from pipeline.core.errors import PipegaugeError
+from pipeline.formats.certificate import load_certificate
+from pipeline.maths.profiles import clock_to_theta, wall_point
+from pipeline.measurement.connections import DEPOSIT_SPAN_H, DEPOSIT_VIEW_H, VIEW_DEPTHS_H, measure_connection, measure_deposit
+from pipeline.synth.render import Renderer
+from pipeline.synth.scene import Connection, Deposit, Pipe, Scene
+from pipeline.vision.contour import detect_contour
+from pipeline.vision.contour.detect import wall_u_from_tolerance
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from coverage_stats import robust_sd, wilson  # noqa: E402
+
+SAMPLES = Path(__file__).resolve().parent.parent / "sample_videos"
+KINDS = ("bca", "bbc", "bag")
+DNS = (150, 200, 300, 400, 600, 800, 1000)
+RING_OFFSETS_MM = (-300.0, -600.0, -900.0, 300.0)   # frames about the nearest measured one for the contour's rings
+
+
+def case(kind: str, rng: np.random.Generator, with_feature: bool):
+    """(scene, feature position z [mm], truth, clock, mount) of one random case."""
+    dn = float(rng.choice(DNS))
+    shape = "egg" if rng.random() < 0.25 and dn >= 300 else "circular"
+    H = dn * float(rng.uniform(0.99, 1.01))
+    mount = dict(offset_mm=(float(rng.uniform(-0.08, 0.08) * H), float(rng.uniform(-0.12, 0.04) * H)),
+                 yaw=math.radians(float(rng.uniform(-2, 2))), pitch=math.radians(float(rng.uniform(-2, 2))),
+                 roll=math.radians(float(rng.uniform(-2, 2))))
+    pipe = Pipe(shape, H, str(rng.choice(["concrete", "vitrified clay"])), 1000.0 if dn < 600 else 2500.0)
+    z = 6.0 * H
+    if kind == "bca":
+        water = float(rng.uniform(0, 20))
+        d = float(rng.uniform(100, min(300, 0.6 * H))) if H > 200 else float(rng.uniform(0.3, 0.6) * H)
+        clock = float(rng.choice([1, 2, 3, 9, 10, 11, 12]))
+        features = (Connection("c", z, clock, d),) if with_feature else ()
+        r_eq = _r_eq(shape, H)
+        th = clock_to_theta(clock)
+        # the chord of the rim around the pipe at its centre cross-section (pipeline.synth.package's truth)
+        dt = d / 2 / r_eq
+        a, b = np.array(wall_point(shape, H, th + dt)), np.array(wall_point(shape, H, th - dt))
+        truth = float(np.linalg.norm(a - b))
+        return Scene(pipe, water_percent=water, features=features), z, truth, clock, mount
+    if kind == "bag":
+        d = float(rng.uniform(0.2, 0.4) * H)
+        L = float(rng.uniform(0.05, 0.3) * H)
+        clock = float(rng.choice([1, 2, 3, 9, 10, 11, 12]))
+        features = (Connection("g", z, clock, d, intrusion_mm=L),) if with_feature else ()
+        return Scene(pipe, water_percent=float(rng.uniform(0, 15)), features=features), z, 100.0 * L / H, clock, mount
+    area = float(rng.uniform(5, 30))
+    features = (Deposit("d", z, z + 3.0 * H, area),) if with_feature else ()
+    return Scene(pipe, features=features), z, area, None, mount
+
+
+def _r_eq(shape: str, H: float) -> float:
+    from pipeline.maths.profiles import perimeter
+    return perimeter(shape, H) / (2 * math.pi)
+
+
+def frames_of(scene: Scene, z: float, cert, mount, depths, seed: int, codec: str, tmp: Path):
+    """Ideal BGR frames: one at each of ``depths`` [H] before z, then those of RING_OFFSETS_MM about the first (the
+    night fits the pose to the frames within 2 m either side)."""
+    H = scene.pipe.height_mm
+    r = Renderer(scene, cert, offset_mm=mount["offset_mm"], yaw=mount["yaw"], pitch=mount["pitch"], roll=mount["roll"],
+                 seed=seed)
+    zs = [z - t * H for t in depths] + [z - depths[0] * H + dz for dz in RING_OFFSETS_MM]
+    raw = [r.render(float(zc), 0.0, i) for i, zc in enumerate(zs)]
+    if codec != "none":
+        raw = _through_codec(raw, codec, tmp, cert)
+    und = Undistorter(cert, cert.image_width_px, cert.image_height_px)
+    return [und.frame(f) for f in raw], und.K
+
+
+def _through_codec(raw, codec: str, tmp: Path, cert):
+    from pipeline.synth.delivery import delivered
+    folder = tmp / "case"
+    folder.mkdir(exist_ok=True)
+    path = folder / "video.mp4"
+    w = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*"mp4v"), 25.0, (cert.image_width_px, cert.image_height_px))
+    for f in raw:
+        w.write(f)
+    w.release()
+    video = delivered(path, "h264" if codec == "h264" else None, tmp)
+    cap = cv2.VideoCapture(str(video))
+    out = []
+    while True:
+        ok, f = cap.read()
+        if not ok:
+            break
+        out.append(f)
+    cap.release()
+    if len(out) != len(raw):
+        raise RuntimeError(f"{codec}: {len(out)} frames read back of {len(raw)}")
+    return out
+
+
+def run_case(kind: str, i: int, rng, cert, codec: str, with_feature: bool, tmp: Path) -> dict:
+    scene, z, truth, clock, mount = case(kind, rng, with_feature)
+    H, shape = scene.pipe.height_mm, scene.pipe.shape
+    depths = DEPOSIT_VIEW_H if kind == "bbc" else VIEW_DEPTHS_H
+    frames, K = frames_of(scene, z, cert, mount, depths, i, codec, tmp)
+    contour = detect_contour([cv2.cvtColor(f, cv2.COLOR_BGR2GRAY) for f in frames], K, shape,
+                             wall_u=wall_u_from_tolerance(H, 0.0))
+    row = dict(kind=kind, dn=round(H, -1), shape=shape, codec=codec, feature=with_feature, truth=truth,
+               found=False, measured=False, value=None, u=None, U95=None, low=None, high=None, reason="")
+    try:
+        if kind in ("bca", "bag"):
+            views = [(contour, frames[k], t) for k, t in enumerate(depths)]
+            auto = measure_connection(kind.upper(), "A" if kind == "bca" else "", clock, views, cert, H=H,
+                                      tolerance=0.0, seed=i)
+        else:
+            views = [(contour, frames[k], (t, t + DEPOSIT_SPAN_H)) for k, t in enumerate(depths)]
+            auto = measure_deposit("BBC", "A", views, cert, H=H, tolerance=0.0, seed=i)
+    except PipegaugeError as exc:
+        row.update(reason=str(exc), found=str(exc).startswith("found"))
+        return row
+    res = auto.result
+    row.update(found=True, measured=auto.measured, value=res.value, u=res.u, U95=res.U95, low=res.low, high=res.high,
+               reason="; ".join(res.reasons))
+    return row
+
+
+def summary(rows: list[dict], kind: str, label: str) -> list[str]:
+    mine = [r for r in rows if r["kind"] == kind and r["feature"]]
+    none = [r for r in rows if r["kind"] == kind and not r["feature"]]
+    out = []
+    if mine:
+        measured = [r for r in mine if r["measured"]]
+        found_only = [r for r in mine if r["found"] and not r["measured"]]
+        n = len(mine)
+        line = (f"{kind} {label}: n {n}, measured {100 * len(measured) / n:.0f} %, found not measured "
+                f"{100 * len(found_only) / n:.0f} %, not found {100 * (n - len(measured) - len(found_only)) / n:.0f} %")
+        if measured:
+            inside = sum(r["low"] <= r["truth"] <= r["high"] for r in measured)
+            lo, hi = wilson(inside, len(measured))
+            z = np.array([(r["value"] - r["truth"]) / r["u"] for r in measured if r["u"] > 0])
+            U = np.array([r["U95"] for r in measured])
+            line += (f"; coverage {100 * inside / len(measured):.1f} % (Wilson {100 * lo:.1f}-{100 * hi:.1f} %), "
+                     f"median z {np.median(z):+.2f}, robust SD z {robust_sd(z):.2f}, median U95 {np.median(U):.2f} "
+                     f"{'mm' if kind == 'bca' else '%'}")
+            if kind == "bca":
+                line += f" ({np.median([100 * r['U95'] / r['truth'] for r in measured]):.1f} % of the diameter)"
+        out.append(line)
+    if none:
+        false = sum(r["found"] for r in none)
+        lo, hi = wilson(false, len(none))
+        out.append(f"{kind} {label}: false finds {false}/{len(none)} ({100 * false / len(none):.1f} %, "
+                   f"Wilson {100 * lo:.1f}-{100 * hi:.1f} %)")
+    return out
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--cases", type=int, default=10, help="cases with the feature per kind and codec (default 10)")
+    ap.add_argument("--empty", type=int, default=None, help="cases without it (default: cases / 3)")
+    ap.add_argument("--seed", type=int, default=34)
+    ap.add_argument("--kind", choices=KINDS, action="append")
+    ap.add_argument("--codec", choices=("none", "mp4v", "h264"), action="append")
+    args = ap.parse_args()
+    cert = load_certificate(SAMPLES / "certificates" / "SYN-720x576.json")
+    kinds, codecs = args.kind or KINDS, args.codec or ["none"]
+    empty = args.cases // 3 if args.empty is None else args.empty
+    rows: list[dict] = []
+    t0 = time.perf_counter()
+    with tempfile.TemporaryDirectory() as tmp:
+        for kind in kinds:
+            for codec in codecs:
+                rng = np.random.default_rng([args.seed, KINDS.index(kind), codecs.index(codec)])
+                for i in range(args.cases + empty):
+                    r = run_case(kind, i, rng, cert, codec, i < args.cases, Path(tmp))
+                    rows.append(r)
+                    print(f"{kind} {codec} {i + 1}/{args.cases + empty}: DN {r['dn']:.0f} {r['shape']}, feature "
+                          f"{r['feature']}, truth {r['truth']:.1f}, value {r['value']}, U95 {r['U95']}, "
+                          f"measured {r['measured']}: {r['reason'][:150]}", file=sys.stderr)
+    print(f"{len(rows)} cases in {time.perf_counter() - t0:.0f} s")
+    for kind in kinds:
+        for codec in codecs:
+            sel = [r for r in rows if r["codec"] == codec]
+            for line in summary(sel, kind, f"{codec} all DN"):
+                print(line)
+            if kind == "bca":
+                for line in summary([r for r in sel if r["dn"] >= 200], kind, f"{codec} DN >= 200"):
+                    if "false" not in line:
+                        print(line)
+    for r in rows:
+        if r["feature"] and r["measured"] and not r["low"] <= r["truth"] <= r["high"]:
+            print(f"  miss {r['kind']} {r['codec']} DN {r['dn']:.0f} {r['shape']}: truth {r['truth']:.2f}, value "
+                  f"{r['value']:.2f} [{r['low']:.2f}, {r['high']:.2f}]")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,208 @@
+"""Connections (BCA) and deposits (BBC, BBB) measured without marks, with a confidence and its reasons.
+
+As for the water level (``pipeline.measurement.automatic``), each finding is
+turned into the two points an operator would mark, in the ideal image, with
+the standard uncertainty of their position from the image fit itself, and
+``measure_quantity`` applies the measurement model and its budget unchanged:
+
+* BCA Q1, the opening's height around the pipe: its two ends around in the
+  cross-section through its centre (``pipeline.vision.contour.lateral``);
+  Q2, its width along the pipe: its two ends along at its centre angle (the
+  axial extent is foreshortened, its U95 much wider);
+* BAG, the intrusion as a share of the pipe's height (the code's unit): the
+  lateral's base on the wall (its side facing the camera) and its tip in the
+  base's cross-section (``pipeline.vision.contour.intrusion``);
+* BBC, BBB: the deposit surface's chord, found as the water line is (a level
+  surface meeting the wall in two lines along the pipe,
+  ``pipeline.vision.contour.water_line``), over the depths the deposit covers;
+  the loss is the share of the cross-section below it (``deposit_area``).
+
+An automatic result is confident only when the feature was found with no
+doubt about it (rim seen all round, no glare, the surface on both sides),
+in every frame given (one frame only is a reason: nothing confirms it), and
+the contour and its plane are trusted. ``Automatic.measured`` is False for
+a result that is not confident: it is stored "found, not measured" with
+the reasons, and feeds neither a grade nor a log check.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from pipeline.camera import Certificate
+from pipeline.core.errors import MeasurementError, PipegaugeError
+from pipeline.measurement.quantity import MarkedQuantity, QuantityResult, measure_quantity
+from pipeline.vision.contour import PipeContour
+from pipeline.vision.contour.intrusion import Intrusion, find_intrusion
+from pipeline.vision.contour.lateral import Lateral, find_lateral
+from pipeline.vision.contour.deposit import find_deposit_surface
+
+__all__ = ["CONNECTION_CODES", "DEPOSIT_CODES", "FEATURE_CODES", "Automatic", "lateral_points", "intrusion_points", "deposit_points",
+           "measure_connection", "measure_deposit", "VIEW_DEPTHS_H",
+           "DEPOSIT_VIEW_H", "DEPOSIT_SPAN_H"]
+
+CONNECTION_CODES = frozenset({"BCA", "BAG"})
+DEPOSIT_CODES = frozenset({"BBC", "BBB"})
+FEATURE_CODES = CONNECTION_CODES | DEPOSIT_CODES
+# where the camera stands before the feature's logged distance, in pipe heights: the nearest frame in which
+# an opening of up to 0.9 H is wholly in view of a wide-angle CCTV lens, then a second, farther one to confirm
+VIEW_DEPTHS_H = (1.6, 2.3)
+DEPOSIT_VIEW_H = (1.2, 1.7)    # a deposit's surface is looked for from these distances before its logged start [H]
+DEPOSIT_SPAN_H = 2.6           # and along this much of the pipe beyond its start [H]
+CLOCK_AGREEMENT_DEG = 25.0     # the frames must place the lateral within this of one another around the pipe
+LATERAL_SEARCH_H = 0.9         # an opening is looked for this far either side of its expected depth [H]
+ORIGIN = {"BCA": "lateral rim fit", "BAG": "intruding lateral's base and tip", "deposit": "deposit surface edge fit"}
+
+
+@dataclass
+class Automatic:
+    """An automatic result: the points found, the measured quantity, and whether it may be used."""
+
+    quantity: MarkedQuantity
+    result: QuantityResult
+    frames_found: int
+    frames_tried: int
+    view: int = 0              # the index of the view measured on (the nearest where the feature was found)
+
+    @property
+    def measured(self) -> bool:
+        """A confident result: stored as measured, graded and checked against the log."""
+        return self.result.confident
+
+
+def _pose_reason(contour: PipeContour, code: str) -> None:
+    if not np.all(np.isfinite(contour.covariance)):
+        raise MeasurementError(f"{code}: no camera pose could be fitted ({'; '.join(contour.problems)})")
+
+
+def lateral_points(lateral: Lateral, cert: Certificate, quantity: str, code: str = "BCA",
+                   char1: str = "") -> MarkedQuantity:
+    """The two points of a lateral's extent: Q1 around the pipe, Q2 along it."""
+    u = math.hypot(lateral.u_around_px if quantity == "Q1" else lateral.u_along_px, cert.image_coordinate_u_px)
+    a, b = lateral.around if quantity == "Q1" else lateral.along
+    return MarkedQuantity(code, char1, quantity, "around" if quantity == "Q1" else "axial", a, b, u, u,
+                          origin=ORIGIN["BCA"])
+
+
+def _find_lateral(view, ideal, clock, depths, expected, mask) -> Lateral | None:
+    return find_lateral(ideal, view, clock=clock, depths=depths, expected_depth=expected, mask=mask)
+
+
+def _find_intrusion(view, ideal, clock, depths, expected, mask) -> Intrusion | None:
+    return find_intrusion(ideal, view, clock=clock, depths=depths, expected_depth=expected, mask=mask)
+
+
+def intrusion_points(found: Intrusion, cert: Certificate, code: str = "BAG", char1: str = "") -> MarkedQuantity:
+    """The two points of an intrusion: the wall at the lateral's base, and its tip in the base's cross-section."""
+    u_a, u_b = (math.hypot(u, cert.image_coordinate_u_px) for u in (found.u_base_px, found.u_tip_px))
+    return MarkedQuantity(code, char1, "Q1", "intrusion", found.base, found.tip, u_a, u_b, origin=ORIGIN["BAG"])
+
+
+def measure_connection(code: str, char1: str, clock: float | None, views: Sequence[tuple[PipeContour, np.ndarray, float]],
+                       cert: Certificate, *, H: float, tolerance: float, quantity: str = "Q1",
+                       model: str = "perspective", seed: int = 1, mask: np.ndarray | None = None,
+                       edges: tuple[float, ...] = (), ahead: float = 0.0) -> Automatic:
+    """A connection's opening (BCA) or intrusion (BAG) measured from the frames before it.
+
+    views : (contour, ideal BGR frame, depth [H] at which the log puts the opening in that frame) per frame;
+    clock : the logged clock position (None: anywhere around); ahead : how far beyond its logged distance the
+    feature may lie [H] (a log may state the camera's chainage when it was recorded, not the feature's).
+    The quantity is measured on the frame where the opening is found nearest ``VIEW_DEPTHS_H[0]`` (wholly in
+    view, and as near as that allows); the other frames confirm it.
+    Raises MeasurementError when no frame shows an opening (the feature not found).
+    """
+    intruding = code == "BAG"
+    found: list = []
+    used = -1
+    index = []
+    for k, (contour, ideal, depth) in enumerate(views):
+        _pose_reason(contour, code)
+        search = (max(0.9, depth - LATERAL_SEARCH_H), depth + ahead + LATERAL_SEARCH_H)
+        lat = (_find_intrusion if intruding else _find_lateral)(contour.view, ideal, clock, search,
+                                                              depth + 0.5 * ahead, mask)
+        if lat is not None:
+            found.append((contour, lat))
+            index.append(k)
+    if found:
+        best = int(np.argmin([abs(math.log(lat.depth / VIEW_DEPTHS_H[0])) for _, lat in found]))
+        found.insert(0, found.pop(best))
+        used = index[best]
+    if not found:
+        where = f"at {clock:g} o'clock " if clock is not None else ""
+        what = "intruding lateral" if intruding else "lateral opening"
+        raise MeasurementError(f"not found: {code}: no {what} {where}was found near the logged distance "
+                               f"in {len(views)} frame(s)")
+    contour, lat = found[0]
+    q = intrusion_points(lat, cert, code, char1) if intruding else lateral_points(lat, cert, quantity, code, char1)
+    try:
+        res = measure_quantity(q, contour, cert, H=H, tolerance=tolerance, model=model, seed=seed, edges=edges)
+    except (PipegaugeError, ValueError) as exc:
+        # the points do not meet the wall, Monte Carlo draws leave the model's domain, or the pose fit's covariance
+        # is not a covariance (seen once on an H.264 case: not symmetric)
+        raise MeasurementError(f"found, not measured: {exc}") from exc
+    reasons = [f"lateral: {p}" for p in lat.problems]
+    if len(found) < 2:
+        reasons.append(f"found in only one of {len(views)} frame(s): nothing confirms it")
+    elif len(found) >= 2:
+        # the frames must agree on where the opening is around the pipe (a confirmation, not a second value)
+        spread = abs((found[1][1].theta - lat.theta + math.pi) % (2 * math.pi) - math.pi)
+        if spread > math.radians(CLOCK_AGREEMENT_DEG):
+            reasons.append(f"the frames disagree on the opening's clock position by {math.degrees(spread):.0f} deg")
+    _add(res, reasons)
+    return Automatic(q, res, len(found), len(views), used)
+
+
+def deposit_points(contour: PipeContour, ideal: np.ndarray, cert: Certificate, code: str, char1: str,
+                   depths: tuple[float, float], mask: np.ndarray | None = None) -> tuple[MarkedQuantity, tuple[str, ...]]:
+    """The deposit surface's chord in the ideal image, and why not to trust it (empty: fine).
+
+    depths : the stretch the deposit covers in this frame [H], from its front. Raises MeasurementError when no surface stands out.
+    """
+    _pose_reason(contour, code)
+    found = find_deposit_surface(ideal, contour.view, depths=depths, mask=mask)
+    if found is None:
+        raise MeasurementError(f"{code}: no deposit surface stands out along the pipe wall")
+    u = math.hypot(found.u_px, cert.image_coordinate_u_px)
+    q = MarkedQuantity(code, char1, "Q1", "deposit_area", found.a, found.b, u, u, origin=ORIGIN["deposit"])
+    return q, tuple(f"deposit surface: {p}" for p in found.problems)
+
+
+def measure_deposit(code: str, char1: str, views: Sequence[tuple[PipeContour, np.ndarray, tuple[float, float]]],
+                    cert: Certificate, *, H: float, tolerance: float, model: str = "perspective", seed: int = 1,
+                    mask: np.ndarray | None = None, edges: tuple[float, ...] = ()) -> Automatic:
+    """A deposit's cross-sectional loss [%] from the frames before it (nearest first): (contour, ideal frame,
+    depths [H] the deposit covers there) per frame. Measured on the nearest frame where its surface is found."""
+    results = []
+    used = -1
+    for k, (contour, ideal, depths) in enumerate(views):
+        try:
+            results.append((contour, *deposit_points(contour, ideal, cert, code, char1, depths, mask)))
+        except MeasurementError:
+            continue
+        used = k if used < 0 else used
+    if not results:
+        raise MeasurementError(f"not found: {code}: no deposit surface stands out along the pipe wall in {len(views)} "
+                               "frame(s)")
+    contour, q, problems = results[0]
+    try:
+        res = measure_quantity(q, contour, cert, H=H, tolerance=tolerance, model=model, seed=seed, edges=edges)
+    except (PipegaugeError, ValueError) as exc:
+        # the points do not meet the wall, Monte Carlo draws leave the model's domain, or the pose fit's covariance
+        # is not a covariance (seen once on an H.264 case: not symmetric)
+        raise MeasurementError(f"found, not measured: {exc}") from exc
+    reasons = list(problems)
+    if len(results) < 2:
+        reasons.append(f"found in only one of {len(views)} frame(s): nothing confirms it")
+    _add(res, reasons)
+    return Automatic(q, res, len(results), len(views), used)
+
+
+def _add(res: QuantityResult, reasons: list[str]) -> None:
+    if reasons:
+        res.confident = False
+        res.reasons = tuple(dict.fromkeys(res.reasons + tuple(reasons)))
+

@@ -1,0 +1,159 @@
+"""An intruding connection (BAG) from the fitted camera pose alone: the lateral's base on the wall and its tip.
+
+A lateral that stands inside the pipe hides the wall behind it: on the wall
+map over (theta, t) (``pipeline.vision.contour.lateral.wall_map``, each depth
+divided by its running median around the ring), it is a region unlike the
+wall that starts where the tube leaves the wall, on its side facing the
+camera, and reaches on beyond it. So:
+
+1. the region unlike the wall nearest the logged clock position and
+   distance; its centre angle theta from its nearest rows, and the depth
+   t_base where it starts at that angle (the base's near side);
+2. along the tube's near side, the line from the wall point (theta,
+   t_base) towards the pipe's axis in that cross-section, the sub-sample
+   point where the tube's grey level falls half-way to what lies beyond
+   its end (the tip).
+
+The two points are those a BAG would be marked with (the wall, then the
+tip in the wall point's cross-section), so the ``intrusion`` method and its
+budget apply unchanged. The depth of the base is the weakest step: its
+uncertainty (the map's depth step and the region's edge) enters the base
+point's u in the image.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+
+from pipeline.maths.profiles import clock_to_theta, wall_point
+from pipeline.vision.contour.lateral import _gray, _masked, _running_median, _sample, wall_map
+from pipeline.vision.contour.view import PipeView
+
+__all__ = ["Intrusion", "find_intrusion"]
+
+THETA_STEPS = 720
+DEPTH_STEPS = 200
+UNLIKE = 0.3                  # |log(grey / wall's level)| above this: not the wall
+SEARCH_CLOCK_H = 1.5
+MIN_TUBE_CONTRAST = 10.0      # least grey step from the tube to what lies beyond its tip [8-bit levels]
+EDGE_FLOOR_PX = 0.3
+TIP_DEFINITION_PX = 1.5       # the tip's edge lies within this of the first strong edge (the end's rim, seen or not,
+                              # and the blur): rectangular half-width [px]
+
+
+@dataclass(frozen=True)
+class Intrusion:
+    """An intruding lateral found in one ideal frame."""
+
+    theta: float                       # its angle around the profile's centre [rad]
+    depth: float                       # depth of its base's near side t [H]
+    base: tuple[float, float]          # the wall point there, ideal [px]
+    tip: tuple[float, float]           # its tip in the base's cross-section, ideal [px]
+    u_base_px: float                   # standard uncertainty of a coordinate of the base [px]
+    u_tip_px: float
+    share: float                       # the tip's share of the way from the wall to the axis [1]
+    problems: tuple[str, ...]
+
+    @property
+    def confident(self) -> bool:
+        return not self.problems
+
+
+def find_intrusion(ideal_bgr: np.ndarray, view: PipeView, *, clock: float | None = None,
+                   depths: tuple[float, float] = (1.0, 3.5), expected_depth: float | None = None,
+                   mask: np.ndarray | None = None) -> Intrusion | None:
+    """An intruding lateral in an ideal frame seen with the fitted pose ``view``, or None when none is found.
+
+    clock : the logged clock position; depths : depths searched [H]; expected_depth : where the log puts it [H].
+    """
+    centre = clock_to_theta(clock) if clock is not None else np.pi / 2
+    thetas = centre + np.linspace(-np.pi, np.pi, THETA_STEPS, endpoint=False)
+    ts = np.geomspace(depths[0], depths[1], DEPTH_STEPS)
+    m = wall_map(ideal_bgr, view, thetas, ts, mask)
+    background = _running_median(m, int(THETA_STEPS / 2) | 1)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        unlike = np.abs(np.log(np.maximum(m, 1.0) / np.maximum(background, 1.0)))
+    smooth = cv2.GaussianBlur(np.nan_to_num(unlike, nan=0.0).astype(np.float32), (0, 0), 1.5)
+    region = (smooth > UNLIKE).astype(np.uint8)
+    region = cv2.morphologyEx(region, cv2.MORPH_CLOSE, np.ones((5, 5), np.uint8))
+    n, labels, stats, _ = cv2.connectedComponentsWithStats(region, connectivity=8)
+    window = int(SEARCH_CLOCK_H * 30 / 360 * THETA_STEPS)
+    mid = THETA_STEPS // 2
+    want = expected_depth if expected_depth is not None else float(np.sqrt(depths[0] * depths[1]))
+    best = None
+    for k in range(1, n):
+        x0, y0, w, h, area = stats[k]
+        if area < 30 or w > THETA_STEPS / 3:
+            continue
+        if clock is not None and not (x0 <= mid + window and x0 + w >= mid - window):
+            continue
+        rows = np.nonzero(labels[y0:y0 + max(3, h // 5)] == k)
+        cx = float(np.mean(rows[1]))
+        if clock is not None and abs(cx - mid) > window:
+            continue
+        score = abs(np.log(ts[y0] / want))
+        if best is None or score < best[0]:
+            best = (score, k, cx)
+    if best is None:
+        return None
+    _, k, cx = best
+    col = int(round(cx))
+    theta = float(np.interp(cx, np.arange(THETA_STEPS), thetas))
+    columns = labels[:, max(col - 2, 0):col + 3] == k
+    first = [int(np.argmax(c)) for c in columns.T if c.any()]
+    if not first:
+        return None
+    j = int(np.median(first))
+    # sub-sample: where the unlikeness (blurred) crosses half its height inside the region, at the centre column;
+    # its threshold would lie short of the edge by part of the blur, and a base placed nearer overstates the tip
+    column = smooth[:, col].astype(float)
+    inside = float(np.median(column[j:j + 5]))
+    level = 0.5 * inside if inside > 2 * UNLIKE else UNLIKE
+    rows = np.arange(max(j - 6, 0), min(j + 5, len(column) - 1))
+    up = rows[(column[rows] < level) & (column[rows + 1] >= level)]
+    j0 = int(up[-1]) if up.size else max(j - 1, 0)
+    s0, s1 = column[j0], column[j0 + 1]
+    f = float(np.clip((level - s0) / (s1 - s0), 0.0, 1.0)) if s1 != s0 else 0.5
+    log_t = np.log(ts[j0]) + f * (np.log(ts[j0 + 1]) - np.log(ts[j0]))
+    t_base = float(np.exp(log_t))
+    wx, wy = wall_point(view.shape, 1.0, theta)
+    base, ahead = view.project(np.array([[wx, wy, t_base], [wx, wy, t_base * np.exp(np.log(ts[1] / ts[0]))]]))
+    # the base's depth is known to a map step and the region's blurred edge: about one step, rectangular
+    u_base = max(float(np.linalg.norm(ahead - base)) / np.sqrt(3.0), EDGE_FLOOR_PX)
+    lam = np.linspace(0.0, 0.95, 400)
+    line = view.project(np.column_stack([wx * (1 - lam), wy * (1 - lam), np.full_like(lam, t_base)]))
+    prof = _masked(_sample(_gray(ideal_bgr), line), line, mask)
+    if not np.all(np.isfinite(prof[:200])):
+        return None
+    q = np.convolve(prof, np.ones(5) / 5, mode="same")
+    tube = float(np.median(q[5:15]))
+    beyond = float(np.median(q[300:380])) if np.isfinite(q[300:380]).all() else float(np.nanmedian(q[300:]))
+    problems: list[str] = []
+    if abs(tube - beyond) < MIN_TUBE_CONTRAST:
+        return None
+    # the tip is the first strong edge from the wall: the tube's side ends there, on its end's rim (lit, facing the
+    # axis) or straight on its bore (dark); the edge after it, rim to bore, is not the tip
+    grad = np.abs(np.diff(q))
+    grad[:15] = 0.0                       # the wall-to-tube step at the base itself
+    grad[-4:] = 0.0
+    strong = np.nonzero(grad > 0.4 * grad[:380].max())[0]
+    if strong.size == 0:
+        return None
+    i = int(strong[0])
+    while i + 1 < len(grad) and grad[i + 1] >= grad[i]:
+        i += 1
+    y0, y1, y2 = grad[i - 1], grad[i], grad[i + 1]
+    denom = y0 - 2 * y1 + y2
+    frac = float(np.clip(0.5 * (y0 - y2) / denom, -0.5, 0.5)) if abs(denom) > 1e-9 else 0.0
+    # grad[i] is the step from sample i to i + 1: its place is half-way between them
+    share = float(np.interp(i + 0.5 + frac, np.arange(len(lam)), lam))
+    tip = view.project(np.array([[wx * (1 - share), wy * (1 - share), t_base]]))[0]
+    step_px = float(np.linalg.norm(line[1] - line[0]))
+    u_tip = max(float(np.hypot(step_px, TIP_DEFINITION_PX / np.sqrt(3.0))), EDGE_FLOOR_PX)
+    if share < 0.03:
+        problems.append("the tip lies at the wall: an opening, not an intruding lateral")
+    return Intrusion(theta, t_base, (float(base[0]), float(base[1])), (float(tip[0]), float(tip[1])), u_base, u_tip,
+                     share, tuple(problems))

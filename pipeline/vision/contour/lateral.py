@@ -1,0 +1,317 @@
+"""A lateral connection's opening on the pipe wall, found from the fitted camera pose alone (BCA without marks).
+
+With the pose known (``PipeView``), every wall point (angle theta around the
+profile's centre, depth t along the pipe [H]) has one image position, so the
+wall can be read as a map over (theta, t):
+
+1. coarse: the wall map's grey values over the whole ring and the depths
+   searched, each divided by a running median around the ring at its depth
+   (the lamp's fall-off with depth and around the pipe, a joint's groove, all
+   divide out); an opening is a compact region far darker than the wall
+   around it, near the logged clock position;
+2. fine: along rays on the wall from the region's centre (in arc length
+   around and depth along, both [H]), the sub-sample crossing of the grey
+   level half-way between the opening's inside and the wall outside it
+   (edge points);
+3. an ellipse with axes around and along the pipe is fitted to the edge
+   points (least squares); its axes are the opening's extents. The scatter
+   of the edge points about it, over sectors of the rim (neighbouring
+   points share texture and blur, so the sectors, not the points, are
+   independent), gives the standard uncertainty of the axes' ends in the
+   image.
+
+The result is the pair of image points an operator would mark for each
+extent (the ends around the pipe in the opening's centre cross-section, the
+ends along the pipe at its centre angle), so the measurement models and their
+budgets apply unchanged (``pipeline.measurement.connections``).
+"""
+
+from __future__ import annotations
+
+import warnings
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+from scipy.ndimage import map_coordinates
+
+from pipeline.maths.profiles import clock_to_theta, wall_point
+from pipeline.vision.contour.view import PipeView
+
+__all__ = ["Lateral", "find_lateral", "wall_map"]
+
+THETA_STEPS = 720                 # samples around the ring (0.5 deg)
+DEPTH_STEPS = 160                 # samples along the depths searched (geometric)
+BACKGROUND_DEG = 180.0            # running median around the ring, the wall's level at each depth
+DARK_RATIO = 0.6                  # an opening is darker than this share of the wall around it
+SEARCH_CLOCK_H = 1.5              # an opening is looked for within this many clock hours of the logged position
+MIN_SIZE_H, MAX_SIZE_H = 0.06, 1.0   # extents of an opening [H]
+RAYS = 64                         # edge rays from the opening's centre
+SECTORS = 8                       # independent groups of edge points around the rim
+MIN_RAYS = 0.6                    # share of the rays that must find the rim
+MIN_CONTRAST = 12.0               # least grey step from the opening to the wall [8-bit levels]
+GLARE_LEVEL = 250.0               # a grey level this bright near the rim is glare (clipped)
+RIM_WEIGHT = 1.0 / 3.0           # the rim's place between the two half-way crossings (set on the generator's response:
+                                  # the mean overshot by about a third of a pixel, the grey crossing fell short)
+DISPLAY_GAMMA = 2.2               # the response assumed to linearise grey levels (sRGB-like)
+EDGE_FLOOR_PX = 0.25              # a blurred, compressed edge is not located better than this [px]
+
+
+@dataclass(frozen=True)
+class Lateral:
+    """A lateral's opening found in one ideal frame."""
+
+    theta: float                       # centre angle around the profile's centre [rad] (0 = right, pi/2 = crown)
+    depth: float                       # centre depth t [H]
+    around: tuple[tuple[float, float], tuple[float, float]]   # ends around the pipe at the centre depth, ideal [px]
+    along: tuple[tuple[float, float], tuple[float, float]]    # ends along the pipe at the centre angle, ideal [px]
+    extent_around: float               # the fitted extent around the pipe (arc) [H]
+    extent_along: float                # the fitted extent along the pipe [H]
+    u_around_px: float                 # standard uncertainty of a coordinate of an end around [px]
+    u_along_px: float                  # the same for the ends along [px]
+    n_points: int                      # edge points used
+    contrast: float                    # median grey step from the opening to the wall [8-bit levels]
+    problems: tuple[str, ...]          # why not to be trusted (empty when fine)
+
+    @property
+    def confident(self) -> bool:
+        return not self.problems
+
+
+def _gray(image: np.ndarray) -> np.ndarray:
+    g = cv2.cvtColor(image, cv2.COLOR_BGR2GRAY) if image.ndim == 3 else image
+    return g.astype(np.float32)
+
+
+def _sample(gray: np.ndarray, points: np.ndarray) -> np.ndarray:
+    """Bilinear grey values at image points (..., 2) [px]; nan off the image."""
+    flat = points.reshape(-1, 2).astype(np.float64)
+    ok = np.all(np.isfinite(flat), axis=1)
+    flat = np.where(ok[:, None], flat, -10.0)
+    out = map_coordinates(gray, [flat[:, 1], flat[:, 0]], order=1, mode="constant", cval=np.nan)
+    rows, cols = gray.shape
+    inside = ok & (flat[:, 0] >= 1) & (flat[:, 0] <= cols - 2) & (flat[:, 1] >= 1) & (flat[:, 1] <= rows - 2)
+    return np.where(inside, out, np.nan).reshape(points.shape[:-1])
+
+
+def _masked(values: np.ndarray, points: np.ndarray, mask: np.ndarray | None) -> np.ndarray:
+    if mask is None:
+        return values
+    rows, cols = mask.shape
+    p = np.nan_to_num(points, nan=-1.0)
+    x, y = np.clip(p[..., 0].round().astype(int), 0, cols - 1), np.clip(p[..., 1].round().astype(int), 0, rows - 1)
+    return np.where(mask[y, x] > 0, values, np.nan)
+
+
+def _wall_xy(shape: str, theta: np.ndarray) -> np.ndarray:
+    return np.array([wall_point(shape, 1.0, float(t)) for t in np.ravel(theta)]).reshape(np.shape(theta) + (2,))
+
+
+def wall_map(ideal: np.ndarray, view: PipeView, thetas: np.ndarray, depths: np.ndarray,
+             mask: np.ndarray | None = None) -> np.ndarray:
+    """Grey values (depths, thetas) of the wall at angles ``thetas`` [rad] and depths ``depths`` [H]; nan where
+    the wall is out of the image or under the mask."""
+    gray = _gray(ideal)
+    xy = _wall_xy(view.shape, thetas)
+    P = np.concatenate([np.broadcast_to(xy[None], (len(depths), len(thetas), 2)),
+                        np.broadcast_to(depths[:, None, None], (len(depths), len(thetas), 1))], axis=2)
+    pts = view.project(P.reshape(-1, 3)).reshape(len(depths), len(thetas), 2)
+    return _masked(_sample(gray, pts), pts, mask)
+
+
+def _running_median(m: np.ndarray, window: int) -> np.ndarray:
+    """Median along axis 1 (periodic) over ``window`` samples, ignoring nan."""
+    half = window // 2
+    padded = np.concatenate([m[:, -half:], m, m[:, :half]], axis=1)
+    view = np.lib.stride_tricks.sliding_window_view(padded, window, axis=1)[:, ::4]
+    with warnings.catch_warnings():          # an all-nan window (the wall out of view there) gives nan, as meant
+        warnings.simplefilter("ignore", RuntimeWarning)
+        coarse = np.nanmedian(view, axis=2)
+    cols = np.arange(m.shape[1])
+    out = np.empty_like(m)
+    for i in range(m.shape[0]):
+        row = coarse[i]
+        ok = np.isfinite(row)
+        out[i] = np.interp(cols, cols[::4][:len(row)][ok], row[ok]) if ok.sum() >= 2 else np.nan
+    return out
+
+
+def _candidates(ideal, view, centre_theta, depths, mask):
+    """Dark compact regions of the wall map: (theta, depth, size around [H], size along [H], darkness)."""
+    thetas = centre_theta + np.linspace(-np.pi, np.pi, THETA_STEPS, endpoint=False)
+    ts = np.geomspace(depths[0], depths[1], DEPTH_STEPS)
+    m = wall_map(ideal, view, thetas, ts, mask)
+    background = _running_median(m, int(round(BACKGROUND_DEG / 360.0 * THETA_STEPS)) | 1)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        ratio = m / background
+    smooth = cv2.GaussianBlur(np.nan_to_num(ratio, nan=1.0).astype(np.float32), (0, 0), 2.0)
+    dark = (smooth < DARK_RATIO).astype(np.uint8)
+    dark = cv2.morphologyEx(dark, cv2.MORPH_CLOSE, np.ones((5, 5), np.uint8))
+    n, labels, stats, cent = cv2.connectedComponentsWithStats(dark, connectivity=8)
+    xy = _wall_xy(view.shape, thetas)
+    step_arc = np.hypot(*np.diff(np.vstack([xy, xy[:1]]), axis=0).T)       # arc per theta step [H]
+    dlog = np.log(ts[1] / ts[0])
+    out = []
+    for k in range(1, n):
+        x0, y0, w, h, area = stats[k]
+        if area < 12:
+            continue
+        cols = np.arange(x0, x0 + w)
+        around = float(step_arc[cols].sum())
+        along = float(ts[min(y0 + h - 1, len(ts) - 1)] - ts[y0]) + float(ts[y0] * dlog)
+        if not (MIN_SIZE_H <= around <= MAX_SIZE_H and MIN_SIZE_H <= along <= MAX_SIZE_H):
+            continue
+        if not 0.4 <= around / along <= 2.5:
+            continue
+        cx, cy = cent[k]
+        sel = labels == k
+        out.append((float(np.interp(cx, np.arange(THETA_STEPS), thetas)), float(np.exp(np.interp(cy, np.arange(DEPTH_STEPS), np.log(ts)))),
+                    around, along, float(np.nanmedian(ratio[sel]))))
+    return out
+
+
+def _local_frame(view: PipeView, theta: float) -> float:
+    """Arc length per radian of the wall at theta [H/rad]."""
+    a, b = _wall_xy(view.shape, np.array([theta - 1e-4, theta + 1e-4]))
+    return float(np.hypot(*(b - a)) / 2e-4)
+
+
+def _to_image(view: PipeView, theta0: float, arc_per_rad: float, t0: float, du: np.ndarray, dz: np.ndarray) -> np.ndarray:
+    """Image points (..., 2) [px] of wall points du [H] of arc around and dz [H] along from (theta0, t0)."""
+    theta = theta0 + du / arc_per_rad
+    shape = np.shape(theta)
+    xy = _wall_xy(view.shape, theta)
+    t = np.broadcast_to(t0 + dz, shape)
+    return view.project(np.column_stack([xy.reshape(-1, 2), np.ravel(t)])).reshape(shape + (2,))
+
+
+def _edges(gray, view, theta0, t0, radius, mask):
+    """Edge points (du, dz) [H] of the opening on RAYS rays from (theta0, t0), their contrast, and the glare flag."""
+    arc = _local_frame(view, theta0)
+    phi = np.linspace(0, 2 * np.pi, RAYS, endpoint=False)
+    s = np.linspace(0.0, 2.0 * radius, 81)
+    du, dz = s[None, :] * np.cos(phi)[:, None], s[None, :] * np.sin(phi)[:, None]
+    pts = _to_image(view, theta0, arc, t0, du, dz)
+    prof = _masked(_sample(gray, pts), pts, mask)
+    inner, outer = s < 0.4 * radius, (s > 1.4 * radius)
+    found = np.full(RAYS, np.nan)
+    steps = np.full(RAYS, np.nan)
+    spread = np.full(RAYS, np.nan)
+    glare = bool(np.nanmax(prof, initial=0.0) >= GLARE_LEVEL) if np.isfinite(prof).any() else False
+    for k in range(RAYS):
+        p = prof[k]
+        if not np.all(np.isfinite(p)):
+            continue
+        lo, hi = float(np.median(p[inner])), float(np.median(p[outer]))
+        if hi - lo < MIN_CONTRAST:
+            continue
+        # where the rim lies between the two half-way levels of the grey and of the light (a camera's response is
+        # compressive, about a 2.2 power, unknown in detail: half-way in grey levels lies inside the blurred rim,
+        # half-way in light outside it for a response flatter than the power): RIM_WEIGHT of the way from the first
+        # to the second, and their spread (the rectangular term of the rim's definition covers the whole of it)
+        light = 255.0 * (0.5 * ((lo / 255.0) ** DISPLAY_GAMMA + (hi / 255.0) ** DISPLAY_GAMMA)) ** (1 / DISPLAY_GAMMA)
+        q = np.convolve(p, np.ones(3) / 3, mode="same")
+        rims = [_crossing(q, s, level, radius) for level in (0.5 * (lo + hi), light)]
+        if any(x is None for x in rims):
+            continue
+        r = rims[0] + RIM_WEIGHT * (rims[1] - rims[0])
+        spread[k] = 0.5 * abs(rims[1] - rims[0])
+        if not 0.4 * radius <= r <= 1.6 * radius:
+            continue
+        found[k], steps[k] = r, hi - lo
+    return phi, found, steps, arc, glare, spread
+
+
+def _crossing(q: np.ndarray, s: np.ndarray, level: float, radius: float) -> float | None:
+    """Where the profile q along s first rises through ``level`` nearest the expected rim ``radius``."""
+    cross = np.nonzero((q[:-1] < level) & (q[1:] >= level))[0]
+    cross = cross[(cross >= 1) & (cross < len(s) - 2)]
+    if cross.size == 0:
+        return None
+    j = int(cross[np.argmin(np.abs(s[cross] - radius))]) + 1
+    f = (level - q[j - 1]) / max(q[j] - q[j - 1], 1e-9)
+    return float(s[j - 1] + f * (s[j] - s[j - 1]))
+
+
+def _fit_ellipse(u: np.ndarray, z: np.ndarray):
+    """Axis-aligned ellipse a u^2 + b z^2 + c u + d z = 1: (uc, zc, Au, Az), or None."""
+    A = np.column_stack([u * u, z * z, u, z])
+    sol, *_ = np.linalg.lstsq(A, np.ones_like(u), rcond=None)
+    a, b, c, d = sol
+    if a <= 0 or b <= 0:
+        return None
+    uc, zc = -c / (2 * a), -d / (2 * b)
+    g = 1 + a * uc * uc + b * zc * zc
+    if g <= 0:
+        return None
+    return float(uc), float(zc), float(np.sqrt(g / a)), float(np.sqrt(g / b))
+
+
+def find_lateral(ideal_bgr: np.ndarray, view: PipeView, *, clock: float | None = None,
+                 depths: tuple[float, float] = (1.0, 3.5), expected_depth: float | None = None,
+                 mask: np.ndarray | None = None) -> Lateral | None:
+    """A lateral's opening in an ideal frame seen with the fitted pose ``view``, or None when none is found.
+
+    clock : the logged clock position (12 = crown, 3 = right) or None (any);
+    depths : range of depths along the pipe [H] searched; expected_depth :
+    the depth [H] where the log puts it (the nearest opening to it is taken);
+    mask : non-zero where the image may be used (overlay out).
+    """
+    centre = clock_to_theta(clock) if clock is not None else np.pi / 2
+    found = _candidates(ideal_bgr, view, centre, depths, mask)
+    if clock is not None:
+        found = [c for c in found if abs((c[0] - centre + np.pi) % (2 * np.pi) - np.pi) <= np.radians(30 * SEARCH_CLOCK_H)]
+    if not found:
+        return None
+    want = expected_depth if expected_depth is not None else float(np.sqrt(depths[0] * depths[1]))
+    theta0, t0, around, along, darkness = min(found, key=lambda c: (abs(np.log(c[1] / want)), c[4]))
+    gray = _gray(ideal_bgr)
+    radius = 0.25 * (around + along)
+    fit = None
+    for _ in range(3):                          # recentre on the fit, then fit again
+        phi, r, step, arc, glare, spread = _edges(gray, view, theta0, t0, radius, mask)
+        ok = np.isfinite(r)
+        if ok.sum() < 8:
+            return None
+        u, z = r[ok] * np.cos(phi[ok]), r[ok] * np.sin(phi[ok])
+        fit = _fit_ellipse(u, z)
+        if fit is None:
+            return None
+        uc, zc, Au, Az = fit
+        theta0, t0, radius = theta0 + uc / arc, t0 + zc, 0.5 * (Au + Az)
+    assert fit is not None
+    uc, zc, Au, Az = fit
+    u, z = u - uc, z - zc
+    # each edge point's radial distance from the ellipse, in the image [px]
+    ang = np.arctan2(z, u)
+    r_fit = 1.0 / np.sqrt((np.cos(ang) / Au) ** 2 + (np.sin(ang) / Az) ** 2)
+    r_pt = np.hypot(u, z)
+    ends = _to_image(view, theta0, arc, t0, np.stack([r_pt * np.cos(ang), r_fit * np.cos(ang)]),
+                     np.stack([r_pt * np.sin(ang), r_fit * np.sin(ang)]))
+    residual_px = np.sign(r_pt - r_fit) * np.linalg.norm(ends[0] - ends[1], axis=1)
+    sector = np.floor((ang % (2 * np.pi)) / (2 * np.pi) * SECTORS).astype(int)
+    means = np.array([residual_px[sector == g].mean() for g in np.unique(sector)])
+    sd_sector = float(np.sqrt(np.mean(means ** 2))) if len(means) else np.inf
+    # an axis' end rests on the sectors about it (about a quarter of them each side): its u, for one coordinate
+    per_end = sd_sector / np.sqrt(max(len(means) / 4.0, 1.0))
+    # the rim's definition (between the two half-way levels): the same for every ray, so it shifts both ends of an
+    # extent alike: rectangular over the spread, counted sqrt(2) on each end so that the extent's u carries it whole
+    spread_px = float(np.nanmedian(spread[ok])) * float(np.median(np.abs(residual_px) / np.maximum(np.abs(r_pt - r_fit), 1e-12))) \
+        if np.any(np.abs(r_pt - r_fit) > 0) else 0.0
+    u_definition = np.sqrt(2.0) * spread_px / np.sqrt(3.0)
+    u_end = max(float(np.hypot(per_end, u_definition)), EDGE_FLOOR_PX)
+    a_ar, b_ar = _to_image(view, theta0, arc, t0, np.array([-Au, Au]), np.zeros(2))
+    a_al, b_al = _to_image(view, theta0, arc, t0, np.zeros(2), np.array([-Az, Az]))
+    problems = []
+    if ok.mean() < MIN_RAYS:
+        problems.append(f"the opening's rim is seen on {100 * ok.mean():.0f} % of its edge rays only "
+                        f"(under {100 * MIN_RAYS:.0f} %)")
+    if glare:
+        problems.append("glare: clipped grey levels at the opening's rim")
+    if len(means) < SECTORS:
+        problems.append("the opening's rim is not seen all round")
+    if not np.all(np.isfinite(np.concatenate([a_ar, b_ar, a_al, b_al]))):
+        return None
+    return Lateral(float(theta0), float(t0), (tuple(map(float, a_ar)), tuple(map(float, b_ar))),
+                   (tuple(map(float, a_al)), tuple(map(float, b_al))), float(2 * Au * 1.0), float(2 * Az),
+                   u_end, u_end, int(ok.sum()), float(np.nanmedian(step)), tuple(problems))

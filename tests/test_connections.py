@@ -1,0 +1,146 @@
+"""Connections (BCA) and deposits (BBC) measured from the image alone: pipeline.measurement.connections.
+
+Scenes from the synthetic generator, rendered small (the 720x576 certificate, the two measured frames and four
+behind them for the contour's rings), with the generator's truth (``benchmarks/automatic_connections.py``).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import replace
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pytest
+
+from pipeline.camera.undistort import Undistorter
+from pipeline.core.errors import MeasurementError
+from pipeline.formats.certificate import load_certificate
+from pipeline.maths.profiles import clock_to_theta, wall_point
+from pipeline.measurement.connections import (DEPOSIT_SPAN_H, DEPOSIT_VIEW_H, VIEW_DEPTHS_H, measure_connection,
+                                              measure_deposit)
+from pipeline.synth.render import Renderer
+from pipeline.synth.scene import Connection, Deposit, Pipe, Scene
+from pipeline.vision.contour import detect_contour
+from pipeline.vision.contour.detect import wall_u_from_tolerance
+
+CERT = Path(__file__).resolve().parent.parent / "sample_videos" / "certificates" / "SYN-720x576.json"
+H = 300.0
+Z = 6 * H
+
+
+def _views(scene: Scene, depths):
+    cert = load_certificate(CERT)
+    r = Renderer(scene, cert, offset_mm=(6.0, -15.0), yaw=math.radians(1.0), pitch=math.radians(-0.5), seed=3)
+    zs = [Z - t * H for t in depths] + [Z - (depths[-1] + 0.35 * (k + 1)) * H for k in range(4)]
+    und = Undistorter(cert, cert.image_width_px, cert.image_height_px)
+    frames = [und.frame(r.render(float(z), 0.0, i)) for i, z in enumerate(zs)]
+    contour = detect_contour([cv2.cvtColor(f, cv2.COLOR_BGR2GRAY) for f in frames], und.K, "circular",
+                             wall_u=wall_u_from_tolerance(H, 0.0))
+    return cert, contour, frames
+
+
+@pytest.fixture(scope="module")
+def lateral():
+    scene = Scene(Pipe("circular", H, "concrete", 1000.0), water_percent=8.0, features=(Connection("c", Z, 2, 150.0),))
+    return _views(scene, VIEW_DEPTHS_H)
+
+
+@pytest.fixture(scope="module")
+def no_lateral():
+    return _views(Scene(Pipe("circular", H, "concrete", 1000.0), water_percent=8.0), VIEW_DEPTHS_H)
+
+
+def _truth_around(d: float, clock: float) -> float:
+    th, dt = clock_to_theta(clock), d / 2 / (H / 2)
+    return float(np.linalg.norm(np.subtract(wall_point("circular", H, th + dt), wall_point("circular", H, th - dt))))
+
+
+@pytest.mark.slow
+def test_lateral_diameter_inside_u95(lateral):
+    cert, contour, frames = lateral
+    auto = measure_connection("BCA", "A", 2, [(contour, frames[k], t) for k, t in enumerate(VIEW_DEPTHS_H)], cert,
+                              H=H, tolerance=0.0, seed=1)
+    res, truth = auto.result, _truth_around(150.0, 2)
+    assert auto.frames_found == 2 and auto.measured, res.reasons
+    assert res.low <= truth <= res.high, (truth, res.value, res.low, res.high)
+    assert res.U95 <= 0.05 * truth                  # the issue's target: U95 within 5 % of the diameter
+
+
+@pytest.mark.slow
+def test_no_lateral_is_not_found(no_lateral):
+    cert, contour, frames = no_lateral
+    with pytest.raises(MeasurementError, match="no lateral opening"):
+        measure_connection("BCA", "A", 2, [(contour, frames[k], t) for k, t in enumerate(VIEW_DEPTHS_H)], cert,
+                           H=H, tolerance=0.0, seed=1)
+
+
+@pytest.mark.slow
+def test_untrusted_contour_is_found_not_measured(lateral):
+    cert, contour, frames = lateral
+    doubtful = replace(contour, problems=["only 2 ring(s) follow the profile: too few to fix the pose"])
+    auto = measure_connection("BCA", "A", 2, [(doubtful, frames[k], t) for k, t in enumerate(VIEW_DEPTHS_H)], cert,
+                              H=H, tolerance=0.0, seed=1)
+    assert auto.frames_found >= 1
+    assert not auto.measured
+    assert any("too few to fix the pose" in r for r in auto.result.reasons)
+
+
+@pytest.mark.slow
+def test_found_in_one_frame_only_is_not_measured(lateral):
+    cert, contour, frames = lateral
+    auto = measure_connection("BCA", "A", 2, [(contour, frames[0], VIEW_DEPTHS_H[0])], cert, H=H, tolerance=0.0,
+                              seed=1)
+    assert not auto.measured
+    assert any("only one" in r for r in auto.result.reasons)
+
+
+@pytest.mark.slow
+def test_deposit_loss_inside_u95():
+    area = 20.0
+    scene = Scene(Pipe("circular", H, "vitrified clay", 1000.0), features=(Deposit("d", Z, Z + 3 * H, area),))
+    cert, contour, frames = _views(scene, DEPOSIT_VIEW_H)
+    auto = measure_deposit("BBC", "A", [(contour, frames[k], (t, t + DEPOSIT_SPAN_H)) for k, t in enumerate(DEPOSIT_VIEW_H)],
+                           cert, H=H, tolerance=0.0, seed=1)
+    res = auto.result
+    assert res.low <= area <= res.high, (area, res.value, res.low, res.high, res.reasons)
+
+
+@pytest.mark.slow
+def test_intrusion_inside_u95():
+    length = 60.0
+    scene = Scene(Pipe("circular", H, "concrete", 1000.0), water_percent=5.0,
+                  features=(Connection("g", Z, 10, 100.0, intrusion_mm=length),))
+    cert, contour, frames = _views(scene, VIEW_DEPTHS_H)
+    auto = measure_connection("BAG", "", 10, [(contour, frames[k], t) for k, t in enumerate(VIEW_DEPTHS_H)], cert,
+                              H=H, tolerance=0.0, seed=1)
+    res, truth = auto.result, 100.0 * length / H
+    assert res.method == "intrusion" and res.unit == "%"
+    assert res.low <= truth <= res.high, (truth, res.value, res.low, res.high, res.reasons)
+
+
+class _Track:
+    def at_frame(self, frame):
+        return 1.8 - (0.48, 0.69)[frame], 0.005
+
+
+@pytest.mark.slow
+def test_night_stores_found_not_measured_without_a_value(lateral):
+    """The night's row of an automatic result that is not confident: status error, "found, not measured" and
+    its reasons, no value (so no grade and no log check read it)."""
+    from types import SimpleNamespace
+
+    from pipeline.app.measure import _measure_feature
+    from pipeline.domain.records import Observation
+
+    cert, contour, frames = lateral
+    doubtful = replace(contour, problems=["only 2 ring(s) follow the profile: too few to fix the pose"])
+    obs = Observation(4, 1.8, "BCA", "A", "A", 150.0, "mm", None, "", 2, None, False, "", None, "", "", {})
+    header = SimpleNamespace(height_mm=H, height_tolerance_mm=0.0)
+    row = _measure_feature(obs, [(0, 1.6), (1, 2.3)], _Track(), "perspective", contours={0: doubtful, 1: doubtful},
+                           under=lambda o, c: c, ideal=lambda f: frames[f], cert=cert, header=header, mask=None,
+                           seed=1, edges=(), thumbnails=[])
+    assert row.status == "error" and row.source == "contour"
+    assert row.error.startswith("found, not measured") and "too few to fix the pose" in row.error
+    assert row.value is None and row.frame == 0

@@ -257,10 +257,10 @@ def measure_package(folder: str | os.PathLike, *, certificates: str | os.PathLik
         except PipegaugeError as exc:
             row.update(status="error", error=str(exc))
         result.measurements.append(row)
-    for r, views in sorted(features.items()):
+    for r, feature_frames in sorted(features.items()):
         result.measurements.append(_measure_feature(
-            by_row[r], views, ingest.track, model, contours=contours, under=under, ideal=ideal, cert=cert, header=header,
-            mask=mask, seed=_seed(manifest.package_id, r, "Q1 feature"), edges=edges(by_row[r], "Q1"),
+            by_row[r], feature_frames, ingest.track, model, contours=contours, under=under, ideal=ideal, cert=cert, header=header,
+            mask=mask, seed=quantity_seed(manifest.package_id, r, "Q1 feature"), edges=edges(by_row[r], "Q1"),
             thumbnails=result.thumbnails))
     add_verdicts(result, header, observations, ingest.track)
     # what the image alone could not give is reported on its row, but the logged quantities decide the status
@@ -410,7 +410,7 @@ def _measure_feature(obs: Observation, views: list[tuple[int, float]], track, mo
                    error="found, not measured: " + "; ".join(res.reasons))
         return row
     # the frame stands before the feature on purpose: its chainage is not compared with the logged distance
-    row.update(_quantity_fields(res))
+    row.update(quantity_fields(res))
     thumbnails.append(_thumbnail(ideal(frame), contours[frame], q, obs.row, frame, "contour"))
     return row
 

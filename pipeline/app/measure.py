@@ -113,6 +113,7 @@ def measure_package(folder: str | os.PathLike, *, certificates: str | os.PathLik
         return _failed(record, str(exc))
     manifest, header, observations, cert = delivery.manifest, delivery.header, delivery.observations, delivery.certificate
     marks, ingest, info, und, mask = delivery.marks, where.ingest, where.info, where.undistorter, where.mask
+    marks_name = manifest.marks.name if manifest.marks is not None else "marks.csv"
 
     result = InspectionResult(record, [observation_record(o) for o in observations])
     problems: list[str] = [*delivery.log_problems, *delivery.header_problems,
@@ -168,7 +169,7 @@ def measure_package(folder: str | os.PathLike, *, certificates: str | os.PathLik
                     if obs.problems:
                         raise MeasurementError(f"row {obs.row} of the log is invalid: "
                                                + "; ".join(p.message for p in obs.problems))
-                    bad = check_marks_in_frame(m, info.width, info.height, info.frame_count, manifest.marks.name)
+                    bad = check_marks_in_frame(m, info.width, info.height, info.frame_count, marks_name)
                     if bad:
                         problems += [str(p) for p in bad]
                         raise MeasurementError("; ".join(str(p) for p in bad))
@@ -210,7 +211,7 @@ def measure_package(folder: str | os.PathLike, *, certificates: str | os.PathLik
         result.measurements.append(MeasurementRecord(
             row=r, quantity=quantity, source="marks", code=obs.code, char1=obs.char1, char2=obs.char2, model=model,
             distance_m=obs.distance_m, operator_value=obs.q1 if quantity == "Q1" else obs.q2, status="error",
-            error=f"its marks were refused ({manifest.marks.name}): " + "; ".join(why)))
+            error=f"its marks were refused ({marks_name}): " + "; ".join(why)))
     for r, found in sorted(automatic.items()):
         obs = by_row[r]
         row = _automatic_base(obs, found, ingest.track, model)
@@ -228,15 +229,40 @@ def measure_package(folder: str | os.PathLike, *, certificates: str | os.PathLik
         except PipegaugeError as exc:
             row.update(status="error", error=str(exc))
         result.measurements.append(row)
+    result.measurements += unmarked_quantities(by_row.values(), result.measurements, model)
     add_verdicts(result, header, observations, ingest.track)
     # what the image alone could not give is reported on its row, but the logged quantities decide the status
-    n_bad = sum(r.status != "ok" for r in result.measurements if r.source == "marks")
+    n_bad = sum(r.status == "error" for r in result.measurements if r.source == "marks")
     record.update(status="ok" if not problems and not n_bad else "partial",
                   error=None if not problems and not n_bad else f"{len(problems)} input problem(s), {n_bad} quantity(ies) not measured",
                   n_observations=len(observations), n_measurements=sum(r.status == "ok" for r in result.measurements),
                   n_problems=len(problems), problems=problems, time_contour_s=t_contour, time_measure_s=t_measure,
                   time_total_s=time.perf_counter() - t_start)
     return result
+
+
+UNMARKED = ("no marks for this quantity and the image alone does not measure it: mark its two points "
+            "(marks.csv, docs/formats.md) or with `pipegauge review`")
+
+
+def unmarked_quantities(observations, measured: list[MeasurementRecord], model: str) -> list[MeasurementRecord]:
+    """A row with status ``unmeasured`` and its reason for every logged quantity that needs marks and has neither
+    marks nor a result from the image alone (nor a row already saying why not): a package without marks still
+    lists everything it could not measure. A quantity needs marks when its code has a measurement method for it.
+    """
+    done = {(r.row, r.quantity) for r in measured}
+    rows = []
+    for obs in observations:
+        if obs.problems:
+            continue                    # an invalid row is a problem of the log, listed as such
+        for quantity, logged in (("Q1", obs.q1), ("Q2", obs.q2)):
+            spec = obs.quantification(quantity)
+            if spec is None or spec.method_for(obs.char2 or "") is None or (obs.row, quantity) in done:
+                continue
+            rows.append(MeasurementRecord(
+                row=obs.row, quantity=quantity, source="marks", code=obs.code, char1=obs.char1, char2=obs.char2,
+                model=model, distance_m=obs.distance_m, operator_value=logged, status="unmeasured", error=UNMARKED))
+    return rows
 
 
 def _log_only(record: InspectionRecord, why: LogOnly, t_start: float) -> InspectionResult:

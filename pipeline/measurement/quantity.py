@@ -66,6 +66,8 @@ __all__ = ["MarkedQuantity", "QuantityResult", "BudgetEntry", "measure_quantity"
            "INPUT_DESCRIPTIONS", "RESOLUTION_PX", "INPUT_UNITS", "input_unit"]
 
 MODELS = ("orthographic", "perspective")
+POSE_LABELS = ("ox", "oy", "yaw", "pitch", "roll")
+SHARED_LABELS = ("certificate", "H", "wall")   # the same quantity in every frame of one feature (measure_over_frames)
 CERTIFICATE_DRAWS = 200
 MAX_TRIALS = 400_000    # cap of the adaptive Monte Carlo: a run stopped by it is stated as not converged
 RESOLUTION_PX = 2.0     # an extent under about 2 px is not resolved: a blurred edge spreads over 1-2 px
@@ -94,7 +96,10 @@ INPUT_UNITS = {"H": "mm", "p_H": "px", "p_X": "px", "xa": "px", "ya": "px", "xb"
 
 
 def input_unit(label: str, quantity_unit: str, model: str = "perspective") -> str:
-    """The unit of a budget line's estimate and u: its input's (``INPUT_UNITS``), "" for an input not listed."""
+    """The unit of a budget line's estimate and u: its input's (``INPUT_UNITS``), "" for an input not listed.
+
+    A frame's own input in a result over several frames (``xa@f1234``) has its input's unit."""
+    label = label.partition("@")[0]
     if label == "approximation":
         return quantity_unit
     if label == "across" and model == "orthographic":
@@ -204,13 +209,16 @@ def _below_widest(contour: PipeContour, q: MarkedQuantity, depth: float) -> bool
     return 0.5 * (q.a[1] + q.b[1]) > widest[1]
 
 
-def _description(label: str, origin: str) -> str:
-    text = INPUT_DESCRIPTIONS.get(label, label)
-    return text.replace("(marking,", f"({origin},") if origin != "marking" else text
+def _description(label: str, origin: str, suffixes: dict[str, str] | None = None) -> str:
+    """A budget line's text; an input of some frames only (``measure_over_frames``, label ``xa@f1234``) says which."""
+    base, _, where = label.partition("@")
+    text = INPUT_DESCRIPTIONS.get(base, base)
+    text = text.replace("(marking,", f"({origin},") if origin != "marking" else text
+    return f"{text}, {(suffixes or {}).get(where, where)}" if where else text
 
 
-def _budget(lin, origin: str = "marking") -> list[BudgetEntry]:
-    return [BudgetEntry(line.label, _description(line.label, origin), line.estimate, line.u,
+def _budget(lin, origin: str = "marking", suffixes: dict[str, str] | None = None) -> list[BudgetEntry]:
+    return [BudgetEntry(line.label, _description(line.label, origin, suffixes), line.estimate, line.u,
                         line.distribution, line.sensitivity, line.contribution, line.share) for line in lin.budget]
 
 
@@ -231,11 +239,11 @@ def _image_direction(view, method: str, a: np.ndarray, b: np.ndarray) -> np.ndar
     return d / n if n > 0 and math.isfinite(n) else None
 
 
-def _across_line(fn, inputs, model: str) -> BudgetEntry:
+def _across_line(fn, inputs, model: str, label: str = "across", where: str = "") -> BudgetEntry:
     """The nuisance's budget line: its estimate and u [mm] (perspective) or [px] (orthographic), weight 0."""
     lin = propagate_linear(fn, inputs, name="across")
     unit = "mm" if model == "perspective" else "px"
-    return BudgetEntry("across", f"{INPUT_DESCRIPTIONS['across']} [{unit}]", float(lin.value), float(lin.u),
+    return BudgetEntry(label, f"{INPUT_DESCRIPTIONS['across']}{where} [{unit}]", float(lin.value), float(lin.u),
                        "nuisance", 0.0, 0.0, 0.0)
 
 
@@ -257,17 +265,57 @@ def _h_input(H: float, tolerance: float):
     return Rectangular(H, tolerance) if tolerance > 0 else H
 
 
-def measure_quantity(q: MarkedQuantity, contour: PipeContour, cert: Certificate, *, H: float, tolerance: float,
-                     model: str = "perspective", seed: int = 1, edges: tuple[float, ...] = ()) -> QuantityResult:
-    """Measure one marked quantity with ``model`` ("orthographic" or "perspective").
 
-    contour : the pipe contour of the marks' frame (``pipeline.vision.video.pipe_contour``)
-    H, tolerance : the header's nominal height and the half-width of its tolerance [mm]
-    seed : seed of the Monte Carlo runs (recorded in the result)
-    edges : class edges of the grading scheme [unit of the quantity]; the result gives the share of the
-        Monte Carlo draws below each (``class_edges_cdf``), from which the class probabilities are computed
-    Raises MeasurementError when the marks cannot be placed on the pipe.
+@dataclass
+class _FrameModel:
+    """One frame's model of a marked quantity, built once for ``measure_quantity`` and ``measure_over_frames``.
+
+    ``fn`` is the vectorised model of the chosen measurement model; ``independent`` and ``joint`` its inputs, in
+    the order the Monte Carlo draws them (``inputs``); ``nuisance`` the across-extent model and its inputs (None
+    when the method has none); ``value`` the model at the estimates (GUM 4.1.4).
     """
+
+    q: MarkedQuantity
+    model: str
+    H: float                      # the header's nominal height [mm]
+    contour: PipeContour          # with the tolerance's share taken out of wall_u (``_without_tolerance``)
+    plane: object                 # PlaneContour of the marked wall point
+    p_X: float                    # image separation along the measured extent [px]
+    v_ortho: float
+    v_persp: float
+    fn: object
+    independent: dict
+    joint: list
+    nuisance: tuple | None
+
+    @property
+    def method(self):
+        return METHODS[self.q.method]
+
+    @property
+    def inputs(self) -> InputSet:
+        return InputSet(self.independent, joint=self.joint)
+
+    @property
+    def value(self) -> float:
+        return self.v_persp if self.model == "perspective" else self.v_ortho
+
+    @property
+    def model_reasons(self) -> list[str]:
+        """What this frame says of the model: the orthographic model's offset from the perspective one."""
+        out = []
+        method = self.method
+        if self.model == "orthographic" and abs(self.v_ortho - self.v_persp) > 0.1 * max(abs(self.v_persp), 1e-9):
+            where = ("in the feature's cross-section: the camera is not square to it" if method.extent in IN_SECTION else
+                     "the feature is not in a cross-section plane square to the camera")
+            out.append(f"orthographic model off by {abs(self.v_ortho - self.v_persp):.3g} {method.unit} against the "
+                       f"perspective model {where}")
+        return out
+
+
+def _frame_model(q: MarkedQuantity, contour: PipeContour, cert: Certificate, *, H: float, tolerance: float,
+                 model: str, seed: int) -> _FrameModel:
+    """The model function and labelled inputs of one marked quantity on one frame (``measure_quantity``)."""
     if model not in MODELS:
         raise ValueError(f"unknown model {model!r}; use one of {', '.join(MODELS)}")
     method = METHODS[q.method]
@@ -322,7 +370,7 @@ def measure_quantity(q: MarkedQuantity, contour: PipeContour, cert: Certificate,
         raw = value_from_image_ratio(q.method, shape, certificate * p_X / p_H, H, below, reference) + approximation
         return within_domain(q.method, raw)
 
-    pose = dict(zip(("ox", "oy", "yaw", "pitch", "roll"), view.pose))
+    pose = dict(zip(POSE_LABELS, view.pose))
     anchored = {} if q.anchor is None else {"xo": q.anchor[0], "yo": q.anchor[1]}
     at_estimates = dict(**pose, xa=a[0], ya=a[1], xb=b[0], yb=b[1], wall=1.0, certificate=1.0, H=H, **anchored)
     v_persp = float(np.asarray(perspective(**at_estimates)).reshape(-1)[0])
@@ -334,24 +382,41 @@ def measure_quantity(q: MarkedQuantity, contour: PipeContour, cert: Certificate,
     common = {"certificate": Normal(1.0, max(u_cert, 1e-12)), "H": _h_input(H, tolerance) if method.scales_with_H else H}
     cov = contour.covariance
     free = [i for i in range(5) if cov[i, i] > 0]
-    names = [("ox", "oy", "yaw", "pitch", "roll")[i] for i in free]
+    names = [POSE_LABELS[i] for i in free]
     fixed = {n: v for n, v in pose.items() if n not in names}
-    perspective_inputs = InputSet(
-        {"xa": Normal(a[0], q.u_a), "ya": Normal(a[1], q.u_a), "xb": Normal(b[0], q.u_b),
-         "yb": Normal(b[1], q.u_b), "wall": Normal(1.0, max(2 * contour.wall_u, 1e-12)),
-         **{k: Normal(v, max(q.u_anchor, 1e-12)) for k, v in anchored.items()}, **fixed, **common},
-        joint=[JointNormal(names, [pose[n] for n in names], cov[np.ix_(free, free)])] if names else [])
+    perspective_independent = {
+        "xa": Normal(a[0], q.u_a), "ya": Normal(a[1], q.u_a), "xb": Normal(b[0], q.u_b),
+        "yb": Normal(b[1], q.u_b), "wall": Normal(1.0, max(2 * contour.wall_u, 1e-12)),
+        **{k: Normal(v, max(q.u_anchor, 1e-12)) for k, v in anchored.items()}, **fixed, **common}
+    perspective_joint = [JointNormal(names, [pose[n] for n in names], cov[np.ix_(free, free)])] if names else []
+    nuisance: tuple | None
     if model == "orthographic":
         delta_ortho = abs(v_ortho - v_persp)
-        inputs = InputSet({"p_X": Normal(p_X, math.hypot(q.u_a, q.u_b)), "p_H": Normal(plane.p_H, plane.u_p_H),
-                           "approximation": Normal(0.0, delta_ortho) if delta_ortho > 0 else 0.0, **common})
+        independent = {"p_X": Normal(p_X, math.hypot(q.u_a, q.u_b)), "p_H": Normal(plane.p_H, plane.u_p_H),
+                       "approximation": Normal(0.0, delta_ortho) if delta_ortho > 0 else 0.0, **common}
+        joint: list = []
         fn = orthographic
         nuisance = None if direction is None else (
             lambda p_across, **_: p_across, {"p_across": Normal(p_across, math.hypot(q.u_a, q.u_b))})
     else:
-        inputs = perspective_inputs
-        fn = perspective
-        nuisance = None if across_from_points(q.method, np.zeros(3), np.zeros(3), H) is None else (across, inputs)
+        independent, joint, fn = perspective_independent, perspective_joint, perspective
+        nuisance = None if across_from_points(q.method, np.zeros(3), np.zeros(3), H) is None else (
+            across, InputSet(independent, joint=joint))
+    return _FrameModel(q, model, H, contour, plane, p_X, v_ortho, v_persp, fn, independent, joint, nuisance)
+
+
+def _result(fn, inputs: InputSet, *, value_at_estimates: float, v_ortho: float, v_persp: float, reasons: list[str],
+            model_reasons: list[str], main: _FrameModel, p_X: float, confident: bool,
+            nuisance_lines: list[BudgetEntry], seed: int, edges: tuple[float, ...],
+            suffixes: dict[str, str] | None = None) -> QuantityResult:
+    """Propagate ``fn`` over ``inputs`` and state the result by the rules every measured quantity follows.
+
+    main : the frame whose image geometry the result reports (p_H, the plane's depth); p_X : the image separation
+    the resolution rule reads [px]; value_at_estimates : the model at the estimates [unit]; reasons,
+    model_reasons : what the frames say of their planes and of the model (``_FrameModel.model_reasons``).
+    """
+    q, model = main.q, main.model
+    method = main.method
     lin = propagate_linear(fn, inputs, name=q.quantity)
     # the stopping rule checks the interval reported: the shortest for the perspective model, the symmetric one
     # (the one the clause 8 check compares) for the orthographic
@@ -361,7 +426,7 @@ def measure_quantity(q: MarkedQuantity, contour: PipeContour, cert: Certificate,
     check = validate_linear(lin, mc)
     bound_low, bound_high = method.domain
     crosses = lin.interval.low < bound_low or lin.interval.high > bound_high
-    reasons = list(plane.reasons)
+    reasons = list(reasons)
     if model == "orthographic" and check.validated and not crosses:
         value, low, high, how, k, u = lin.value, lin.interval.low, lin.interval.high, "linear, k = 1.96 (validated by Monte Carlo)", lin.k, lin.u
     else:
@@ -370,15 +435,11 @@ def measure_quantity(q: MarkedQuantity, contour: PipeContour, cert: Certificate,
         reason = ("perspective model" if model == "perspective" else
                   f"the linear interval [{lin.interval.low:.3g}, {lin.interval.high:.3g}] {method.unit} leaves the "
                   f"quantity's domain" if crosses else "linear not validated")
-        value = v_persp if model == "perspective" else v_ortho
+        value = value_at_estimates
         low, high, how, k, u = mc.shortest.low, mc.shortest.high, f"Monte Carlo, shortest 95 % ({reason})", math.nan, mc.u
         if model == "orthographic" and crosses:
             reasons.append(f"Monte Carlo interval reported: {reason}")
-    if model == "orthographic" and abs(v_ortho - v_persp) > 0.1 * max(abs(v_persp), 1e-9):
-        where = ("in the feature's cross-section: the camera is not square to it" if method.extent in IN_SECTION else
-                 "the feature is not in a cross-section plane square to the camera")
-        reasons.append(f"orthographic model off by {abs(v_ortho - v_persp):.3g} {method.unit} against the perspective "
-                       f"model {where}")
+    reasons += model_reasons
     below_resolution = p_X < RESOLUTION_PX      # in mm or % alike: the value is then below its interval's low end
     if below_resolution:
         reasons.append(f"below the image's resolution: the marks are {p_X:.2g} px apart along the measured extent "
@@ -387,13 +448,37 @@ def measure_quantity(q: MarkedQuantity, contour: PipeContour, cert: Certificate,
         # one warning: the warnings column joins reasons with "; "
         reasons.append(f"Monte Carlo not converged: the interval's endpoints were not stable to 2 significant digits "
                        f"of u within {mc.trials} trials (JCGM 101 7.9), so their last digit is uncertain")
-    budget = _budget(lin, q.origin) + ([] if nuisance is None else [_across_line(*nuisance, model)])
+    budget = _budget(lin, q.origin, suffixes) + nuisance_lines
+    plane = main.plane
     return QuantityResult(
         model=model, method=q.method, unit=method.unit, value=float(value), u=float(u), U95=float(max(high - value, value - low)),
         low=float(low), high=float(high), interval=how, k=float(k), mc_trials=mc.trials, mc_seed=mc.seed,
         linear_validated=check.validated, d_low=check.d_low, d_high=check.d_high, delta=check.delta,
-        p_H_px=plane.p_H, u_p_H_px=plane.u_p_H, SC_mm_per_px=H / plane.p_H, p_X_px=p_X,
-        plane_depth_mm=plane.depth * H, orthographic_value=v_ortho, perspective_value=v_persp,
-        confident=plane.confident and contour.confident, reasons=tuple(dict.fromkeys(reasons)), budget=budget,
+        p_H_px=plane.p_H, u_p_H_px=plane.u_p_H, SC_mm_per_px=main.H / plane.p_H, p_X_px=p_X,
+        plane_depth_mm=plane.depth * main.H, orthographic_value=v_ortho, perspective_value=v_persp,
+        confident=confident, reasons=tuple(dict.fromkeys(reasons)), budget=budget,
         extent=method.extent, below_resolution=below_resolution, mc_converged=mc.converged,
         class_edges=[float(e) for e in edges], class_edges_cdf=edges_cdf)
+
+
+def measure_quantity(q: MarkedQuantity, contour: PipeContour, cert: Certificate, *, H: float, tolerance: float,
+                     model: str = "perspective", seed: int = 1, edges: tuple[float, ...] = ()) -> QuantityResult:
+    """Measure one marked quantity with ``model`` ("orthographic" or "perspective").
+
+    contour : the pipe contour of the marks' frame (``pipeline.vision.video.pipe_contour``)
+    H, tolerance : the header's nominal height and the half-width of its tolerance [mm]
+    seed : seed of the Monte Carlo runs (recorded in the result)
+    edges : class edges of the grading scheme [unit of the quantity]; the result gives the share of the
+        Monte Carlo draws below each (``class_edges_cdf``), from which the class probabilities are computed
+    Raises MeasurementError when the marks cannot be placed on the pipe.
+    """
+    return _measure_frame(_frame_model(q, contour, cert, H=H, tolerance=tolerance, model=model, seed=seed), seed, edges)
+
+
+def _measure_frame(frame: _FrameModel, seed: int, edges: tuple[float, ...]) -> QuantityResult:
+    """The result of one frame's model: ``measure_quantity``, and ``measure_over_frames`` with one view."""
+    nuisance = [] if frame.nuisance is None else [_across_line(*frame.nuisance, frame.model)]
+    return _result(frame.fn, frame.inputs, value_at_estimates=frame.value, v_ortho=frame.v_ortho,
+                   v_persp=frame.v_persp, reasons=list(frame.plane.reasons), model_reasons=frame.model_reasons,
+                   main=frame, p_X=frame.p_X, confident=frame.plane.confident and frame.contour.confident,
+                   nuisance_lines=nuisance, seed=seed, edges=edges)

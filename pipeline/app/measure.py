@@ -20,6 +20,7 @@ from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Callable
 
+import cv2
 import numpy as np
 
 from pipeline import __version__
@@ -29,9 +30,11 @@ from pipeline.formats.marks import check_marks_in_frame
 from pipeline.core.errors import MeasurementError, PipegaugeError
 from pipeline.vision.video.overlay_ocr import OverlayReader
 from pipeline.reports.thumbnail import THUMBNAIL_WIDTH_PX, measurement_thumbnail
-from pipeline.vision.video.pipe_contour import contours_at_frames
+from pipeline.vision.video.pipe_contour import contours_at_frames, window_frames
+from pipeline.vision.contour.joint_ends import follow_joint
 from pipeline.vision.video.reader import read_frame
 from pipeline.measurement.automatic import measurable_automatically, measure_automatic
+from pipeline.measurement.joints import ANGULAR_NOT_MEASURED, measurable_joint, measure_joint, step_clock
 from pipeline.measurement.marked import marked_quantity
 from pipeline.measurement.quantity import MODELS, MarkedQuantity, QuantityResult, measure_quantity
 from pipeline.measurement.wall import contour_under
@@ -127,11 +130,15 @@ def measure_package(folder: str | os.PathLike, *, certificates: str | os.PathLik
         by_frame[m.frame].append(m)
     automatic = {o.row: _automatic_frame(o, [m for m in marks if m.row == o.row], ingest.track, info)
                  for o in by_row.values() if measurable_automatically(o)}
-    frames = sorted({f for f in [*by_frame, *(f for f in automatic.values() if f is not None)] if 0 <= f < info.frame_count})
+    joints = {o.row: _automatic_frame(o, [m for m in marks if m.row == o.row], ingest.track, info)
+              for o in by_row.values() if measurable_joint(o)}
+    frames = sorted({f for f in [*by_frame, *(f for f in [*automatic.values(), *joints.values()] if f is not None)]
+                     if 0 <= f < info.frame_count})
     t0 = time.perf_counter()
     say(f"{manifest.package_id}: pipe contours at {len(frames)} frame(s)")
     contours = contours_at_frames(manifest.video, frames, ingest.track, und, header.shape, height_mm=header.height_mm,
-                                  tolerance_mm=header.height_tolerance_mm, mask=mask, ideal_frames=ideal_frames)
+                                  tolerance_mm=header.height_tolerance_mm, mask=mask, ideal_frames=ideal_frames,
+                                  keep_windows=[f for f in joints.values() if f is not None])
     t_contour = time.perf_counter() - t0
 
     def under(obs: Observation, contour):
@@ -229,6 +236,35 @@ def measure_package(folder: str | os.PathLike, *, certificates: str | os.PathLik
         except PipegaugeError as exc:
             row.update(status="error", error=str(exc))
         result.measurements.append(row)
+    for r, found in sorted(joints.items()):
+        obs = by_row[r]
+        row = _automatic_base(obs, found, ingest.track, model)
+        try:
+            if found is None or found not in contours:
+                raise MeasurementError(f"row {r}: no frame for its video time or chainage")
+            t0 = time.perf_counter()
+            # the camera's approach: the frames of the contour's window, decoded once with it; the logged frame first
+            approach = [(i, cv2.cvtColor(ideal_frames[i], cv2.COLOR_BGR2GRAY), _chainage_at(ingest.track, i)[0])
+                        for i in window_frames(ingest.track, found) if i in ideal_frames]
+            contour = under(obs, contours[found])
+            sightings, _ = follow_joint(approach, contour.view, header.height_mm, mask=mask)
+            qs, res = measure_joint(obs, sightings, contour, cert, H=header.height_mm,
+                                    tolerance=header.height_tolerance_mm, model=model,
+                                    seed=_seed(manifest.package_id, r, "Q1 contour"), edges=edges(obs, "Q1"))
+            t_measure += time.perf_counter() - t0
+            nearest = sightings[0].frame
+            chainage, u_chainage = _chainage_at(ingest.track, nearest)
+            row.update(_quantity_fields(res), u_mark_px=qs[0].u_a, frame=nearest, chainage_m=chainage,
+                       u_chainage_m=u_chainage)
+            if obs.char1 == "B":
+                row.update(warnings="; ".join(w for w in (f"largest step at {step_clock(sightings):.0f} o'clock "
+                                                          f"(from {len(sightings)} frame(s))", row.warnings) if w))
+            if not res.confident:       # a joint found but not trusted is not a measurement: no grade, no log check
+                row.update(status="unmeasured", error="found, not measured: " + "; ".join(res.reasons))
+            result.thumbnails.append(_thumbnail(ideal(nearest), contours[found], qs[0], r, nearest, "contour"))
+        except PipegaugeError as exc:
+            row.update(status="error", error=str(exc))
+        result.measurements.append(row)
     result.measurements += unmarked_quantities(by_row.values(), result.measurements, model)
     add_verdicts(result, header, observations, ingest.track)
     # what the image alone could not give is reported on its row, but the logged quantities decide the status
@@ -259,9 +295,10 @@ def unmarked_quantities(observations, measured: list[MeasurementRecord], model: 
             spec = obs.quantification(quantity)
             if spec is None or spec.method_for(obs.char2 or "") is None or (obs.row, quantity) in done:
                 continue
+            why = ANGULAR_NOT_MEASURED if (obs.code, obs.char1) == ("BAJ", "C") else UNMARKED
             rows.append(MeasurementRecord(
                 row=obs.row, quantity=quantity, source="marks", code=obs.code, char1=obs.char1, char2=obs.char2,
-                model=model, distance_m=obs.distance_m, operator_value=logged, status="unmeasured", error=UNMARKED))
+                model=model, distance_m=obs.distance_m, operator_value=logged, status="unmeasured", error=why))
     return rows
 
 

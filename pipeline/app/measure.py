@@ -34,7 +34,8 @@ from pipeline.vision.video.pipe_contour import contours_at_frames, window_frames
 from pipeline.vision.contour.joint_ends import follow_joint
 from pipeline.vision.video.reader import read_frame
 from pipeline.measurement.automatic import measurable_automatically, measure_automatic
-from pipeline.measurement.joints import ANGULAR_NOT_MEASURED, measurable_joint, measure_joint, step_clock
+from pipeline.measurement.joints import (ANGULAR_NOT_MEASURED, found_not_measured, measurable_joint, measure_joint,
+                                         step_clock)
 from pipeline.measurement.marked import marked_quantity
 from pipeline.measurement.quantity import MODELS, MarkedQuantity, QuantityResult, measure_quantity
 from pipeline.measurement.wall import contour_under
@@ -259,8 +260,9 @@ def measure_package(folder: str | os.PathLike, *, certificates: str | os.PathLik
             if obs.char1 == "B":
                 row.update(warnings="; ".join(w for w in (f"largest step at {step_clock(sightings):.0f} o'clock "
                                                           f"(from {len(sightings)} frame(s))", row.warnings) if w))
-            if not res.confident:       # a joint found but not trusted is not a measurement: no grade, no log check
-                row.update(status="unmeasured", error="found, not measured: " + "; ".join(res.reasons))
+            why = found_not_measured(res)
+            if why is not None:         # a joint found but not trusted is not a measurement: no grade, no log check
+                row.update(status="unmeasured", error=why)
             result.thumbnails.append(_thumbnail(ideal(nearest), contours[found], qs[0], r, nearest, "contour"))
         except PipegaugeError as exc:
             row.update(status="error", error=str(exc))

@@ -33,7 +33,8 @@ from pipeline.vision.contour import PipeContour
 from pipeline.vision.contour.joint_ends import JointSighting, _wall
 from pipeline.vision.contour.view import PipeView
 
-__all__ = ["JOINT_CHARS", "ORIGIN", "ANGULAR_NOT_MEASURED", "joint_points", "measure_joint", "measurable_joint"]
+__all__ = ["JOINT_CHARS", "ORIGIN", "ANGULAR_NOT_MEASURED", "joint_points", "measure_joint", "measurable_joint",
+           "found_not_measured", "step_clock"]
 
 JOINT_CHARS = {"A": "axial", "B": "step"}
 ORIGIN = "joint ends fit"
@@ -118,6 +119,11 @@ def measure_joint(obs: Observation, sightings: Sequence[JointSighting], contour:
         res.confident = False
     res.reasons = tuple(dict.fromkeys(reasons))
     return points, res
+
+
+def found_not_measured(res: QuantityResult) -> str | None:
+    """Why a joint found is not a measurement (stored "found, not measured": no grade, no log check), or None."""
+    return None if res.confident else "found, not measured: " + "; ".join(res.reasons)
 
 
 def step_clock(sightings: Sequence[JointSighting]) -> float:

@@ -40,7 +40,7 @@ N_ANGLES = 96
 SECTORS = 8
 MIN_DIP = 0.80             # the median profile's dip: at most this share of its baseline [1]
 MIN_EDGES = 0.5            # share of the generators on which both edges are found
-MIN_SECTORS = 6            # sectors (of SECTORS) holding edges of both rings
+MIN_SECTORS = 5            # sectors (of SECTORS) holding edges of both rings (water may hide the invert's)
 GLARE_LEVEL = 250          # grey level of a saturated pixel
 MAX_GLARE = 0.05           # share of saturated samples next to the gap above which it is said
 LOCAL = 40                 # samples (a quarter pixel each) beyond an edge where its plateau is read
@@ -433,9 +433,14 @@ def follow_joint(frames, view: PipeView, height_mm: float, *, ahead_m: tuple[flo
 
 
 def _sightings(frames, view, z_m, scale, size, n, mask, notes=None) -> list[JointSighting]:
-    """The joint at ``z_m`` [m] found in the ``n`` nearest frames with its whole ring in view."""
+    """The joint at ``z_m`` [m] found in the ``n`` nearest frames with its whole ring in view, nearest first.
+
+    A frame whose ends are not trusted (``JointEnds.problems``) is passed over for a farther one (at most two
+    more tried); when fewer than two trusted frames are found, the untrusted ones stay, so that the result says
+    why it is not trusted."""
     near = sorted(((z_m - c) / scale, fid, gray) for fid, gray, c in frames if (z_m - c) / scale > 0.5)
-    out = []
+    good: list[JointSighting] = []
+    doubtful: list[JointSighting] = []
     tries = 0
     for t, fid, gray in near:
         if not ring_in_view(view, t, size):
@@ -449,7 +454,9 @@ def _sightings(frames, view, z_m, scale, size, n, mask, notes=None) -> list[Join
                 notes.append(f"frame {fid}: no gap found at {t:.2f} H")
             continue
         # the sighting's depth follows the ends found (the chainage's own error is not the joint's position)
-        out.append(JointSighting(fid, 0.5 * (ends.near_depth + ends.far_depth), ends))
-        if len(out) == n:
+        (good if ends.confident else doubtful).append(JointSighting(fid, 0.5 * (ends.near_depth + ends.far_depth), ends))
+        if len(good) == n:
             break
-    return out
+    if len(good) >= 2:
+        return good
+    return sorted(good + doubtful, key=lambda s: s.depth)[:n]

@@ -260,9 +260,9 @@ def measure_package(folder: str | os.PathLike, *, certificates: str | os.PathLik
             if obs.char1 == "B":
                 row.update(warnings="; ".join(w for w in (f"largest step at {step_clock(sightings):.0f} o'clock "
                                                           f"(from {len(sightings)} frame(s))", row.warnings) if w))
-            why = found_not_measured(res)
-            if why is not None:         # a joint found but not trusted is not a measurement: no grade, no log check
-                row.update(status="unmeasured", error=why)
+            untrusted = found_not_measured(res)
+            if untrusted is not None:         # a joint found but not trusted is not a measurement: no grade, no log check
+                row.update(status="unmeasured", error=untrusted)
             result.thumbnails.append(_thumbnail(ideal(nearest), contours[found], qs[0], r, nearest, "contour"))
         except PipegaugeError as exc:
             row.update(status="error", error=str(exc))

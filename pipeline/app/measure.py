@@ -258,7 +258,7 @@ def measure_package(folder: str | os.PathLike, *, certificates: str | os.PathLik
             row.update(_quantity_fields(res), u_mark_px=qs[0].u_a, frame=nearest, chainage_m=chainage,
                        u_chainage_m=u_chainage)
             if obs.char1 == "B":
-                row.update(warnings="; ".join(w for w in (f"largest step at {step_clock(sightings):.0f} o'clock "
+                row.update(warnings="; ".join(w for w in (f"largest step at {round(step_clock(sightings)) or 12} o'clock "
                                                           f"(from {len(sightings)} frame(s))", row.warnings) if w))
             untrusted = found_not_measured(res)
             if untrusted is not None:         # a joint found but not trusted is not a measurement: no grade, no log check

@@ -26,7 +26,6 @@ import numpy as np
 from pipeline.camera import Certificate
 from pipeline.core.errors import MeasurementError
 from pipeline.domain.records import Observation
-from pipeline.maths.profiles import theta_to_clock
 from pipeline.measurement.frames import measure_over_frames
 from pipeline.measurement.quantity import MarkedQuantity, QuantityResult
 from pipeline.vision.contour import PipeContour
@@ -131,5 +130,6 @@ def found_not_measured(res: QuantityResult) -> str | None:
 
 
 def step_clock(sightings: Sequence[JointSighting]) -> float:
-    """The clock position of the largest step [h] (where the far pipe's end stands into the pipe), nearest frame."""
-    return theta_to_clock(math.atan2(-sightings[0].ends.step[1], -sightings[0].ends.step[0]))
+    """The clock position of the largest step, 1-12 [h] (where the far pipe's end stands into the pipe), nearest
+    frame."""
+    return sightings[0].ends.step_clock

@@ -81,7 +81,8 @@ class JointEnds:
     def step_clock(self) -> float:
         """The clock position where the far end stands into the pipe most (opposite its displacement) [h]."""
         s = self.step
-        return theta_to_clock(math.atan2(-s[1], -s[0]))
+        clock = theta_to_clock(math.atan2(-s[1], -s[0]))
+        return clock if clock >= 0.5 else clock + 12.0         # 12, not 0
 
     @property
     def confident(self) -> bool:

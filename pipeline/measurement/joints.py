@@ -69,8 +69,11 @@ def joint_points(obs: Observation, sighting: JointSighting, view: PipeView,
     u_img = math.hypot(cert.image_coordinate_u_px, EDGE_U_PX)
     if obs.char1 == "A":
         u_img = math.hypot(cert.image_coordinate_u_px, GAP_EDGE_U_PX)
-        # across from the step (where it does not move the far end's edge), the higher side: above any water
+        # across from the step, the higher side (above any water), where the far pipe's wall crosses the nominal
+        # one: the model places both points on the nominal wall, and a far point standing off it by d would move
+        # along the axis by d times its depth over its reach (a step of 8 % of H: 1 % of H off at 90 degrees)
         side = max((direction + math.pi / 2, direction - math.pi / 2), key=math.sin)
+        side = _on_nominal(view.shape, side, np.asarray(e.far_centre) - np.asarray(e.near_centre))
         wall = _wall(view.shape, np.array([side]))[0]
         a = view.project(np.array([[*(wall + e.near_centre), e.near_depth]]))[0]
         b = view.project(np.array([[*(wall + e.far_centre), e.far_depth]]))[0]
@@ -90,6 +93,15 @@ def joint_points(obs: Observation, sighting: JointSighting, view: PipeView,
     u_b = math.hypot(u_step * px_per_h, u_img)
     return MarkedQuantity("BAJ", "B", "Q1", "step", (float(a[0]), float(a[1])), (float(b[0]), float(b[1])),
                           u_a, u_b, origin=ORIGIN)
+
+
+def _on_nominal(shape: str, near: float, shift: np.ndarray) -> float:
+    """The angle [rad] within 40 degrees of ``near`` where the profile shifted by ``shift`` [H] crosses the
+    unshifted one (its point there lies on the nominal wall)."""
+    angles = near + np.radians(np.linspace(-40.0, 40.0, 801))
+    pts = _wall(shape, angles) + shift
+    off = np.abs(np.hypot(pts[:, 0], pts[:, 1]) - np.hypot(*_wall(shape, np.arctan2(pts[:, 1], pts[:, 0])).T))
+    return float(angles[int(np.argmin(off))])
 
 
 def measure_joint(obs: Observation, sightings: Sequence[JointSighting], contour: PipeContour, cert: Certificate, *,

@@ -15,7 +15,12 @@ for a graded quantity; ``pipeline.judgement.verdicts.log_check``).
 
 Prints the false-alarm rate on honest logs (target <= 5 %), the detection
 rate of logged errors larger than 2 U95 and larger than the resolution
-(target >= 90 %), and per size; then, for the graded quantities (VSA 2023),
+(target >= 90 %), and per size; then a table of operator behaviours not
+tied to U95 (honest logs rounded to the unit's step and to a coarser one;
+logs one class off, off by a fixed amount in mm or %, off by a fixed share
+of the value), each family's verdict shares with Wilson 95 % intervals and
+n, the false-accusation rate (honest logs called "disagrees") and the
+detection rate (wrong logs called "disagrees"); then, for the graded quantities (VSA 2023),
 how often the true class has probability >= 5 % (target >= 95 %) and how
 often the most probable class and the honest log's class are the true one.
 
@@ -41,6 +46,7 @@ from pipeline.judgement.grading import LIKELY, applicable_bands, class_index, cl
 from pipeline.judgement.grading.probability import result_cdf  # noqa: E402
 from pipeline.judgement.verdicts.log_check import (P_AGREE, P_DISAGREE, RESOLUTION, TOLERANCE_STEPS,  # noqa: E402
                                                     UNTRUSTED_INFLATION, check_logged)
+from coverage_stats import wilson  # noqa: E402
 
 ERROR_SIZES = (0.5, 1.0, 2.0, 3.0, 5.0)
 _FIELDS = ("unit", "value", "u", "U95", "low", "high", "k", "mc_trials", "confident")
@@ -148,10 +154,32 @@ def log_checks(cases, rng) -> None:
 
 
 FIXED_ERRORS = {"mm": (2.0, 5.0, 10.0), "%": (5.0, 10.0)}       # operator errors of a fixed size, per unit
+RELATIVE_ERRORS = (0.2, 0.5)        # operator errors of a fixed share of the value (by eye: the samples' logs, 20 %)
+COARSE_STEPS = {"mm": 5.0, "%": 10.0}   # an honest operator rounding coarser than the unit's default step
+
+
+def _family_row(name: str, honest: bool, verdicts: list[str]) -> str:
+    """One Markdown row: n, the share of each verdict with its Wilson 95 % interval."""
+    n = len(verdicts)
+
+    def share(v: str) -> str:
+        k = verdicts.count(v)
+        lo, hi = wilson(k, n)
+        return f"{100 * k / n:.1f} [{100 * lo:.1f}, {100 * hi:.1f}]"
+
+    what = "false accusation" if honest else "detection"
+    return f"| {name} | {'honest' if honest else 'wrong'} | {n} | {share('agrees')} | {share('undecided')} | " \
+           f"{share('disagrees')} ({what}) |"
 
 
 def operator_errors(cases, rng) -> None:
-    """Logs wrong in ways that are not multiples of the measurement's U95: one class off, off by a fixed amount."""
+    """Verdicts per family of operator behaviour, none tied to the measurement's U95 (module docstring).
+
+    Honest families: the truth rounded to the unit's step, or to a coarser step an operator may use; their
+    "disagrees" is a false accusation. Wrong families (the log off the honest rounding): one class off, off by a
+    fixed amount in the unit, off by a fixed share of the value; their "disagrees" is a detection. Each share with
+    its Wilson 95 % interval and n.
+    """
     s = scheme()
 
     def check(c, lv):
@@ -160,7 +188,17 @@ def operator_errors(cases, rng) -> None:
                             cdf=result_cdf(c["value"], c["u"], c["low"], c["high"], c["k"]),
                             class_range=class_range(bands, lv, len(s.classes)) if bands else None).verdict
 
-    print("\noperator errors not tied to U95 (verdict shares over the logs; disagrees is a detection):")
+    def clip(c, lv):
+        return min(max(lv, 0.0), 100.0) if c["unit"] == "%" else max(lv, 0.0)
+
+    rows: list[tuple[str, bool, list[str]]] = []
+    for unit in ("mm", "%"):
+        r = RESOLUTION[unit]
+        rows.append((f"honest, {unit} rounded to {r:g} {unit} (the unit's step)", True,
+                     [check(c, _round(c["truth"], r)) for c in cases if c["unit"] == unit]))
+    for unit, step in COARSE_STEPS.items():
+        rows.append((f"honest, {unit} rounded to {step:g} {unit} (coarser than the step)", True,
+                     [check(c, _round(c["truth"], step)) for c in cases if c["unit"] == unit]))
     one_class = []
     for c in cases:
         bands, _ = applicable_bands(s, c["code"], c["char1"], c["unit"], c["height_mm"], c["material"])
@@ -175,28 +213,44 @@ def operator_errors(cases, rng) -> None:
         lv = r * math.ceil(side / r) if side == hi else r * math.floor((side - 1e-9) / r)
         if class_index(bands, lv, len(s.classes)) == class_index(bands, c["truth"], len(s.classes)):
             continue
+        if abs(lv - c["truth"]) <= TOLERANCE_STEPS * r:     # the honest rounding itself crosses the edge: not wrong
+            continue
         one_class.append(check(c, lv))
-    _shares("one class off (the nearest value across a class edge, rounded)", one_class)
+    rows.append(("one class off (the nearest value across a class edge, rounded)", False, one_class))
     for unit, sizes in FIXED_ERRORS.items():
         for size in sizes:
+            r = RESOLUTION[unit]
             got = []
             for c in cases:
                 if c["unit"] != unit:
                     continue
-                r = RESOLUTION[unit]
-                lv = _round(c["truth"] + rng.choice((-1.0, 1.0)) * size, r)
-                if unit == "%":
-                    lv = min(max(lv, 0.0), 100.0)
-                if lv != _round(c["truth"], r):
+                lv = clip(c, _round(c["truth"] + rng.choice((-1.0, 1.0)) * size, r))
+                if abs(lv - c["truth"]) > TOLERANCE_STEPS * r:      # wrong: not the truth to its step
                     got.append(check(c, lv))
-            _shares(f"off by {size:g} {unit}, rounded", got)
+            rows.append((f"off by {size:g} {unit}, rounded to {r:g} {unit}", False, got))
+    for share in RELATIVE_ERRORS:
+        got = []
+        for c in cases:
+            r = RESOLUTION[c["unit"]]
+            lv = clip(c, _round(c["truth"] * (1.0 + rng.choice((-1.0, 1.0)) * share), r))
+            if abs(lv - c["truth"]) > TOLERANCE_STEPS * r:
+                got.append(check(c, lv))
+        rows.append((f"off by {100 * share:g} % of the value, rounded to the step", False, got))
 
-
-def _shares(label: str, verdicts: list[str]) -> None:
-    n = len(verdicts)
-    if n:
-        print(f"  {label}: {n} logs; disagrees {100 * verdicts.count('disagrees') / n:.1f} %, undecided "
-              f"{100 * verdicts.count('undecided') / n:.1f} %, agrees {100 * verdicts.count('agrees') / n:.1f} %")
+    print("\noperator behaviour not tied to U95: verdict shares [%] with Wilson 95 % intervals; \"disagrees\" is a "
+          "false accusation of an honest log, a detection of a wrong one")
+    print("\n| family | log | n | agrees | undecided | disagrees |\n|---|---|---|---|---|---|")
+    for name, honest, verdicts in rows:
+        if verdicts:
+            print(_family_row(name, honest, verdicts))
+    for what, keep in (("false-accusation rate (honest logs called disagrees), logs to the unit's step",
+                        lambda name, h: h and "the unit's step" in name),
+                       ("false-accusation rate, all honest families", lambda name, h: h),
+                       ("detection rate (wrong logs called disagrees), all wrong families", lambda name, h: not h)):
+        verdicts = [v for name, h, vs in rows if keep(name, h) for v in vs]
+        k, n = verdicts.count("disagrees"), len(verdicts)
+        lo, hi = wilson(k, n)
+        print(f"\n{what}: {k} of {n}, {100 * k / n:.1f} % [{100 * lo:.1f}, {100 * hi:.1f}]")
 
 
 def grade_checks(cases) -> None:

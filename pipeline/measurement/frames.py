@@ -40,6 +40,11 @@ the inputs, so a shared input is drawn once per trial for all frames, and
 the interval, U95, class-edge shares, resolution flag, confidence and
 reasons follow ``quantity._result``, the rules of ``measure_quantity``.
 With one view the result is ``measure_quantity``'s.
+
+Left as independent between frames: the orthographic model's ``p_H`` (each
+frame's own plane; with one pose fit their errors are correlated, so the
+orthographic combination of such frames understates u: prefer the
+perspective model, whose pose is shared explicitly).
 """
 
 from __future__ import annotations
@@ -197,7 +202,10 @@ def measure_over_frames(views: Sequence[tuple[MarkedQuantity, PipeContour]], cer
     main = built[int(np.argmax(weights))]
     reasons = [f"{tag}: {r}" for f, tag in zip(built, tags) for r in f.plane.reasons]
     model_reasons = [f"{tag}: {r}" for f, tag in zip(built, tags) for r in f.model_reasons]
-    nuisance = [_across_line(*f.nuisance, model, label=f"across@{tag}", where=f", {tag}")
+    # the budget's words for a label's frames: "xa@f1234" is "..., frame 1234"; "yaw@f1+f2" "..., frames 1, 2"
+    words = {tag: f"frame {n}" for tag, n in zip(tags, numbers)}
+    words.update({t: "frames " + ", ".join(x[1:] for x in t.split("+")) for t in pose_tag if "+" in t})
+    nuisance = [_across_line(*f.nuisance, model, label=f"across@{tag}", where=f", {words[tag]}")
                 for f, tag in zip(built, tags) if f.nuisance is not None]
     return _result(over_frames, inputs,
                    value_at_estimates=float(np.dot(weights, [f.value for f in built])),
@@ -207,4 +215,4 @@ def measure_over_frames(views: Sequence[tuple[MarkedQuantity, PipeContour]], cer
                    # resolved when one frame resolves it: the combination then says more than an upper bound
                    p_X=max(f.p_X for f in built),
                    confident=all(f.plane.confident and f.contour.confident for f in built),
-                   nuisance_lines=nuisance, seed=seed, edges=edges)
+                   nuisance_lines=nuisance, seed=seed, edges=edges, suffixes=words)

@@ -41,6 +41,11 @@ is nonlinear: its value and interval are the Monte Carlo ones, with a
 budget from the linearised model beside them. An extent under
 ``RESOLUTION_PX`` in the image is flagged ``below_resolution``: only its
 upper bound says something.
+
+One frame's model and labelled inputs are built by ``_frame_model`` and a
+result is stated by ``_result``; ``measure_over_frames``
+(``pipeline.measurement.frames``) uses both for one quantity marked on
+several frames, so the two share one model and one set of rules.
 """
 
 from __future__ import annotations

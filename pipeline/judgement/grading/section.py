@@ -15,9 +15,11 @@ union lies within the Fréchet bounds
 
     max_i F_i(c) <= G(c) <= min(1, sum_i F_i(c))
 
-which the section grade states beside its independent value (``at_least_low``, ``at_least_high``): with fully
-shared errors G(c) moves towards the lower bound, so the independent value is at the pessimistic side of the
-truth for "c or worse" when the shared inputs dominate.
+which the section grade states beside its independent value (``at_least_low``, ``at_least_high``). Which way
+the independent value errs depends on the shared errors' signs: H and the certificate scale every extent alike,
+so "worse" events rise and fall together and G(c) moves towards the lower bound (the independent value is then
+pessimistic); a pose error can widen one extent and narrow another, and then G(c) can exceed it. Only the
+bounds hold for any dependence.
 
 Two observations at P(EZ0, EZ1) = (0.45, 0.55) each give P(W = EZ0) = 1 - 0.55^2 = 0.70: the section grade is
 EZ0 at 70 %, though neither observation's most probable class is EZ0.

@@ -97,12 +97,12 @@ def table(rows: list[dict]) -> list[str]:
                            + (f"{100 * inside / len(ok):.1f} % | {100 * lo:.1f}-{100 * hi:.1f} % | {np.median(z):+.2f} | "
                               f"{robust_sd(z):.2f} | {np.median(U):.1f} | "
                               f"{np.median(U300) if U300 else float('nan'):.1f} |" if ok else "- | - | - | - | - | - |"))
-    empty = [r for r in rows if not r["displaced"]]
+    empty = {(r["case"], r["codec"]) for r in rows if not r["displaced"]}
     if empty:
-        false = [r for r in empty if r["status"] != "not found"]
+        false = {(r["case"], r["codec"]) for r in rows if not r["displaced"] and r["status"] != "not found"}
         lo, hi = wilson(len(false), len(empty))
         out.append("")
-        out.append(f"false finds (no displaced joint within reach): {len(false)} of {len(empty)} "
+        out.append(f"false finds (cases with no displaced joint within reach): {len(false)} of {len(empty)} "
                    f"({100 * len(false) / len(empty):.1f} %, Wilson {100 * lo:.1f}-{100 * hi:.1f} %)")
     return out
 

@@ -172,10 +172,13 @@ def test_calibrate_then_measure_a_synthetic_package_with_the_new_certificate(ima
     truth = json.loads((package / "truth" / "truth.json").read_text())
     true = {(o["row"], q["quantity"]): q["true_value"] for o in truth["observations"] for q in o["quantities"]}
     m = read_table(data, "measurements")
-    assert len(m[m.source == "marks"]) == len(true) and (m[m.source == "marks"].status == "ok").all()
-    # the deformation and the connection also from the image alone (the connection may be found, not measured)
-    assert list(m[m.source == "contour"].code) == ["BAA", "BCA"]
-    inside = [r.low <= true[(r.row, r.quantity)] <= r.high for r in m.itertuples() if r.status == "ok"]
+    marked = m[m.source == "marks"]
+    assert len(marked) == len(true) and (marked.status == "ok").all()
+    # the deformation, the connection, and the displaced joint's gap and step (issue 34) also from the image alone
+    # (the connection and the joint may be found, not measured)
+    assert sorted(m[m.source == "contour"].code) == ["BAA", "BAJ", "BAJ", "BCA"]
+    m = m[m.status == "ok"]                  # found but not trusted: stored without a value or a verdict
+    inside = [r.low <= true[(r.row, r.quantity)] <= r.high for r in m.itertuples()]
     assert sum(inside) >= len(inside) - 1, list(zip(m.row, m.quantity, m.value, m.low, m.high))
     # The calibrated certificate's uncertainty enters every budget.
     assert all(any(b["label"] == "certificate" and b["u"] > 0 for b in budget) for budget in m.budget)

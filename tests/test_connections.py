@@ -127,7 +127,7 @@ class _Track:
 
 @pytest.mark.slow
 def test_night_stores_found_not_measured_without_a_value(lateral):
-    """The night's row of an automatic result that is not confident: status error, "found, not measured" and
+    """The night's row of an automatic result that is not confident: status unmeasured, "found, not measured" and
     its reasons, no value (so no grade and no log check read it)."""
     from types import SimpleNamespace
 
@@ -141,6 +141,6 @@ def test_night_stores_found_not_measured_without_a_value(lateral):
     row = _measure_feature(obs, [(0, 1.6), (1, 2.3)], _Track(), "perspective", contours={0: doubtful, 1: doubtful},
                            under=lambda o, c: c, ideal=lambda f: frames[f], cert=cert, header=header, mask=None,
                            seed=1, edges=(), thumbnails=[])
-    assert row.status == "error" and row.source == "contour"
+    assert row.status == "unmeasured" and row.source == "contour"
     assert row.error.startswith("found, not measured") and "too few to fix the pose" in row.error
     assert row.value is None and row.frame == 0

@@ -130,7 +130,10 @@ def test_good_bad_and_hostile_packages_in_one_night_then_nothing_new(tmp_path, e
                                       "newline-id", "é-accent", "#hash", "x y", "x_y"}
     assert (inspections.loc[list(GOOD), "status"] == "ok").all()
     good = read_table(out / "dataset", "measurements", inspection_ids=list(GOOD))
-    assert len(good) == inspections.loc[list(GOOD), "n_measurements"].sum() > 0 and (good.status == "ok").all()
+    # every stored quantity measured, but the displaced joints from the image alone: found, not trusted (issue 34)
+    measured = good[good.status == "ok"]
+    assert len(measured) == inspections.loc[list(GOOD), "n_measurements"].sum() > 0
+    assert set(good[good.status != "ok"].code) <= {"BAJ"} and (good[good.source == "marks"].status == "ok").all()
     assert "video.mp4: OpenCV cannot open this video" in inspections.loc["BAD-VIDEO", "error"]
     assert "missing column(s)" in inspections.loc["BAD-LOG", "error"]
     assert "certificate 'CAM-NOWHERE' not found" in inspections.loc["BAD-CERT", "error"]
@@ -253,8 +256,8 @@ def test_run_on_a_local_dask_cluster_with_two_workers(tmp_path, env):
     inspections = read_table(out / "dataset", "inspections")
     assert sorted(inspections.inspection_id) == sorted(GOOD) and (inspections.status == "ok").all()
     m = read_table(out / "dataset", "measurements")
-    # from the image alone: S01's BAA and BCA, S02's BDD and BAG
-    assert (m.source == "marks").sum() == 12 and (m.source == "contour").sum() == 4
+    # from the image alone: S01's BAA and BCA, S02's BDD and BAG, and each one's BAJ A and B (issue 34)
+    assert (m.source == "marks").sum() == 12 and (m.source == "contour").sum() == 8
 
 
 def test_served_deployment_on_a_real_prefect_server(tmp_path, env):

@@ -111,7 +111,7 @@ def section_digests(manifest: PackageManifest) -> dict[str, str]:
                hashlib.sha256(part.encode()).hexdigest()}
     for path in (manifest.video, manifest.marks):
         try:
-            if path.is_file():
+            if path is not None and path.is_file():
                 digests[path.resolve().relative_to(folder).as_posix()] = file_sha256(path)
         except (OSError, ValueError) as exc:
             raise PackageError(f"{path}: cannot be read ({exc})") from None

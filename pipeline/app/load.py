@@ -96,8 +96,8 @@ def load_delivery(folder: str | os.PathLike, record: InspectionRecord, *,
                 unmeasurable = str(exc)
         if unmeasurable is not None:
             raise LogOnly(unmeasurable, header, observations, log_problems)
-    if manifest.section_key is not None and not manifest.marks.is_file():
-        marks: list[Mark] = []                      # a delivery's section without marks: measured from the image
+    if manifest.marks is None or (manifest.section_key is not None and not manifest.marks.is_file()):
+        marks: list[Mark] = []                      # a package or a delivery's section without marks: measured from the image
         mark_problems: list[RowProblem] = []
     else:
         marks, mark_problems = read_marks(manifest.marks, observations)

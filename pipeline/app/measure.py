@@ -20,6 +20,7 @@ from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Callable
 
+import cv2
 import numpy as np
 
 from pipeline import __version__
@@ -29,12 +30,15 @@ from pipeline.formats.marks import check_marks_in_frame
 from pipeline.core.errors import MeasurementError, PipegaugeError
 from pipeline.vision.video.overlay_ocr import OverlayReader
 from pipeline.reports.thumbnail import THUMBNAIL_WIDTH_PX, measurement_thumbnail
-from pipeline.vision.video.pipe_contour import contours_at_frames
+from pipeline.vision.video.pipe_contour import contours_at_frames, window_frames
+from pipeline.vision.contour.joint_ends import follow_joint
 from pipeline.vision.video.reader import read_frame
 from pipeline.measurement.automatic import measurable_automatically, measure_automatic
 from pipeline.measurement.frames import measure_over_frames
 from pipeline.measurement.connections import (CONNECTION_CODES, DEPOSIT_SPAN_H, DEPOSIT_VIEW_H, FEATURE_CODES, VIEW_DEPTHS_H,
                                               measure_connection, measure_deposit)
+from pipeline.measurement.joints import (ANGULAR_NOT_MEASURED, found_not_measured, measurable_joint, measure_joint,
+                                         step_clock)
 from pipeline.measurement.marked import marked_quantity
 from pipeline.measurement.quantity import MODELS, MarkedQuantity, QuantityResult, measure_quantity
 from pipeline.measurement.wall import contour_under
@@ -119,6 +123,7 @@ def measure_package(folder: str | os.PathLike, *, certificates: str | os.PathLik
         return _failed(record, str(exc))
     manifest, header, observations, cert = delivery.manifest, delivery.header, delivery.observations, delivery.certificate
     marks, ingest, info, und, mask = delivery.marks, where.ingest, where.info, where.undistorter, where.mask
+    marks_name = manifest.marks.name if manifest.marks is not None else "marks.csv"
 
     result = InspectionResult(record, [observation_record(o) for o in observations])
     problems: list[str] = [*delivery.log_problems, *delivery.header_problems,
@@ -133,16 +138,18 @@ def measure_package(folder: str | os.PathLike, *, certificates: str | os.PathLik
         by_frame[m.frame].append(m)
     automatic = {o.row: _automatic_frame(o, [m for m in marks if m.row == o.row], ingest.track, info)
                  for o in by_row.values() if measurable_automatically(o)}
+    joints = {o.row: _automatic_frame(o, [m for m in marks if m.row == o.row], ingest.track, info)
+              for o in by_row.values() if measurable_joint(o)}
     # connections and deposits: the frames before the logged distance, decoded in the contours' pass
     features = {o.row: _feature_frames(o, ingest.track, info, header.height_mm) for o in by_row.values()
                 if o.code in FEATURE_CODES and not o.problems}
-    frames = sorted({f for f in [*by_frame, *(f for f in automatic.values() if f is not None),
+    frames = sorted({f for f in [*by_frame, *(f for f in [*automatic.values(), *joints.values()] if f is not None),
                                  *(f for views in features.values() for f, _ in views)] if 0 <= f < info.frame_count})
     t0 = time.perf_counter()
     say(f"{manifest.package_id}: pipe contours at {len(frames)} frame(s)")
     contours = contours_at_frames(manifest.video, frames, ingest.track, und, header.shape, height_mm=header.height_mm,
                                   tolerance_mm=header.height_tolerance_mm, mask=mask, ideal_frames=ideal_frames,
-                                  recorded_frames=recorded_frames)
+                                  recorded_frames=recorded_frames, keep_windows=[f for f in joints.values() if f is not None])
     t_contour = time.perf_counter() - t0
 
     def under(obs: Observation, contour):
@@ -191,7 +198,7 @@ def measure_package(folder: str | os.PathLike, *, certificates: str | os.PathLik
                         raise MeasurementError(f"row {obs.row} of the log is invalid: "
                                                + "; ".join(p.message for p in obs.problems))
                     bad = [p for g in group for p in check_marks_in_frame(g, info.width, info.height, info.frame_count,
-                                                                           manifest.marks.name)]
+                                                                           marks_name)]
                     if bad:
                         problems += [str(p) for p in bad]
                         raise MeasurementError("; ".join(str(p) for p in bad))
@@ -239,7 +246,7 @@ def measure_package(folder: str | os.PathLike, *, certificates: str | os.PathLik
         result.measurements.append(MeasurementRecord(
             row=r, quantity=quantity, source="marks", code=obs.code, char1=obs.char1, char2=obs.char2, model=model,
             distance_m=obs.distance_m, operator_value=obs.q1 if quantity == "Q1" else obs.q2, status="error",
-            error=f"its marks were refused ({manifest.marks.name}): " + "; ".join(why)))
+            error=f"its marks were refused ({marks_name}): " + "; ".join(why)))
     for r, found in sorted(automatic.items()):
         obs = by_row[r]
         row = _automatic_base(obs, found, ingest.track, model)
@@ -257,14 +264,45 @@ def measure_package(folder: str | os.PathLike, *, certificates: str | os.PathLik
         except PipegaugeError as exc:
             row.update(status="error", error=str(exc))
         result.measurements.append(row)
+    for r, found in sorted(joints.items()):
+        obs = by_row[r]
+        row = _automatic_base(obs, found, ingest.track, model)
+        try:
+            if found is None or found not in contours:
+                raise MeasurementError(f"row {r}: no frame for its video time or chainage")
+            t0 = time.perf_counter()
+            # the camera's approach: the frames of the contour's window, decoded once with it; the logged frame first
+            approach = [(i, cv2.cvtColor(ideal_frames[i], cv2.COLOR_BGR2GRAY), _chainage_at(ingest.track, i)[0])
+                        for i in window_frames(ingest.track, found) if i in ideal_frames]
+            contour = under(obs, contours[found])
+            sightings, _ = follow_joint(approach, contour.view, header.height_mm, mask=mask)
+            qs, res = measure_joint(obs, sightings, contour, cert, H=header.height_mm,
+                                    tolerance=header.height_tolerance_mm, model=model,
+                                    seed=quantity_seed(manifest.package_id, r, "Q1 contour"), edges=edges(obs, "Q1"))
+            t_measure += time.perf_counter() - t0
+            nearest = sightings[0].frame
+            chainage, u_chainage = _chainage_at(ingest.track, nearest)
+            row.update(quantity_fields(res), u_mark_px=qs[0].u_a, frame=nearest, chainage_m=chainage,
+                       u_chainage_m=u_chainage)
+            if obs.char1 == "B":
+                row.update(warnings="; ".join(w for w in (f"largest step at {round(step_clock(sightings)) or 12} o'clock "
+                                                          f"(from {len(sightings)} frame(s))", row.warnings) if w))
+            untrusted = found_not_measured(res)
+            if untrusted is not None:         # a joint found but not trusted is not a measurement: no grade, no log check
+                row.update(status="unmeasured", error=untrusted)
+            result.thumbnails.append(_thumbnail(ideal(nearest), contours[found], qs[0], r, nearest, "contour"))
+        except PipegaugeError as exc:
+            row.update(status="error", error=str(exc))
+        result.measurements.append(row)
     for r, feature_frames in sorted(features.items()):
         result.measurements.append(_measure_feature(
             by_row[r], feature_frames, ingest.track, model, contours=contours, under=under, ideal=ideal, cert=cert, header=header,
             mask=mask, seed=quantity_seed(manifest.package_id, r, "Q1 feature"), edges=edges(by_row[r], "Q1"),
             thumbnails=result.thumbnails))
+    result.measurements += unmarked_quantities(by_row.values(), result.measurements, model)
     add_verdicts(result, header, observations, ingest.track)
     # what the image alone could not give is reported on its row, but the logged quantities decide the status
-    n_bad = sum(r.status != "ok" for r in result.measurements if r.source == "marks")
+    n_bad = sum(r.status == "error" for r in result.measurements if r.source == "marks")
     record.update(status="ok" if not problems and not n_bad else "partial",
                   error=None if not problems and not n_bad else f"{len(problems)} input problem(s), {n_bad} quantity(ies) not measured",
                   n_observations=len(observations), n_measurements=sum(r.status == "ok" for r in result.measurements),
@@ -284,6 +322,31 @@ def quantity_edges(obs: Observation, quantity: str, header) -> tuple[float, ...]
     ends = tuple(e for step in logging_resolutions(logged, unit, obs.code)
                  for e in conformity_interval(logged, step)) if logged is not None else ()
     return tuple(sorted({*graded, *ends}))
+
+
+UNMARKED = ("no marks for this quantity and the image alone does not measure it: mark its two points "
+            "(marks.csv, docs/formats.md) or with `pipegauge review`")
+
+
+def unmarked_quantities(observations, measured: list[MeasurementRecord], model: str) -> list[MeasurementRecord]:
+    """A row with status ``unmeasured`` and its reason for every logged quantity that needs marks and has neither
+    marks nor a result from the image alone (nor a row already saying why not): a package without marks still
+    lists everything it could not measure. A quantity needs marks when its code has a measurement method for it.
+    """
+    done = {(r.row, r.quantity) for r in measured}
+    rows = []
+    for obs in observations:
+        if obs.problems:
+            continue                    # an invalid row is a problem of the log, listed as such
+        for quantity, logged in (("Q1", obs.q1), ("Q2", obs.q2)):
+            spec = obs.quantification(quantity)
+            if spec is None or spec.method_for(obs.char2 or "") is None or (obs.row, quantity) in done:
+                continue
+            why = ANGULAR_NOT_MEASURED if (obs.code, obs.char1) == ("BAJ", "C") else UNMARKED
+            rows.append(MeasurementRecord(
+                row=obs.row, quantity=quantity, source="marks", code=obs.code, char1=obs.char1, char2=obs.char2,
+                model=model, distance_m=obs.distance_m, operator_value=logged, status="unmeasured", error=why))
+    return rows
 
 
 def _log_only(record: InspectionRecord, why: LogOnly, t_start: float) -> InspectionResult:
@@ -406,7 +469,8 @@ def _measure_feature(obs: Observation, views: list[tuple[int, float]], track, mo
     row.update(frame=frame, chainage_m=chainage, u_chainage_m=u_chainage, a_x_px=q.a[0], a_y_px=q.a[1],
                b_x_px=q.b[0], b_y_px=q.b[1], u_mark_px=q.u_a)
     if not auto.measured:
-        row.update(status="error", confident=False, warnings="; ".join(res.reasons) or None,
+        # as a joint found but not trusted: unmeasured (no grade, no log check), the reasons said
+        row.update(status="unmeasured", confident=False, warnings="; ".join(res.reasons) or None,
                    error="found, not measured: " + "; ".join(res.reasons))
         return row
     # the frame stands before the feature on purpose: its chainage is not compared with the logged distance

@@ -304,7 +304,7 @@ class MeasurementRecord(Record):
     u_mark_px: float | None = column("float64", "px")
     confident: bool | None = column("bool")
     warnings: str | None = column("string")
-    status: str | None = column("string", doc="ok | error")
+    status: str | None = column("string", doc="ok | error | unmeasured (no marks; docs/formats.md)")
     error: str | None = column("string")
     budget: list[BudgetLine] | None = column("list<budget>")
     extent: str | None = column("string", doc="around | along | tangent | section (docs/measurement.md)")

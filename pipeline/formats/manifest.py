@@ -36,20 +36,22 @@ class PackageManifest:
     video: Path
     header: Path | None              # None when a transfer holds the header
     observations: Path | None        # None when a transfer holds the log
-    marks: Path
+    marks: Path | None               # None: the package has no marks (measured with what the image alone allows)
     transfer: Path | None = None     # an exchange file holding the header and the log (docs/formats.md)
     section: dict | None = None      # what the transfer does not hold: shape, height_mm... (header.json's fields)
     section_key: str | None = None   # which section of a transfer of several (a delivery's section; docs/formats.md)
     delivery_id: str | None = None   # the delivery folder's id, for a delivery's section
 
 
-def manifest_document(package_id: str, certificate_id: str, **files: str) -> dict:
-    """package.json's document: the ids and the files by role (``DEFAULT_FILES`` for those not given)."""
+def manifest_document(package_id: str, certificate_id: str, **files: str | None) -> dict:
+    """package.json's document: the ids and the files by role (``DEFAULT_FILES`` for those not given; a role
+    given as None is left out: ``marks=None`` for a package without marks)."""
+    named = {**DEFAULT_FILES, **files} if "transfer" not in files else files
     return {"format": FORMAT_NAME, "format_version": FORMAT_VERSION, "package_id": package_id,
-            "certificate_id": certificate_id, **({**DEFAULT_FILES, **files} if "transfer" not in files else files)}
+            "certificate_id": certificate_id, **{k: v for k, v in named.items() if v is not None}}
 
 
-def write_manifest(folder: str | os.PathLike, package_id: str, certificate_id: str, **files: str) -> Path:
+def write_manifest(folder: str | os.PathLike, package_id: str, certificate_id: str, **files: str | None) -> Path:
     """Write ``folder/package.json`` atomically (``manifest_document``); returns its path."""
     path = Path(folder) / "package.json"
     with atomic_path(path) as tmp:
@@ -62,6 +64,10 @@ def load_manifest(folder: str | os.PathLike) -> PackageManifest:
 
     With a ``transfer`` (an exchange file such as a VSA-KEK INTERLIS transfer) the header and the log come from
     it, and ``section`` gives the header's fields the transfer does not hold.
+
+    Marks are optional: without a ``marks`` field (or with ``"marks": null``) and no ``marks.csv`` in the folder the
+    package has none (``marks`` is None) and is measured with what the image alone allows; a ``marks`` file named
+    but missing is an error (the package claims marks it does not hold).
     """
     folder = Path(folder)
     path = folder / "package.json"
@@ -95,6 +101,8 @@ def load_manifest(folder: str | os.PathLike) -> PackageManifest:
             problems.append(f"field 'section': expected an object with the header's fields, got {section!r}")
             section = {}
     for key, default in names:
+        if key == "marks" and (data.get(key, "") is None or (key not in data and not (folder / default).is_file())):
+            continue                                # a package without marks
         name = data.get(key, default)
         target = (folder / str(name)).resolve()
         if not isinstance(name, str) or folder.resolve() not in target.parents:
@@ -103,14 +111,16 @@ def load_manifest(folder: str | os.PathLike) -> PackageManifest:
             problems.append(f"field {key!r}: {name!r} is not a regular file (a folder, pipe or device); nothing was "
                             "read from it: deliver the file itself")
         elif not target.is_file():
-            problems.append(f"field {key!r}: the file {name!r} is missing from the package")
+            problems.append(f"field {key!r}: the file {name!r} is missing from the package"
+                            + ("; a package without marks leaves the field out (or sets it to null)"
+                               if key == "marks" else ""))
         files[key] = folder / str(name)
     if problems:
         raise PackageError(f"{path}: " + "; ".join(problems))
     transfer = files.get("transfer")    # it holds the header and the log: no path stands for a file not there
     return PackageManifest(folder, ids["package_id"], ids["certificate_id"], video=files["video"],
                            header=None if transfer else files["header"],
-                           observations=None if transfer else files["observations"], marks=files["marks"],
+                           observations=None if transfer else files["observations"], marks=files.get("marks"),
                            transfer=transfer, section=section)
 
 

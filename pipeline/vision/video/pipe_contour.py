@@ -86,7 +86,7 @@ def contours_at_frames(path: str | os.PathLike, frames: Iterable[int], track: Ch
                        shape: str, *, height_mm: float, tolerance_mm: float, mask: np.ndarray | None = None,
                        ideal_frames: dict[int, np.ndarray] | None = None,
                        recorded_frames: dict[int, np.ndarray] | None = None,
-                       step_m: float = STEP_M) -> dict[int, PipeContour]:
+                       step_m: float = STEP_M, keep_windows: Iterable[int] = ()) -> dict[int, PipeContour]:
     """The pipe contours of several frames of one video, checked against one another
     (``pipeline.vision.contour.consensus.reconcile_windows``: the mount does not move, so the fits must agree).
 
@@ -105,6 +105,8 @@ def contours_at_frames(path: str | os.PathLike, frames: Iterable[int], track: Ch
     ``frames`` (the thumbnail shows the burned-in overlay as recorded).
     step_m : chainage step between a window's frames [m]; the default is the
     validated one (benchmarks try others: docs/speed.md).
+    keep_windows : frames of ``frames`` whose whole window's ideal images ``ideal_frames`` also receives (a
+    displaced joint followed over the camera's approach: from this one decoding, no second one).
     """
     windows = {frame: window_frames(track, frame, step_m=step_m) for frame in sorted(set(frames))}
     wall_u = wall_u_from_tolerance(height_mm, tolerance_mm)
@@ -113,12 +115,13 @@ def contours_at_frames(path: str | os.PathLike, frames: Iterable[int], track: Ch
         for i in order:
             users[i].append(frame)
     missing = {frame: set(order) for frame, order in windows.items()}
+    kept = {i for frame in keep_windows if frame in windows for i in windows[frame]}
     candidates: dict[int, object] = {}
 
     def work(sample):
         index, bgr = sample
         ideal = undistorter.frame(bgr)
-        if ideal_frames is not None and index in windows:
+        if ideal_frames is not None and (index in windows or index in kept):
             ideal_frames[index] = ideal
         if recorded_frames is not None and index in windows:
             recorded_frames[index] = bgr

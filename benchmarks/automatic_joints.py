@@ -1,0 +1,150 @@
+"""Displaced joints (BAJ A gap, BAJ B step) measured from the image alone, against generated truth.
+
+Each case (``pipeline.synth.joint_cases``: DN 150-1000, circular and egg, camera offsets and tilts, water
+0-20 %) renders the camera's approach to one displaced joint as a short video, delivered in OpenCV's MPEG-4
+Part 2 or re-encoded as H.264 (the codecs take turns); the video is decoded once, the pose fitted to all its frames
+(``detect_contour``, the reference frame first), the joint followed over the approach (``follow_joint``) and
+its gap and step measured over its nearest frames (``measure_joint``, perspective model). Cases without a
+displaced joint (no joint within reach of the approach) give the false-find rate.
+
+Prints, per quantity and codec (and for DN >= 200 apart): the share found and measured (confident), the
+coverage of the confident results with its Wilson interval, median z and robust SD of z, median U95 (all and
+DN 300), and the false-find rate; ``--json FILE`` keeps every case's row.
+
+    nice -n 10 python benchmarks/automatic_joints.py --cases 150 --empty 50 --work /tmp/joint-cases
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from dataclasses import asdict
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from pipeline.camera.undistort import Undistorter
+from pipeline.core.errors import PipegaugeError
+from pipeline.domain.records import Observation
+from pipeline.formats.certificate import load_certificate
+from pipeline.measurement.joints import measure_joint
+from pipeline.synth.joint_cases import random_case, read_truth, write_case
+from pipeline.vision.contour import detect_contour
+from pipeline.vision.contour.detect import wall_u_from_tolerance
+from pipeline.vision.contour.joint_ends import follow_joint
+from pipeline.vision.video.reader import iter_frames
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from coverage_stats import robust_sd, wilson  # noqa: E402
+
+SAMPLES = Path(__file__).resolve().parent.parent / "sample_videos"
+CODECS = {"mpeg4": None, "h264": "h264"}
+
+
+def _obs(char1: str) -> Observation:
+    return Observation(1, 0.0, "BAJ", char1, "", None, "mm", None, "", None, None, True, "", None, "", "", {})
+
+
+def measure_case(video: Path, truth: dict, cert) -> list[dict]:
+    """Both quantities of one encoding of a case: rows with the truth, the result or why none."""
+    case = truth["case"]
+    H = case["height_mm"]
+    und = Undistorter(cert, cert.image_width_px, cert.image_height_px)
+    grays = [cv2.cvtColor(und.frame(f), cv2.COLOR_BGR2GRAY) for _, f in iter_frames(video)]     # one decoding
+    chain = truth["frames_chainage_m"][:len(grays)]
+    contour = detect_contour(grays, und.K, case["shape"], wall_u=wall_u_from_tolerance(H, 0.0))
+    frames = [(i, g, c) for i, (g, c) in enumerate(zip(grays, chain))]
+    t0 = time.perf_counter()
+    sightings, notes = follow_joint(frames, contour.view, H)
+    rows = []
+    for char1, truth_value in (("A", truth["gap_mm"]), ("B", truth["step_mm"])):
+        row = {"case": case["case_id"], "H": H, "shape": case["shape"], "displaced": case["displaced"],
+               "quantity": char1, "truth": truth_value, "n_frames": len(sightings), "water": case["water_percent"],
+               "contour_confident": contour.confident}
+        try:
+            _, res = measure_joint(_obs(char1), sightings, contour, cert, H=H, tolerance=0.0, seed=7)
+            row.update(status="measured" if res.confident else "found, not measured", value=res.value, u=res.u,
+                       U95=res.U95, low=res.low, high=res.high, reasons="; ".join(res.reasons))
+        except PipegaugeError as exc:
+            row.update(status="not found", reasons=str(exc))
+        row["seconds"] = time.perf_counter() - t0
+        rows.append(row)
+    return rows
+
+
+def table(rows: list[dict]) -> list[str]:
+    out = ["| quantity | codec | DN | n | found | measured | coverage | Wilson 95 % | median z | robust SD z | "
+           "median U95 [mm] | median U95 DN300 [mm] |", "|---|---|---|---|---|---|---|---|---|---|---|---|"]
+    for q in ("A", "B"):
+        for codec in (*CODECS, "both"):
+            for dn in ("all", ">=200"):
+                g = [r for r in rows if r["displaced"] and r["quantity"] == q and (codec == "both" or r["codec"] == codec)
+                     and (dn == "all" or r["H"] >= 200)]
+                if not g:
+                    continue
+                found = [r for r in g if r["status"] != "not found"]
+                ok = [r for r in g if r["status"] == "measured"]
+                inside = sum(r["low"] <= r["truth"] <= r["high"] for r in ok)
+                lo, hi = wilson(inside, len(ok))
+                z = np.array([(r["value"] - r["truth"]) / r["u"] for r in ok if r["u"] > 0])
+                U = [r["U95"] for r in ok]
+                U300 = [r["U95"] for r in ok if r["H"] == 300]
+                out.append(f"| BAJ {q} | {codec} | {dn} | {len(g)} | {100 * len(found) / len(g):.0f} % | "
+                           f"{100 * len(ok) / len(g):.0f} % | "
+                           + (f"{100 * inside / len(ok):.1f} % | {100 * lo:.1f}-{100 * hi:.1f} % | {np.median(z):+.2f} | "
+                              f"{robust_sd(z):.2f} | {np.median(U):.1f} | "
+                              f"{np.median(U300) if U300 else float('nan'):.1f} |" if ok else "- | - | - | - | - | - |"))
+    empty = {(r["case"], r["codec"]) for r in rows if not r["displaced"]}
+    if empty:
+        false = {(r["case"], r["codec"]) for r in rows if not r["displaced"] and r["status"] != "not found"}
+        lo, hi = wilson(len(false), len(empty))
+        out.append("")
+        out.append(f"false finds (cases with no displaced joint within reach): {len(false)} of {len(empty)} "
+                   f"({100 * len(false) / len(empty):.1f} %, Wilson {100 * lo:.1f}-{100 * hi:.1f} %)")
+    return out
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--cases", type=int, default=10, help="cases with a displaced joint (default 10)")
+    ap.add_argument("--empty", type=int, default=4, help="cases without one (default 4)")
+    ap.add_argument("--seed", type=int, default=34)
+    ap.add_argument("--work", type=Path, default=Path("/tmp/joint-cases"), help="where the cases' videos are kept")
+    ap.add_argument("--json", type=Path, help="write every row here")
+    ap.add_argument("--table", type=Path, help="only print the table of rows kept by --json")
+    args = ap.parse_args()
+    if args.table:
+        print("\n".join(table(json.loads(args.table.read_text()))))
+        return
+    cert = load_certificate(SAMPLES / "certificates" / "SYN-720x576.json")
+    rng = np.random.default_rng(args.seed)
+    cases = [random_case(rng, f"J{i:03d}", seed=i) for i in range(args.cases)]
+    cases += [random_case(rng, f"E{i:03d}", displaced=False, seed=1000 + i) for i in range(args.empty)]
+    rows: list[dict] = []
+    t0 = time.perf_counter()
+    for n, case in enumerate(cases, start=1):
+        folder = args.work / case.case_id
+        # the codecs take turns (each case rendered once, delivered in one of them): half the CPU of both
+        codec = "h264" if n % 2 == 0 else "mpeg4"
+        video = folder / "video.mp4" if codec == "mpeg4" else folder / f"{case.case_id}-h264.mp4"
+        if not video.is_file() or not (folder / "truth.json").is_file() \
+                or read_truth(folder)["case"] != json.loads(json.dumps(asdict(case))):
+            write_case(case, cert, args.work, codecs=(CODECS[codec],))
+        truth = read_truth(folder)
+        for row in measure_case(video, truth, cert):
+            rows.append({**row, "codec": codec})
+        if args.json:                    # kept as it goes: a long run's rows survive an interruption
+            args.json.write_text(json.dumps(rows, indent=1, default=str))
+        mine = [r for r in rows if r["case"] == case.case_id]
+        print(f"{n}/{len(cases)} {case.case_id} DN{case.height_mm:.0f} {case.shape}: "
+              + ", ".join(f"{r['codec']} {r['quantity']} {r['status']} "
+                          f"{r.get('value', float('nan')):.1f}/{r['truth']:.1f}" for r in mine), file=sys.stderr)
+    print(f"{len(cases)} cases in {time.perf_counter() - t0:.0f} s")
+    print("\n".join(table(rows)))
+
+
+if __name__ == "__main__":
+    main()

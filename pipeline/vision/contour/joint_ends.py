@@ -1,0 +1,463 @@
+"""A joint's two pipe ends found from the fitted camera pose alone (BAJ displaced joint without marks).
+
+A joint is a dark gap between two pipe ends, with the socket's bright end face just before it (docs/contour.md).
+With the camera's pose fitted to the pipe's rings (``PipeView``), every wall generator (the wall at one angle
+around the profile, all depths) is a straight line in the ideal image through the vanishing point, and its
+depth t [H] along that line is known. So:
+
+1. the image is sampled along the generators of ``N_ANGLES`` angles, uniformly in 1 / t (about half a pixel a
+   step), and the angles' median profile shows each joint as a dip; the dip whose gap is widest in the depth
+   range asked for is the joint (none when no dip is deep enough: not found);
+2. on every generator the gap's two edges are found where the profile crosses half-way between the gap's floor
+   and the plateau on each side (the renderer's and a lens's blur are symmetric, so the half level is the edge);
+3. the near edges are a ring of the near pipe's end, the far edges a ring of the far pipe's end, which may be
+   displaced: each ring is carried along its rays into one plane and fitted with the header's profile, scaled
+   along the pipe (its depth) and shifted across it (its centre) [H]. The gap along the axis is the difference
+   of the depths; the radial step the difference of the centres, largest at the clock position it points away
+   from (where the far pipe's end stands into the flow).
+
+Standard uncertainties of the rings' depths and centres come from a delete-one-sector jackknife (neighbouring
+edge points share the texture and the blur, so sectors, not points, are the independent observations). The
+pose's own uncertainty is not part of them: the measurement model adds it (``pipeline.measurement``).
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+from scipy.optimize import least_squares
+
+from pipeline.maths.profiles import exit_table, profile_polygon, theta_to_clock
+from pipeline.vision.contour.view import PipeView
+
+__all__ = ["JointEnds", "JointSighting", "find_joint_ends", "follow_joint", "joint_depths", "ring_in_view"]
+
+N_ANGLES = 96
+SECTORS = 8
+MIN_DIP = 0.80             # the median profile's dip: at most this share of its baseline [1]
+MIN_EDGES = 0.5            # share of the generators on which both edges are found
+MIN_SECTORS = 5            # sectors (of SECTORS) holding edges of both rings (water may hide the invert's)
+GLARE_LEVEL = 250          # grey level of a saturated pixel
+MAX_GLARE = 0.05           # share of saturated samples next to the gap above which it is said
+LOCAL = 40                 # samples (a quarter pixel each) beyond an edge where its plateau is read
+MIN_CONTRAST = 3.0          # grey levels between the gap's floor and a plateau beside it
+MAX_RING_RMS_H = 0.01      # a ring's residual above this [H]: its edges do not follow one ring
+
+
+@dataclass(frozen=True)
+class JointEnds:
+    """The joint's two pipe ends found in one ideal frame (pipe coordinates [H]; image points ideal [px]).
+
+    near_depth, far_depth : t of the near pipe's end and of the far pipe's end (the gap's two edges) [H]
+    near_centre, far_centre : the rings' centres against the nominal profile's (X, Y) [H]
+    u_near, u_far : standard uncertainty of the depths [H]; cov_step : covariance (2, 2) of far - near centre [H^2]
+    near_px, far_px : the edges found (n, 2) [px]; angles : their generators' angles [rad]
+    """
+
+    near_depth: float
+    far_depth: float
+    near_centre: tuple[float, float]
+    far_centre: tuple[float, float]
+    u_near: float
+    u_far: float
+    cov_step: np.ndarray
+    near_px: np.ndarray
+    far_px: np.ndarray
+    angles: np.ndarray
+    coverage: float
+    glare: float
+    problems: tuple[str, ...]
+
+    @property
+    def step(self) -> np.ndarray:
+        """The far end's centre against the near end's (X, Y) [H]."""
+        return np.subtract(self.far_centre, self.near_centre)
+
+    @property
+    def step_clock(self) -> float:
+        """The clock position where the far end stands into the pipe most (opposite its displacement) [h]."""
+        s = self.step
+        clock = theta_to_clock(math.atan2(-s[1], -s[0]))
+        return clock if clock >= 0.5 else clock + 12.0         # 12, not 0
+
+    @property
+    def confident(self) -> bool:
+        return not self.problems
+
+
+@functools.lru_cache(maxsize=4)
+def _radius_of(shape: str):
+    """The profile's radius [H] about its centre as a function of the angle [rad] (a table, made once a shape)."""
+    phi, t, _ = exit_table(profile_polygon(shape, 1.0), (0.0, 0.0), n=2048)
+    order = np.argsort(phi)
+    phi, t = phi[order], t[order]
+    grid = np.linspace(-np.pi, np.pi, 4097)
+    table = np.interp(grid, phi, t, period=2 * np.pi)
+
+    def radius(theta):
+        x = ((np.asarray(theta) + np.pi) % (2 * np.pi)) * (4096 / (2 * np.pi))
+        k = np.minimum(x.astype(np.int64), 4095)
+        w = x - k
+        return table[k] * (1 - w) + table[k + 1] * w
+
+    return radius
+
+
+def _wall(shape: str, theta: np.ndarray) -> np.ndarray:
+    r = _radius_of(shape)(theta)
+    return np.column_stack([r * np.cos(theta), r * np.sin(theta)])
+
+
+def ring_in_view(view: PipeView, t: float, size: tuple[int, int], margin_px: float = 4.0) -> bool:
+    """Whether the whole cross-section at depth t [H] lies inside an image of ``size`` (rows, cols)."""
+    if not t > 0:
+        return False
+    ring = view.ring(t)
+    rows, cols = size
+    return bool(np.all(np.isfinite(ring)) and ring[:, 0].min() >= margin_px and ring[:, 1].min() >= margin_px
+                and ring[:, 0].max() <= cols - 1 - margin_px and ring[:, 1].max() <= rows - 1 - margin_px)
+
+
+def _profiles(gray: np.ndarray, view: PipeView, angles: np.ndarray, inv_t: np.ndarray,
+              mask: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
+    """Grey levels (angles, depths) along the generators, nan off the image or under the mask; the image points."""
+    wall = _wall(view.shape, angles)
+    pts = np.concatenate([view.project(np.column_stack([np.repeat(w[None], len(inv_t), 0), 1.0 / inv_t]))
+                          for w in wall]).reshape(len(angles), len(inv_t), 2)
+    mx, my = pts[..., 0].astype(np.float32), pts[..., 1].astype(np.float32)
+    img = gray.astype(np.float32)
+    vals = cv2.remap(img, mx, my, cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT, borderValue=np.nan)
+    rows, cols = gray.shape
+    bad = ~np.isfinite(pts).all(axis=2) | (mx < 1) | (my < 1) | (mx > cols - 2) | (my > rows - 2)
+    if mask is not None:
+        m = cv2.remap((mask > 0).astype(np.float32), mx, my, cv2.INTER_NEAREST, borderMode=cv2.BORDER_CONSTANT,
+                      borderValue=0.0)
+        bad |= m < 0.5
+    vals[bad] = np.nan
+    return vals, pts
+
+
+def joint_depths(gray: np.ndarray, view: PipeView, t_range: tuple[float, float], *,
+                 mask: np.ndarray | None = None) -> list[tuple[float, float]]:
+    """Joints seen in a frame between depths t_range [H]: (depth of the gap's centre [H], depth of the dip [1]),
+    deepest dip first; from the median of the generators' profiles."""
+    f = 0.5 * (view.fx + view.fy)
+    lo, hi = 1.0 / t_range[1], 1.0 / t_range[0]
+    inv_t = np.arange(lo, hi, 1.0 / f)                   # about half a pixel a step for a centred camera
+    if len(inv_t) < 12:
+        return []
+    angles = np.linspace(-np.pi, np.pi, N_ANGLES, endpoint=False)
+    vals, _ = _profiles(gray, view, angles, inv_t, mask)
+    with np.errstate(all="ignore"):
+        logv = np.log(vals + 16.0)
+        med = np.nanmedian(logv, axis=0)
+    if not np.isfinite(med).sum() > 12:
+        return []
+    med = np.where(np.isfinite(med), med, np.nanmedian(med))
+    k = max(9, int(0.04 * len(med)) | 1)
+    base = cv2.dilate(med.astype(np.float32)[None], np.ones((1, k), np.uint8)).ravel()
+    dip = np.exp(med - base)
+    found = []
+    for i in range(1, len(dip) - 1):
+        if dip[i] <= dip[i - 1] and dip[i] < dip[i + 1] and dip[i] < MIN_DIP:
+            found.append((float(1.0 / inv_t[i]), float(dip[i])))
+    found.sort(key=lambda d: d[1])
+    return found
+
+
+def _edges(p: np.ndarray) -> tuple[float, float] | None:
+    """The gap's two edges in one generator's profile (index positions, near first: the profile runs from far
+    to near, 1 / t growing), or None.
+
+    The gap's floor is the profile's minimum. The near edge is where the profile, coming from the camera's side
+    (the socket's face, bright), first falls below half-way between its brightest level there and the floor; the
+    far edge where it, coming from the far wall (the deepest quarter of the profile), first falls below half-way
+    between that wall's level and the floor. A far pipe's end face, lit inside the gap where that pipe stands
+    into the flow, lies between the two and does not move them.
+    """
+    if not np.isfinite(p).all():
+        return None
+    n = len(p)
+    i = int(np.argmin(p))
+    if i < 3 or i > n - 4:
+        return None
+    floor = p[i]
+    near_level = float(p[i + 1:].max())
+    far_level = float(np.median(p[:max(3, i // 3)]))
+    if min(near_level, far_level) - floor < max(MIN_CONTRAST, 0.1 * max(near_level, far_level)):
+        return None                                 # no edge: a flat profile
+    half_near, half_far = 0.5 * (floor + near_level), 0.5 * (floor + far_level)
+    j = int(np.nonzero(p < half_near)[0].max())     # the nearest sample below: the edge lies between j and j + 1
+    k = int(np.nonzero(p < half_far)[0].min())      # the farthest sample below: the edge lies between k - 1 and k
+    if j + 1 >= n or k < 1 or k > j:
+        return None
+    # the levels again from the plateaus just beyond each edge (the far wall darkens with depth, so the deep
+    # quarter's level sits low and would move the far edge into its ramp), the crossings found again from there
+    near_level = float(p[j + 1:j + 1 + LOCAL].max())
+    far_level = float(p[max(0, k - LOCAL):k].max())
+    half_near, half_far = 0.5 * (floor + near_level), 0.5 * (floor + far_level)
+    for _ in range(LOCAL):                          # to the crossing of the new level, whichever side it lies
+        if p[j] >= half_near and j > k:
+            j -= 1
+        elif j + 2 < n and p[j + 1] < half_near:
+            j += 1
+        if p[k] >= half_far and k < j:
+            k += 1
+        elif k > 1 and p[k - 1] < half_far:
+            k -= 1
+    if k > j or p[j] >= half_near or p[j + 1] < half_near or p[k] >= half_far or p[k - 1] < half_far:
+        return None
+    e_near = j + (p[j] - half_near) / (p[j] - p[j + 1])
+    e_far = k - (p[k] - half_far) / (p[k] - p[k - 1])
+    return float(e_near), float(e_far)
+
+
+def _fit_ring(view: PipeView, pts: np.ndarray, t0: float, radius) -> tuple[np.ndarray, float]:
+    """Depth t [H] and centre (X, Y) [H] of the profile ring through image points (n, 2) [px]: (t, cx, cy) and
+    the rms of the residual [H]."""
+    o = np.array([view.ox, view.oy])
+    q = _in_plane(view, pts, t0) - o
+
+    def residual(x):
+        lam, cx, cy = x
+        p = o + q * lam - (cx, cy)
+        return np.hypot(p[:, 0], p[:, 1]) - radius(np.arctan2(p[:, 1], p[:, 0]))
+
+    sol = least_squares(residual, np.array([1.0, 0.0, 0.0]), loss="soft_l1", f_scale=0.005)
+    return np.array([sol.x[0] * t0, sol.x[1], sol.x[2]]), _robust_rms(sol.fun)
+
+
+def _robust_rms(r: np.ndarray) -> float:
+    """The residuals' scatter, robust to the few edges found on something else: 1.4826 x their median |r|."""
+    return float(1.4826 * np.median(np.abs(r)))
+
+
+def _far_u(view: PipeView, walls: np.ndarray, t_far: float, centre, radius) -> np.ndarray:
+    """Where each generator (nominal wall points (n, 2) [H]) meets the far pipe's end: the ring of the profile
+    centred at ``centre`` [H] at depth t_far [H], as 1 / t of the generator [1/H] (Newton from the nominal)."""
+    o = np.array([view.ox, view.oy])
+    B = (walls - o) * t_far
+    A = o - np.asarray(centre, float)
+
+    def g(u):
+        p = A + B * u[:, None]
+        return np.hypot(p[:, 0], p[:, 1]) - radius(np.arctan2(p[:, 1], p[:, 0]))
+
+    u = np.full(len(walls), 1.0 / t_far)
+    for _ in range(4):
+        du = 1e-6 * u
+        slope = (g(u + du) - g(u - du)) / (2 * du)
+        u = u - g(u) / slope
+    return u
+
+
+def _far_residual(view, walls, far_u, t_near, x, radius) -> np.ndarray:
+    """The far edges' 1 / t [1/H] against the model: the far end's ring where it shows, else the plane where the
+    far end hides behind the near pipe's end or shows its own end face (the joint's plane ``x[3]``): an edge
+    is taken for whichever of the two it lies nearer. A weak prior puts that plane midway between the ends
+    (as the renderer draws a joint; it settles the plane when no edge lies on it)."""
+    t_far, cx, cy, t_plane = x
+    u_plane = 1.0 / t_plane
+    seen = far_u - np.minimum(_far_u(view, walls, t_far, (cx, cy), radius), u_plane)
+    plane = far_u - u_plane
+    r = np.where(np.abs(seen) <= np.abs(plane), seen, plane)
+    return np.append(r, 0.1 * (u_plane - 2.0 / (t_near + t_far)))
+
+
+def _fit_far(view, walls, far_u, t_near, t0, radius, x0=None) -> tuple[np.ndarray, float]:
+    """(t, cx, cy) [H] of the far pipe's end from its edges' 1 / t on the generators, and the rms [1/H]."""
+    start = np.array(x0 if x0 is not None else (t0, 0.0, 0.0, 0.5 * (t0 + t_near)), float)
+    sol = least_squares(lambda x: _far_residual(view, walls, far_u, t_near, x, radius), start,
+                        loss="soft_l1", f_scale=0.005 / t0, x_scale=[0.01 * t0, 0.01, 0.01, 0.01 * t0])
+    return sol.x, _robust_rms(sol.fun[:-1])
+
+
+def _in_plane(view: PipeView, pts: np.ndarray, t: float) -> np.ndarray:
+    d = view.rays(pts)
+    s = t / d[:, 2]
+    return np.column_stack([view.ox + s * d[:, 0], view.oy + s * d[:, 1]])
+
+
+def find_joint_ends(gray: np.ndarray, view: PipeView, depth: float, *, mask: np.ndarray | None = None,
+                    window: float = 0.15) -> JointEnds | None:
+    """The two pipe ends of the joint near depth t [H] in an ideal grey frame (rows, cols), or None when no gap
+    is found there.
+
+    window : the share of the depth searched either side of ``depth`` [1].
+    """
+    if gray.ndim == 3:
+        gray = cv2.cvtColor(gray, cv2.COLOR_BGR2GRAY)
+    f = 0.5 * (view.fx + view.fy)
+    # the far side reaches further: a far end standing into the pipe shows its edge deeper along a generator
+    lo, hi = 1.0 / (depth * (1 + 2 * window)), 1.0 / (depth * (1 - window))
+    inv_t = np.arange(lo, hi, 0.25 / f)                  # about a quarter pixel a step
+    angles = np.linspace(-np.pi, np.pi, 2 * N_ANGLES, endpoint=False)
+    vals, pts = _profiles(gray, view, angles, inv_t, mask)
+    near, far, kept, near_u, far_u = [], [], [], [], []
+    glare = []
+    for a, (p, line) in enumerate(zip(vals, pts)):
+        e = _edges(p)
+        if e is None:
+            continue
+        i_near, i_far = e
+        near.append(_at(line, i_near))
+        far.append(_at(line, i_far))
+        near_u.append(float(np.interp(i_near, np.arange(len(inv_t)), inv_t)))
+        far_u.append(float(np.interp(i_far, np.arange(len(inv_t)), inv_t)))
+        kept.append(a)
+        i0, i1 = int(math.floor(i_far)) - 4, int(math.ceil(i_near)) + 4
+        glare.append(float(np.mean(p[max(0, i0):i1 + 1] >= GLARE_LEVEL)))
+    if len(kept) < MIN_EDGES * len(angles) / 2:          # fewer than a quarter: no gap here
+        return None
+    near_px, far_px = np.array(near), np.array(far)
+    near_u, far_u = np.array(near_u), np.array(far_u)
+    ang = angles[kept]
+    radius = _radius_of(view.shape)
+    walls = _wall(view.shape, ang)
+    (tn, *cn), rms_n = _fit_ring(view, near_px, depth, radius)
+    (tf, *cf, tp), rms_f = _fit_far(view, walls, far_u, tn, depth * 1.02, radius)
+    # the points off their rings (texture, a crack across the gap): dropped, and the rings fitted again
+    keep = (_ring_distance(view, near_px, tn, cn, radius) < max(3 * rms_n, 0.004)) & \
+           (np.abs(_far_residual(view, walls, far_u, tn, (tf, *cf, tp), radius)[:-1]) < max(3 * rms_f, 0.004 / tf))
+    near_px, far_px, ang, walls, far_u = near_px[keep], far_px[keep], ang[keep], walls[keep], far_u[keep]
+    if len(ang) < MIN_EDGES * len(angles) / 2:
+        return None
+    (tn, *cn), rms_n = _fit_ring(view, near_px, tn, radius)
+    (tf, *cf, tp), rms_f = _fit_far(view, walls, far_u, tn, tf, radius, (tf, *cf, tp))
+    rms_f *= tf                                         # in u [1/H] to a share of H at the far ring
+    sector = np.floor((ang + np.pi) / (2 * np.pi) * SECTORS).astype(int) % SECTORS
+    held = np.unique(sector)
+    jack = []
+    for s in held:
+        rest = sector != s
+        a_n, _ = _fit_ring(view, near_px[rest], tn, radius)
+        a_f, _ = _fit_far(view, walls[rest], far_u[rest], a_n[0], tf, radius, (tf, *cf, tp))
+        jack.append(np.concatenate([a_n, a_f[:3]]))
+    jack = np.array(jack)
+    m = len(held)
+    cov = (m - 1) / m * (jack - jack.mean(0)).T @ (jack - jack.mean(0)) if m > 1 else np.full((6, 6), np.nan)
+    d_step = np.array([[0, -1, 0, 0, 1, 0], [0, 0, -1, 0, 0, 1]], float)
+    problems = []
+    coverage = len(ang) / len(angles)
+    if m < MIN_SECTORS:
+        problems.append(f"the gap's edges were found in {m} of {SECTORS} sectors around the pipe only "
+                        "(the joint partly hidden or out of view)")
+    if max(rms_n, rms_f) > MAX_RING_RMS_H:
+        problems.append(f"the edges follow the pipe ends' rings to {100 * max(rms_n, rms_f):.1f} % of H only "
+                        "(texture or another feature across the gap)")
+    share_glare = float(np.mean(glare)) if glare else 0.0
+    if share_glare > MAX_GLARE:
+        problems.append(f"glare: {100 * share_glare:.0f} % of the pixels at the gap are saturated")
+    if not tf > tn:
+        problems.append("the far edge is not beyond the near one")
+    return JointEnds(float(tn), float(tf), (float(cn[0]), float(cn[1])), (float(cf[0]), float(cf[1])),
+                     float(math.sqrt(cov[0, 0])), float(math.sqrt(cov[3, 3])), d_step @ cov @ d_step.T,
+                     near_px, far_px, ang, coverage, share_glare, tuple(problems))
+
+
+def _at(line: np.ndarray, i: float) -> np.ndarray:
+    k = int(math.floor(i))
+    w = i - k
+    return (1 - w) * line[k] + w * line[min(k + 1, len(line) - 1)]
+
+
+def _ring_distance(view: PipeView, pts: np.ndarray, t: float, centre, radius) -> np.ndarray:
+    p = _in_plane(view, pts, t) - centre
+    return np.abs(np.hypot(p[:, 0], p[:, 1]) - radius(np.arctan2(p[:, 1], p[:, 0])))
+
+
+@dataclass(frozen=True)
+class JointSighting:
+    """A joint's ends found in one frame of the camera's approach."""
+
+    frame: int            # the frame's id (its index in the video)
+    depth: float          # t of the joint in that frame, from its position along the pipe [H]
+    ends: JointEnds
+
+
+def follow_joint(frames, view: PipeView, height_mm: float, *, ahead_m: tuple[float, float] = (0.1, 3.5),
+                 n_nearest: int = 3, mask: np.ndarray | None = None) -> tuple[list[JointSighting], list[str]]:
+    """A joint ahead of the reference frame, found in the frames of the camera's approach, nearest first.
+
+    frames : (frame id, ideal grey image, camera chainage [m]) of frames sharing the pose of ``view``, the
+    reference frame (where the joint was logged) first; the joint sought lies ``ahead_m`` [m] ahead of it.
+    The joints each frame shows (``joint_depths``) are placed along the pipe by the frame's chainage; the one
+    whose two ends show the widest gap and the largest step in its nearest frame is the joint; it is then
+    found in the ``n_nearest`` frames nearest to it with its whole ring in view.
+    Returns the sightings (empty: not found) and what was noticed on the way (frames where it was not found).
+    """
+    if not frames:
+        return [], ["no frames"]
+    c_ref = frames[0][2]
+    scale = height_mm / 1000.0                         # [m per H]
+    size = frames[0][1].shape[:2]
+    seen: list[float] = []                             # joints' positions along the pipe [m]
+    for _, gray, c in frames:
+        t_lo = max(0.5, (c_ref + ahead_m[0] - c) / scale)
+        t_hi = min(4.0, (c_ref + ahead_m[1] - c) / scale)
+        if t_hi <= t_lo * 1.1:
+            continue
+        seen += [c + t * scale for t, _ in joint_depths(gray, view, (t_lo, t_hi), mask=mask)[:4]]
+    if not seen:
+        return [], []
+    # joints seen from several frames: positions within a few centimetres are one joint
+    seen.sort()
+    groups: list[list[float]] = [[seen[0]]]
+    for z in seen[1:]:
+        if z - groups[-1][-1] < 0.05:
+            groups[-1].append(z)
+        else:
+            groups.append([z])
+    groups.sort(key=len, reverse=True)
+    if len(groups) == 1:
+        best = (0.0, float(np.median(groups[0])))
+    else:
+        best = None
+    for g in groups[:3] if len(groups) > 1 else ():
+        z = float(np.median(g))
+        sightings = _sightings(frames, view, z, scale, size, 1, mask)
+        if not sightings:
+            continue
+        e = sightings[0].ends
+        score = (e.far_depth - e.near_depth) + 3.0 * float(np.hypot(*e.step))
+        if best is None or score > best[0]:
+            best = (score, z)
+    if best is None:
+        return [], []
+    notes: list[str] = []
+    sightings = _sightings(frames, view, best[1], scale, size, n_nearest, mask, notes)
+    return sightings, notes
+
+
+def _sightings(frames, view, z_m, scale, size, n, mask, notes=None) -> list[JointSighting]:
+    """The joint at ``z_m`` [m] found in the ``n`` nearest frames with its whole ring in view, nearest first.
+
+    A frame whose ends are not trusted (``JointEnds.problems``) is passed over for a farther one (at most two
+    more tried); when fewer than two trusted frames are found, the untrusted ones stay, so that the result says
+    why it is not trusted."""
+    near = sorted(((z_m - c) / scale, fid, gray) for fid, gray, c in frames if (z_m - c) / scale > 0.5)
+    good: list[JointSighting] = []
+    doubtful: list[JointSighting] = []
+    tries = 0
+    for t, fid, gray in near:
+        if not ring_in_view(view, t, size):
+            continue
+        tries += 1
+        if tries > n + 2:                      # the nearest frames failed: farther ones would not be better
+            break
+        ends = find_joint_ends(gray, view, t, mask=mask)
+        if ends is None:
+            if notes is not None:
+                notes.append(f"frame {fid}: no gap found at {t:.2f} H")
+            continue
+        # the sighting's depth follows the ends found (the chainage's own error is not the joint's position)
+        (good if ends.confident else doubtful).append(JointSighting(fid, 0.5 * (ends.near_depth + ends.far_depth), ends))
+        if len(good) == n:
+            break
+    if len(good) >= 2:
+        return good
+    return sorted(good + doubtful, key=lambda s: s.depth)[:n]

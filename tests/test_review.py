@@ -272,3 +272,35 @@ def test_transfers_say_who_marked():
     plain = {**m, "marked_by": None, "marked_at": None}
     assert "review" not in _measured_note(plain) and "review" not in measured_notes([{"row": 2}], [plain], version="x",
                                                                                      model="perspective")[2]
+
+
+# -- the predicted U95 with the pose ---------------------------------------------------------------------------------
+
+def test_a_worse_pose_predicts_a_larger_U95():
+    """The pose's part of a candidate frame's prediction grows with the pose's covariance, is nothing for an exact
+    pose, and is refused (nan) for a pose that could not be fitted; an extent along the pipe loses more to the pose
+    the farther its joint is, as the marking noise does."""
+    import numpy as np
+
+    from pipeline.app.review_predict import pose_U95, pose_u, representative_points
+    from pipeline.vision.contour.view import PipeView
+
+    view = PipeView("circular", 380.0, 380.0, 360.0, 288.0, ox=0.02, oy=-0.05, yaw=0.01, pitch=-0.02)
+    good = np.diag([1e-4, 1e-4, 1e-5, 1e-5, 1e-5])
+    worse = good.copy()
+    worse[0, 0], worse[2, 2] = 25 * good[0, 0], 25 * good[2, 2]       # the offset and the yaw known worse
+    for extent in ("along", "around", "section"):
+        points = representative_points(extent, "circular", 2.0, 0.05, 3.0)
+        u_good, u_worse = pose_u(view, good, points, 300.0), pose_u(view, worse, points, 300.0)
+        assert 0 < u_good < u_worse, extent
+        assert pose_U95(1.0, u_good) < pose_U95(1.0, u_worse)
+        assert pose_U95(1.0, u_good) > 1.0                 # above the marking noise's lower bound
+        assert pose_u(view, np.zeros((5, 5)), points, 300.0) == 0.0
+        assert np.isnan(pose_u(view, np.full((5, 5), np.inf), points, 300.0))
+    near, far = (pose_u(view, good, representative_points("along", "circular", t, 0.05, 3.0), 300.0) for t in (1.2, 4.0))
+    assert near < far
+    # the representative points are the quantity's size apart, on the wall, at the depth asked
+    a, b = representative_points("along", "circular", 2.0, 0.05, 3.0)
+    assert abs(np.linalg.norm(b - a) - 0.05) < 1e-12 and a[2] == 2.0
+    a, b = representative_points("around", "circular", 2.0, 0.05, 3.0)
+    assert abs(np.linalg.norm(b - a) - 0.05) < 1e-3 and a[2] == b[2] == 2.0

@@ -254,3 +254,59 @@ def test_review_marks_leave_the_contractor_files_and_an_unchanged_rerun_rewrites
     assert not again.processed                     # the same input key: skipped
     assert _files(layout.out) == written           # nothing rewritten, the report included
     assert _digests(inbox) == before
+
+
+@pytest.mark.slow
+def test_a_delivery_section_is_marked_and_measured_from_its_review_marks(reader, tmp_path):
+    """A section of a delivery folder (one exchange file for a job) opened and marked like a package: its marks go
+    to OUT/review/<inspection id>/marks.csv, the next run measures the section from them (the file is part of the
+    section's input key), a rerun with the file unchanged rewrites nothing, and the delivery stays as delivered."""
+    import sys
+
+    sys.path.insert(0, str(Path(__file__).resolve().parent))
+    from delivery_kit import write_delivery
+
+    from pipeline.app import Layout, process_package
+    from pipeline.app.review import ReviewService, View
+    from pipeline.formats.delivery import inspection_id
+
+    inbox = tmp_path / "inbox"
+    inbox.mkdir()
+    shutil.copytree(SAMPLES / "certificates", inbox / "certificates")
+    job = write_delivery(inbox / "JOB1", [PACKAGE], marks=False)      # no contractor marks: the reviewer's only
+    iid = inspection_id("JOB1", "S01")
+    layout = Layout(tmp_path / "out")
+    first = process_package(job, layout.dataset, reader=reader, reports=layout.reports, review=layout.review,
+                            section="S01", keep_result=True)
+    assert first.processed and first.inspection_id == iid, first.error
+    assert first.result is not None
+    assert not [m for m in first.result.measurements if m.row == ROW and m.quantity == QUANTITY and m.status == "ok"
+                and m.source == "marks"]
+    delivered = _digests(inbox)
+
+    service = ReviewService(layout.out, inbox, reader=reader)
+    page = service.observation(iid, ROW)                  # opened like a package's observation
+    assert QUANTITY in [q["quantity"] for q in page["quantities"]]
+    truth = _truth()
+    a, b = (tuple(p) for p in truth["points_px_noise_free"])
+    value = service.measure(iid, ROW, QUANTITY, [View(truth["frame"], a, b)])
+    assert abs(value["value"] - truth["true_value"]) <= value["U95"]
+    saved = service.save(iid, ROW, QUANTITY, [View(truth["frame"], a, b)], REVIEWER)
+    assert saved == (layout.review / iid / "marks.csv").resolve()
+    assert _digests(inbox) == delivered
+
+    again = process_package(job, layout.dataset, reader=reader, reports=layout.reports, review=layout.review,
+                            section="S01", keep_result=True)
+    assert again.processed                                # the marks changed the section's input key
+    assert again.result is not None
+    m = next(m for m in again.result.measurements if m.row == ROW and m.quantity == QUANTITY)
+    assert m.status == "ok" and m.marked_by == REVIEWER and m.source == "marks"
+    assert abs(m.value - truth["true_value"]) <= m.U95
+    written = _files(layout.out)
+    third = process_package(job, layout.dataset, reader=reader, reports=layout.reports, review=layout.review,
+                            section="S01")
+    assert not third.processed and _files(layout.out) == written
+    # "measure again" from the page measures that section only, through the conductor
+    outcome = service.measure_again(iid)
+    assert outcome["status"] in ("ok", "partial"), outcome
+    assert _digests(inbox) == delivered

@@ -210,6 +210,10 @@ def create_app(service: ReviewService, token: str | None = None, *, hosts: set[s
     def observation(id: str, row: int):
         return _json(service.observation(id, row))
 
+    @app.get("/api/candidates")
+    def candidates(id: str, row: int, quantity: str, fit: int = 0):
+        return _json({"candidates": service.candidate_table(id, row, quantity, fit=bool(fit))})
+
     @app.get("/api/frame")
     def frame(id: str, n: int, view: str = "recorded"):
         if view not in ("recorded", "ideal"):

@@ -78,6 +78,8 @@ async function loadOverlay(n) {
       `${ov.chainage_m.toFixed(2)} m` + (ov.confident ? "" : " · outline not trusted");
     document.getElementById("chainage").title = ov.confident ? "the camera's chainage at this frame" : ov.problems.join("; ");
     draw();
+    // a candidate shown for the first time now has its pose fitted: its prediction can include it
+    if (currentCandidates().some(c => c.frame === n && !c.pose)) refreshCandidates(false);
   } catch (e) { /* a frame whose contour cannot be fitted: the image alone */ }
 }
 
@@ -88,10 +90,24 @@ function currentCandidates() {
 
 function renderCandidates() {
   const body = document.querySelector("#candidates tbody");
-  body.innerHTML = currentCandidates().map(c => `<tr data-frame="${c.frame}" class="${c.best ? "best" : ""}" title="${review.esc(c.basis)}">
+  body.innerHTML = currentCandidates().map(c => `<tr data-frame="${c.frame}" data-pose="${c.pose ? 1 : 0}" class="${c.best ? "best" : ""}" title="${review.esc(c.basis)}">
     <td><a href="#">${c.frame}</a>${c.best ? " (best)" : ""}</td><td>${c.chainage_m.toFixed(2)} m</td><td>${c.depth_mm} mm</td>
-    <td>${c.U95.toPrecision(2)} ${review.esc(c.unit)}</td></tr>`).join("");
+    <td>${c.U95.toPrecision(2)} ${review.esc(c.unit)}</td>
+    <td title="${c.pose ? `marks ${c.U95_marks.toPrecision(2)}, pose ${c.U95_pose.toPrecision(2)} ${review.esc(c.unit)} (U95 of each alone)` : "the pose of this frame is not fitted yet: the marking noise alone, a lower bound"}">${c.pose ? "marks + pose" + (c.pose_confident ? "" : " (outline not trusted)") : "marks only (lower bound)"}</td></tr>`).join("");
   body.querySelectorAll("a").forEach(a => a.addEventListener("click", ev => { ev.preventDefault(); showFrame(Number(a.closest("tr").dataset.frame)); }));
+}
+
+async function refreshCandidates(fit) {
+  // the table again with the pose's part for the frames fitted by now (fit: the server fits every candidate)
+  const quantity = state.quantity;
+  if (!quantity) return;
+  try {
+    const r = await review.get(`/api/candidates?id=${encodeURIComponent(state.id)}&row=${state.row}&quantity=${quantity}&fit=${fit ? 1 : 0}`);
+    const q = state.obs.quantities.find(q => q.quantity === quantity);
+    if (!q) return;
+    q.candidates = r.candidates;
+    if (state.quantity === quantity) { renderCandidates(); document.querySelectorAll("#candidates tr").forEach(tr => tr.classList.toggle("current", Number(tr.dataset.frame) === state.frame)); }
+  } catch (e) { /* the table keeps the marking-noise bound */ }
 }
 
 function renderMarks() {
@@ -213,7 +229,7 @@ document.getElementById("undo").onclick = undo;
 document.getElementById("clear").onclick = cancelMarks;
 document.getElementById("save").onclick = save;
 document.getElementById("again").onclick = measureAgain;
-document.getElementById("quantity").onchange = ev => { state.quantity = ev.target.value; renderCandidates(); update(); };
+document.getElementById("quantity").onchange = ev => { state.quantity = ev.target.value; renderCandidates(); update(); refreshCandidates(true); };
 
 window.addEventListener("keydown", ev => {
   if (ev.target.tagName === "INPUT" && ev.key !== "Enter" && ev.key !== "Escape") return;
@@ -247,4 +263,7 @@ window.addEventListener("resize", () => { if (state.obs) { fitScale(); draw(); }
   renderMarks();
   await showFrame(o.frame);
   document.body.dataset.ready = "1";
+  // the candidates' poses fitted in the background; the table then ranks them with the pose's part
+  for (const q of o.quantities) { if (q.quantity === state.quantity) await refreshCandidates(true); }
+  document.body.dataset.poses = "1";
 })();

@@ -10,6 +10,9 @@ HTTP layer included, in process):
 * a click's linear update: ``POST /api/measure`` with ``monte_carlo`` false, the points moved by a pixel each
   time (the package and its frame's contour loaded once before, as when the page opens). Target: under 100 ms.
   The Monte Carlo result that follows in the background is timed too, for the record.
+* the best-frame table: ``GET /api/candidates`` with ``fit`` (the candidate frames' contours fitted, once per
+  observation, in the background) and without (the table refreshed with the poses fitted: what a frame step
+  triggers when it shows a candidate for the first time).
 
 Prints the median and the worst of each. Tests never assert a time.
 
@@ -125,6 +128,15 @@ def main() -> None:
                                          headers=headers).raise_for_status()) for _ in range(3)]
         print(_line("click: linear update", clicks, 100))
         print(_line("click: Monte Carlo (in the background)", mc, None))
+
+        def table(fit: int) -> None:
+            r = client.get(f"/api/candidates?id={PACKAGE}&row={ROW}&quantity={QUANTITY}&fit={fit}&token={token}")
+            assert r.status_code == 200, r.text
+
+        fitting = _timed(lambda: table(1))           # the candidates' poses fitted (once per observation, background)
+        tables = [_timed(lambda: table(0)) for _ in range(min(n, 20))]
+        print(_line("best-frame table: candidates' poses fitted", [fitting], None))
+        print(_line("best-frame table with the poses (refresh)", tables, 300))
     finally:
         shutil.rmtree(root, ignore_errors=True)
 

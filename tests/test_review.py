@@ -304,3 +304,21 @@ def test_a_worse_pose_predicts_a_larger_U95():
     assert abs(np.linalg.norm(b - a) - 0.05) < 1e-12 and a[2] == 2.0
     a, b = representative_points("around", "circular", 2.0, 0.05, 3.0)
     assert abs(np.linalg.norm(b - a) - 0.05) < 1e-3 and a[2] == b[2] == 2.0
+
+
+def test_a_click_on_the_undistorted_view_is_kept_as_recorded():
+    """The certificate's distortion applied forward: a point of the undistorted image carried to the frame as
+    recorded undistorts back to itself (to 1e-6 px) over the image; the review keeps marks as recorded."""
+    import numpy as np
+
+    from pipeline.app.review import recorded_points
+    from pipeline.camera.undistort import Undistorter
+    from pipeline.formats.certificate import load_certificate
+
+    cert = load_certificate(SAMPLES / "certificates" / "SYN-720x576.json")
+    und = Undistorter(cert, 720, 576)
+    ideal = np.random.default_rng(3).uniform([0, 0], [719, 575], size=(500, 2))
+    recorded = recorded_points(cert, ideal)
+    assert np.abs(und.points(recorded) - ideal).max() < 1e-6
+    # the distortion moves the corners' points by pixels: the conversion is not the identity
+    assert np.abs(recorded - ideal).max() > 5

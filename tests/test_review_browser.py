@@ -182,6 +182,27 @@ def test_mark_save_measure_again_in_a_browser(night, server, browser):
         browser.find_element(By.XPATH, "//table[@id='candidates']/..").screenshot(
             str(Path(os.environ["PIPEGAUGE_REVIEW_SHOTS"]) / "review-best-frame.png"))
 
+    # the same points clicked on the undistorted view: kept as recorded (the certificate's model), as truth has them
+    from pipeline.formats.certificate import load_certificate
+    from pipeline.camera.undistort import Undistorter
+
+    und = Undistorter(load_certificate(SAMPLES / "certificates" / "SYN-720x576.json"), width=720, height=576)
+    browser.find_element(By.ID, "clear").click()
+    browser.find_element(By.ID, "ideal").click()
+    _wait(browser, lambda d: d.execute_script("return reviewState.ideal && reviewState.image.src.includes('view=ideal')"))
+    for x, y in und.points(truth["points_px_noise_free"]):
+        dx, dy = (x + 0.5) * scale - width / 2, (y + 0.5) * scale - height / 2
+        ActionChains(browser).move_to_element_with_offset(canvas, round(dx), round(dy)).click().perform()
+    _wait(browser, lambda d: d.execute_script(f"const m = reviewState.marks['{QUANTITY}'][{truth['frame']}]; "
+                                              "return m && m.a && m.b"))
+    clicked = browser.execute_script(f"return reviewState.marks['{QUANTITY}'][{truth['frame']}]")
+    for got, want in zip((clicked["a"], clicked["b"]), truth["points_px_noise_free"]):
+        assert abs(got[0] - want[0]) < 1.5 and abs(got[1] - want[1]) < 1.5, (got, want)   # a CSS pixel, magnified
+    _wait(browser, lambda d: value.get_attribute("data-final") == "1")
+    assert abs(float(value.get_attribute("data-value")) - truth["true_value"]) <= float(value.get_attribute("data-u95"))
+    browser.find_element(By.ID, "ideal").click()
+    _wait(browser, lambda d: d.execute_script("return !reviewState.ideal"))
+
     # save: the name is required
     browser.find_element(By.ID, "reviewer").clear()
     browser.find_element(By.ID, "save").click()
@@ -205,7 +226,7 @@ def test_mark_save_measure_again_in_a_browser(night, server, browser):
     m = stored[0]
     assert m.status == "ok" and m.marked_by == REVIEWER and m.marked_at.date().isoformat() == today
     assert abs(m.value - truth["true_value"]) <= m.U95
-    assert abs(m.value - shown) <= 0.5 * U95          # the page measured as the run does
+    assert abs(m.value - shown) <= 0.5 * U95          # the page measured as the run does (either click)
     note = f"marked in review by {REVIEWER} on {today}"
     # the PDF's text
     text = " ".join(" ".join(page.extract_text() for page in PdfReader(layout.report(PACKAGE)).pages).split())

@@ -440,6 +440,22 @@ class ReviewService:
                            for (h, p), r in zip(clocks, clocks_recorded)],
                 "confident": bool(contour.confident), "problems": list(contour.problems)}
 
+    def convert_points(self, inspection_id: str, points: Sequence[Sequence[float]], to: str) -> list[list[float]]:
+        """Image points [px] carried between the frame as recorded and the undistorted (ideal) one with the
+        certificate: ``to`` "recorded" (a click on the undistorted view, kept as recorded like marks.csv) or
+        "ideal" (a mark drawn on the undistorted view)."""
+        pkg = self.package(inspection_id)
+        pts = np.array([_point(p) for p in points], float).reshape(-1, 2)
+        if to == "ideal":
+            out = pkg.location.undistorter.points(pts)
+        elif to == "recorded":
+            out = recorded_points(pkg.delivery.certificate, pts)
+        else:
+            raise ReviewError(f"convert points to {to!r}: use recorded or ideal")
+        if not np.all(np.isfinite(out)):
+            raise ReviewError("a point outside the image the certificate describes")
+        return [[round(float(x), 3), round(float(y), 3)] for x, y in out]
+
     # -- measuring and saving -----------------------------------------------------------------------------------
 
     def measure(self, inspection_id: str, row: int, quantity: str, views: Sequence[View], *,
@@ -619,6 +635,21 @@ def _inside(path: Path, root: Path) -> Path:
     if resolved != base and base not in resolved.parents:
         raise NotFound(f"{path} leads outside {root}")
     return resolved
+
+
+def recorded_points(cert, ideal) -> np.ndarray:
+    """Points (n, 2) [px] of the frame as recorded whose undistortion is ``ideal`` (n, 2) [px]: the certificate's
+    distortion model applied forward (``cv2.projectPoints`` of the ideal points' rays), exact where
+    ``Undistorter.points`` inverts it (the ideal image keeps the certificate's camera matrix)."""
+    import cv2
+
+    K, dist = cert.camera_matrix(), cert.opencv_distortion()
+    ideal = np.asarray(ideal, float).reshape(-1, 2)
+    rays = np.column_stack([(ideal[:, 0] - K[0, 2]) / K[0, 0], (ideal[:, 1] - K[1, 2]) / K[1, 1], np.ones(len(ideal))])
+    # the skew term, where a certificate has one
+    rays[:, 0] -= K[0, 1] * rays[:, 1] / K[0, 0]
+    out, _ = cv2.projectPoints(rays.reshape(-1, 1, 3), np.zeros(3), np.zeros(3), K, dist)
+    return out.reshape(-1, 2)
 
 
 def _distort(und, ideal: np.ndarray, iterations: int = 8) -> np.ndarray:

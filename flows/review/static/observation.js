@@ -5,6 +5,7 @@ const state = {
   id: params.get("id"), row: Number(params.get("row")), obs: null, frame: 0, ideal: false, quantity: null,
   marks: {},          // quantity -> {frame: {a: [x, y], b: [x, y]}} in the frame as recorded [px]
   history: [], overlay: null, image: new Image(), scale: 1, seq: 0, drag: null, lastResult: null,
+  idealMarks: {},     // frame -> {a, b} of the current quantity on the undistorted view [px] (drawn, dragged there)
 };
 const canvas = document.getElementById("canvas");
 const ctx = canvas.getContext("2d");
@@ -41,8 +42,9 @@ function draw() {
     ctx.fillStyle = "#e6ffe9"; ctx.font = "12px DejaVu Sans, sans-serif";
     ov.clocks.forEach(c => { const [x, y] = toCanvas(state.ideal ? c.ideal : c.recorded); ctx.fillText(String(c.hour), x - 4, y - 4); });
   }
-  if (!state.ideal) {
-    const m = marksOf()[state.frame];
+  {
+    // marks are kept as recorded; on the undistorted view they are drawn where the certificate puts them
+    const m = state.ideal ? state.idealMarks[state.frame] : marksOf()[state.frame];
     if (m) {
       ctx.strokeStyle = "#ff3b3b"; ctx.fillStyle = "#ff3b3b"; ctx.lineWidth = 1.5;
       const ends = ["a", "b"].filter(k => m[k]).map(k => [k, toCanvas(m[k])]);
@@ -63,6 +65,7 @@ async function showFrame(n) {
   if (state.frame !== n) return;
   state.image = img;
   draw();
+  if (state.ideal) syncIdealMarks();
   document.querySelectorAll("#candidates tr").forEach(tr => tr.classList.toggle("current", Number(tr.dataset.frame) === n));
   loadOverlay(n);
 }
@@ -123,6 +126,7 @@ function views() {
 
 async function update() {
   renderMarks(); draw();
+  if (state.ideal) syncIdealMarks();
   const v = views();
   const seq = ++state.seq;
   const out = document.getElementById("value");
@@ -162,27 +166,63 @@ function showResult(r, preview) {
 
 // -- marking: click, drag, undo ----------------------------------------------------------------------------------
 function nearest(x, y) {
-  const m = marksOf()[state.frame] || {};
+  const m = (state.ideal ? state.idealMarks[state.frame] : marksOf()[state.frame]) || {};
   let best = null;
   ["a", "b"].forEach(k => { if (m[k]) { const [cx, cy] = toCanvas(m[k]); const d = Math.hypot(cx - x, cy - y); if (d < 9 && (!best || d < best.d)) best = {k, d}; } });
   return best && best.k;
 }
+// the undistorted view: points carried to and from the frame as recorded with the certificate (server side, exact)
+async function convert(points, to) {
+  const r = await review.post("/api/points", {id: state.id, to, points});
+  return r.points;
+}
+
+async function syncIdealMarks() {
+  // the current quantity's marks of the shown frame, drawn on the undistorted view
+  const n = state.frame, m = marksOf()[n];
+  const keys = m ? ["a", "b"].filter(k => m[k]) : [];
+  if (!keys.length) { delete state.idealMarks[n]; draw(); return; }
+  try {
+    const pts = await convert(keys.map(k => m[k]), "ideal");
+    state.idealMarks[n] = Object.fromEntries(keys.map((k, i) => [k, pts[i]]));
+    draw();
+  } catch (e) { message(e.message, true); }
+}
+
+async function placeOnIdeal(key, point) {
+  // a click or a drag's end on the undistorted view: kept as recorded, like marks.csv
+  const n = state.frame;
+  try {
+    const [recorded] = await convert([point], "recorded");
+    (marksOf()[n] || (marksOf()[n] = {}))[key] = recorded;
+    update();
+  } catch (e) { message(e.message, true); syncIdealMarks(); }
+}
+
 canvas.addEventListener("mousedown", ev => {
-  if (state.ideal) { message("switch to 'as recorded' to mark: marks are kept in the frame as recorded"); return; }
   const x = ev.offsetX, y = ev.offsetY;
   const hit = nearest(x, y);
   snapshot();
   if (hit) { state.drag = hit; return; }
-  const m = marksOf()[state.frame] || (marksOf()[state.frame] = {});
-  if (!m.a) m.a = toImage(x, y); else if (!m.b) m.b = toImage(x, y); else { state.history.pop(); return; }
+  const m = state.ideal ? (state.idealMarks[state.frame] ||= {}) : (marksOf()[state.frame] || (marksOf()[state.frame] = {}));
+  const key = !m.a ? "a" : !m.b ? "b" : null;
+  if (!key) { state.history.pop(); return; }
+  m[key] = toImage(x, y);
+  if (state.ideal) { draw(); placeOnIdeal(key, m[key]); return; }
   update();
 });
 canvas.addEventListener("mousemove", ev => {
   if (!state.drag) return;
-  marksOf()[state.frame][state.drag] = toImage(ev.offsetX, ev.offsetY);
+  const m = state.ideal ? state.idealMarks[state.frame] : marksOf()[state.frame];
+  m[state.drag] = toImage(ev.offsetX, ev.offsetY);
   draw();
 });
-window.addEventListener("mouseup", () => { if (state.drag) { state.drag = null; update(); } });
+window.addEventListener("mouseup", () => {
+  if (!state.drag) return;
+  const key = state.drag;
+  state.drag = null;
+  if (state.ideal) placeOnIdeal(key, state.idealMarks[state.frame][key]); else update();
+});
 
 function undo() { if (state.history.length) { state.marks = JSON.parse(state.history.pop()); update(); } }
 function cancelMarks() { snapshot(); state.marks[state.quantity] = {}; update(); }

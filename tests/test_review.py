@@ -322,3 +322,20 @@ def test_a_click_on_the_undistorted_view_is_kept_as_recorded():
     assert np.abs(und.points(recorded) - ideal).max() < 1e-6
     # the distortion moves the corners' points by pixels: the conversion is not the identity
     assert np.abs(recorded - ideal).max() > 5
+
+
+def test_the_reports_row_table_flags_a_reviewed_value():
+    """The report's table of rows says which values a reviewer marked (not only the quantity's own block)."""
+    from pipeline.reports.inspection_report import _observation_table
+
+    m = {"row": 2, "quantity": "Q1", "status": "ok", "value": 144.4, "U95": 3.7, "unit": "mm", "low": 140.7,
+         "high": 148.1, "below_resolution": False, "confident": True, "log_check": "disagrees",
+         "interval": "symmetric", "marked_by": "Ann Example", "marked_at": AT, "source": "marks"}
+    o = {"row": 2, "distance_m": 3.0, "code": "BCA", "char1": "A", "char2": None, "clock_from": 2, "clock_to": None}
+
+    def measured_cell(measurement):
+        table = _observation_table([o], {2: [measurement]})
+        return table._cellvalues[1][6].text
+
+    assert "marked in review by Ann Example on 2026-12-02" in measured_cell(m)
+    assert "review" not in measured_cell({**m, "marked_by": None, "marked_at": None})

@@ -324,9 +324,6 @@ def test_a_delivery_section_is_marked_and_measured_from_its_review_marks(reader,
     """A section of a delivery folder (one exchange file for a job) opened and marked like a package: its marks go
     to OUT/review/<inspection id>/marks.csv, the next run measures the section from them (the file is part of the
     section's input key), a rerun with the file unchanged rewrites nothing, and the delivery stays as delivered."""
-    import sys
-
-    sys.path.insert(0, str(Path(__file__).resolve().parent))
     from delivery_kit import write_delivery
 
     from pipeline.app import Layout, process_package

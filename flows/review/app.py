@@ -216,8 +216,8 @@ def create_app(service: ReviewService, token: str | None = None, *, hosts: set[s
         return _json(service.observation(id, row))
 
     @app.get("/api/candidates")
-    def candidates(id: str, row: int, quantity: str, fit: int = 0):
-        return _json({"candidates": service.candidate_table(id, row, quantity, fit=bool(fit))})
+    def candidates(id: str, row: int, quantity: str, fit: int = 0, frame: int | None = None):
+        return _json({"candidates": service.candidate_table(id, row, quantity, fit=bool(fit), fit_frame=frame)})
 
     @app.post("/api/points")
     def points(body: PointsIn):

@@ -277,13 +277,24 @@ class ReviewService:
                 "saved": [{"quantity": q, **asdict(v), "reviewer": who, "marked_at": at}
                           for (r, q, v, who, at) in saved if r == row]}
 
-    def candidate_table(self, inspection_id: str, row: int, quantity: str, *, fit: bool = False) -> list[dict]:
-        """The best-frame table of a quantity again: with the pose's part for every frame fitted by now (``fit``:
-        fitting the candidates not fitted yet, a fraction of a second each)."""
+    def candidate_table(self, inspection_id: str, row: int, quantity: str, *, fit: bool = False,
+                        fit_frame: int | None = None) -> list[dict]:
+        """The best-frame table of a quantity again: with the pose's part for every frame fitted by now.
+
+        fit : fit every candidate's contour not fitted yet first (one to two seconds each on a loaded machine);
+        fit_frame : fit this one frame's first (the page fits the candidates one request at a time, so that its
+        frame steps are never queued behind a dozen fits)."""
         pkg = self.package(inspection_id)
         obs = self._observation(pkg, row)
         if quantity not in self._markable(obs):
             raise ReviewError(f"row {row} ({obs.code} {obs.char1}): its {quantity} is not measured in the image")
+        if fit_frame is not None:
+            if not 0 <= fit_frame < pkg.location.info.frame_count:
+                raise NotFound(f"no frame {fit_frame} in {pkg.delivery.manifest.video.name}")
+            try:
+                self.contour(pkg, fit_frame)
+            except (PipegaugeError, ValueError, IndexError):
+                pass                 # no pose: the frame keeps the marking noise's bound
         stored = [m for o in self.observations(inspection_id) if o["row"] == row for m in o["measurements"]]
         return self.candidates(pkg, obs, quantity, stored, fit=fit)
 

@@ -101,16 +101,25 @@ function renderCandidates() {
 }
 
 async function refreshCandidates(fit) {
-  // the table again with the pose's part for the frames fitted by now (fit: the server fits every candidate)
+  // the table again with the pose's part for the frames fitted by now; fit: the candidates' poses fitted one
+  // request at a time (each a second or two), the table redrawn after each, so that frame steps never wait long
   const quantity = state.quantity;
   if (!quantity) return;
-  try {
-    const r = await review.get(`/api/candidates?id=${encodeURIComponent(state.id)}&row=${state.row}&quantity=${quantity}&fit=${fit ? 1 : 0}`);
-    const q = state.obs.quantities.find(q => q.quantity === quantity);
-    if (!q) return;
-    q.candidates = r.candidates;
-    if (state.quantity === quantity) { renderCandidates(); document.querySelectorAll("#candidates tr").forEach(tr => tr.classList.toggle("current", Number(tr.dataset.frame) === state.frame)); }
-  } catch (e) { /* the table keeps the marking-noise bound */ }
+  const q = state.obs.quantities.find(q => q.quantity === quantity);
+  if (!q) return;
+  const base = `/api/candidates?id=${encodeURIComponent(state.id)}&row=${state.row}&quantity=${quantity}`;
+  const tried = new Set();
+  for (;;) {
+    const next = fit ? q.candidates.find(c => !c.pose && !tried.has(c.frame)) : null;
+    if (fit && !next) break;
+    try {
+      const r = await review.get(base + (next ? `&frame=${next.frame}` : ""));
+      q.candidates = r.candidates;
+      if (state.quantity === quantity) { renderCandidates(); document.querySelectorAll("#candidates tr").forEach(tr => tr.classList.toggle("current", Number(tr.dataset.frame) === state.frame)); }
+    } catch (e) { /* the table keeps the marking-noise bound */ }
+    if (!fit || state.quantity !== quantity) break;
+    tried.add(next.frame);
+  }
 }
 
 function renderMarks() {

@@ -10,6 +10,9 @@ HTTP layer included, in process):
 * a click's linear update: ``POST /api/measure`` with ``monte_carlo`` false, the points moved by a pixel each
   time (the package and its frame's contour loaded once before, as when the page opens). Target: under 100 ms.
   The Monte Carlo result that follows in the background is timed too, for the record.
+* the best-frame table: ``GET /api/candidates`` with ``frame`` (one candidate frame's contour fitted: the page
+  fits them one request at a time in the background), frame jumps timed meanwhile, and without (the table
+  refreshed with the poses fitted: what a frame step triggers when it shows a candidate for the first time).
 
 Prints the median and the worst of each. Tests never assert a time.
 
@@ -125,6 +128,38 @@ def main() -> None:
                                          headers=headers).raise_for_status()) for _ in range(3)]
         print(_line("click: linear update", clicks, 100))
         print(_line("click: Monte Carlo (in the background)", mc, None))
+
+        import threading
+
+        def table(extra: str = "") -> list[dict]:
+            r = client.get(f"/api/candidates?id={PACKAGE}&row={ROW}&quantity={QUANTITY}{extra}&token={token}")
+            assert r.status_code == 200, r.text
+            return r.json()["candidates"]
+
+        # the page fits the candidates' poses one request at a time, in the background; meanwhile the reviewer
+        # steps frames (another thread here, as the server's thread pool serves them)
+        fits: list[float] = []
+        done = threading.Event()
+
+        def fit_all() -> None:
+            for c in table():
+                if not c["pose"]:
+                    fits.append(_timed(lambda f=c["frame"]: table(f"&frame={f}")))
+            done.set()
+
+        worker = threading.Thread(target=fit_all)
+        worker.start()
+        during = []
+        k = 0
+        while not done.is_set() and k < 10 * n:
+            during.append(_timed(lambda f=rng.randrange(info.frame_count): frame(f)))
+            k += 1
+            time.sleep(0.05)
+        worker.join()
+        tables = [_timed(lambda: table()) for _ in range(min(n, 20))]
+        print(_line("best-frame table: one candidate's pose fitted", fits, None))
+        print(_line("jump to any frame while poses are fitted", during, 300))
+        print(_line("best-frame table with the poses (refresh)", tables, 300))
     finally:
         shutil.rmtree(root, ignore_errors=True)
 

@@ -272,3 +272,70 @@ def test_transfers_say_who_marked():
     plain = {**m, "marked_by": None, "marked_at": None}
     assert "review" not in _measured_note(plain) and "review" not in measured_notes([{"row": 2}], [plain], version="x",
                                                                                      model="perspective")[2]
+
+
+# -- the predicted U95 with the pose ---------------------------------------------------------------------------------
+
+def test_a_worse_pose_predicts_a_larger_U95():
+    """The pose's part of a candidate frame's prediction grows with the pose's covariance, is nothing for an exact
+    pose, and is refused (nan) for a pose that could not be fitted; an extent along the pipe loses more to the pose
+    the farther its joint is, as the marking noise does."""
+    import numpy as np
+
+    from pipeline.app.review_predict import pose_U95, pose_u, representative_points
+    from pipeline.vision.contour.view import PipeView
+
+    view = PipeView("circular", 380.0, 380.0, 360.0, 288.0, ox=0.02, oy=-0.05, yaw=0.01, pitch=-0.02)
+    good = np.diag([1e-4, 1e-4, 1e-5, 1e-5, 1e-5])
+    worse = good.copy()
+    worse[0, 0], worse[2, 2] = 25 * good[0, 0], 25 * good[2, 2]       # the offset and the yaw known worse
+    for extent in ("along", "around", "section"):
+        points = representative_points(extent, "circular", 2.0, 0.05, 3.0)
+        u_good, u_worse = pose_u(view, good, points, 300.0), pose_u(view, worse, points, 300.0)
+        assert 0 < u_good < u_worse, extent
+        assert pose_U95(1.0, u_good) < pose_U95(1.0, u_worse)
+        assert pose_U95(1.0, u_good) > 1.0                 # above the marking noise's lower bound
+        assert pose_u(view, np.zeros((5, 5)), points, 300.0) == 0.0
+        assert np.isnan(pose_u(view, np.full((5, 5), np.inf), points, 300.0))
+    near, far = (pose_u(view, good, representative_points("along", "circular", t, 0.05, 3.0), 300.0) for t in (1.2, 4.0))
+    assert near < far
+    # the representative points are the quantity's size apart, on the wall, at the depth asked
+    a, b = representative_points("along", "circular", 2.0, 0.05, 3.0)
+    assert abs(np.linalg.norm(b - a) - 0.05) < 1e-12 and a[2] == 2.0
+    a, b = representative_points("around", "circular", 2.0, 0.05, 3.0)
+    assert abs(np.linalg.norm(b - a) - 0.05) < 1e-3 and a[2] == b[2] == 2.0
+
+
+def test_a_click_on_the_undistorted_view_is_kept_as_recorded():
+    """The certificate's distortion applied forward: a point of the undistorted image carried to the frame as
+    recorded undistorts back to itself (to 1e-6 px) over the image; the review keeps marks as recorded."""
+    import numpy as np
+
+    from pipeline.app.review import recorded_points
+    from pipeline.camera.undistort import Undistorter
+    from pipeline.formats.certificate import load_certificate
+
+    cert = load_certificate(SAMPLES / "certificates" / "SYN-720x576.json")
+    und = Undistorter(cert, 720, 576)
+    ideal = np.random.default_rng(3).uniform([0, 0], [719, 575], size=(500, 2))
+    recorded = recorded_points(cert, ideal)
+    assert np.abs(und.points(recorded) - ideal).max() < 1e-6
+    # the distortion moves the corners' points by pixels: the conversion is not the identity
+    assert np.abs(recorded - ideal).max() > 5
+
+
+def test_the_reports_row_table_flags_a_reviewed_value():
+    """The report's table of rows says which values a reviewer marked (not only the quantity's own block)."""
+    from pipeline.reports.inspection_report import _observation_table
+
+    m = {"row": 2, "quantity": "Q1", "status": "ok", "value": 144.4, "U95": 3.7, "unit": "mm", "low": 140.7,
+         "high": 148.1, "below_resolution": False, "confident": True, "log_check": "disagrees",
+         "interval": "symmetric", "marked_by": "Ann Example", "marked_at": AT, "source": "marks"}
+    o = {"row": 2, "distance_m": 3.0, "code": "BCA", "char1": "A", "char2": None, "clock_from": 2, "clock_to": None}
+
+    def measured_cell(measurement):
+        table = _observation_table([o], {2: [measurement]})
+        return table._cellvalues[1][6].text
+
+    assert "marked in review by Ann Example on 2026-12-02" in measured_cell(m)
+    assert "review" not in measured_cell({**m, "marked_by": None, "marked_at": None})

@@ -143,6 +143,11 @@ class IdIn(BaseModel):
     id: str = Field(min_length=1, max_length=300)
 
 
+class PointsIn(IdIn):
+    to: str = Field(pattern="^(recorded|ideal)$")
+    points: list[tuple[float, float]] = Field(min_length=1, max_length=32)
+
+
 def _views(body: MarksIn) -> list[View]:
     return [View(v.frame, tuple(v.a), tuple(v.b)) for v in body.views]       # type: ignore[arg-type]
 
@@ -209,6 +214,14 @@ def create_app(service: ReviewService, token: str | None = None, *, hosts: set[s
     @app.get("/api/observation")
     def observation(id: str, row: int):
         return _json(service.observation(id, row))
+
+    @app.get("/api/candidates")
+    def candidates(id: str, row: int, quantity: str, fit: int = 0, frame: int | None = None):
+        return _json({"candidates": service.candidate_table(id, row, quantity, fit=bool(fit), fit_frame=frame)})
+
+    @app.post("/api/points")
+    def points(body: PointsIn):
+        return _json({"points": service.convert_points(body.id, body.points, body.to)})
 
     @app.get("/api/frame")
     def frame(id: str, n: int, view: str = "recorded"):

@@ -124,9 +124,12 @@ def finish_night(rows: Sequence[dict], layout: Layout, night: dt.date | None = N
 
 def measure_packages(folders: Sequence[str | os.PathLike], layout: Layout, *, model: str = "perspective",
                      certificates: str | os.PathLike | None = None, reader=None,
-                     progress: Say | None = None, say: Say = _quiet) -> Iterator[PackageOutcome]:
+                     progress: Say | None = None, say: Say = _quiet,
+                     section: str | None = None) -> Iterator[PackageOutcome]:
     """``pipegauge measure``: the packages one after another into ``layout``'s dataset, under its lock, each
     measured again whatever is stored (its outcome carries its records); a report where the layout keeps them.
+
+    section : only this section of each delivery folder (the review measures again the one it marked); None: all.
 
     Folders that claim one package id are refused unread, as in a night.
     """
@@ -144,7 +147,7 @@ def measure_packages(folders: Sequence[str | os.PathLike], layout: Layout, *, mo
             except PipegaugeError as exc:
                 yield refused_outcome(folder, str(exc))
                 continue
-            for unit in units:
+            for unit in (u for u in units if section is None or u.section == section):
                 # the same path as a run's, input key included: a later run skips what measure stored
                 yield process_package(unit.folder, layout.dataset, model=model, certificates=certificates,
                                       reader=reader, skip_known=False, keep_result=True, progress=progress,

@@ -36,6 +36,7 @@ from pipeline.core.errors import PipegaugeError
 from pipeline.domain.records import Mark, Observation
 from pipeline.domain.results import InspectionRecord, MeasurementRecord, ObservationRecord
 from pipeline.formats.review_marks import ReviewMark, read_review_marks, reviewer_problem, write_review_marks
+from pipeline.maths.metrology import K95
 from pipeline.store import read_records
 
 __all__ = ["ReviewService", "ReviewError", "NotFound", "View", "candidate_depths_mm"]
@@ -84,6 +85,7 @@ class _Package:
     frames: Any            # pipeline.vision.video.frame_source.FrameSource
     contours: dict
     lock: threading.Lock
+    section: str | None = None     # the section's key when the folder is a delivery folder
 
 
 class ReviewService:
@@ -167,12 +169,13 @@ class ReviewService:
 
     # -- one package, loaded once --------------------------------------------------------------------------------
 
-    def _folder(self, inspection_id: str) -> Path:
-        """The package folder of an inspection: in the inbox when one is given, else where the run read it."""
+    def _folder(self, inspection_id: str) -> tuple[Path, str | None]:
+        """The package folder of an inspection (for a delivery's section: the delivery folder, and the section's
+        key): in the inbox when one is given, else where the run read it."""
         record = self.inspection(inspection_id)
-        if record.section_key:
-            raise ReviewError(f"{inspection_id}: a section of a delivery folder; the review marks package folders "
-                              "for now (docs/review.md)")
+        return self._found(inspection_id, record), (record.section_key or None)
+
+    def _found(self, inspection_id: str, record: InspectionRecord) -> Path:
         stored = Path(record.package_folder or "")
         if self.inbox is not None:
             candidate = self.inbox / stored.name
@@ -192,15 +195,36 @@ class ReviewService:
         from pipeline.vision.video.frame_source import FrameSource
         from pipeline.vision.video.overlay_ocr import OverlayReader
 
-        folder = self._folder(inspection_id)
+        folder, section = self._folder(inspection_id)
         record = InspectionRecord()
-        delivery = load_delivery(folder, record)
+        if section is None:
+            delivery = load_delivery(folder, record)
+        else:
+            delivery = self._section(folder, section, inspection_id, record)
         if self._reader is None:
             self._reader = OverlayReader()
         location = locate(delivery, record, self._reader)
-        pkg = _Package(folder, delivery, location, FrameSource(delivery.manifest.video), {}, threading.Lock())
+        pkg = _Package(folder, delivery, location, FrameSource(delivery.manifest.video), {}, threading.Lock(), section)
         with self._lock:
             return self._packages.setdefault(inspection_id, pkg)
+
+    @staticmethod
+    def _section(folder: Path, section: str, inspection_id: str, record: InspectionRecord):
+        """A delivery's section read as the run reads it (``pipeline.app.delivery``): its manifest, its digests
+        (its part of the exchange file, its video and marks), the package it stands for."""
+        from pipeline.app.delivery import section_digests, section_manifest
+        from pipeline.app.load import LogOnly, load_delivery
+
+        manifest, why = section_manifest(folder, section)
+        if manifest.package_id != inspection_id:
+            raise NotFound(f"{inspection_id}: section {section!r} of {folder.name} is now {manifest.package_id!r}; "
+                           "run the night again")
+        if why is not None:
+            raise ReviewError(f"{inspection_id}: cannot be marked: {why}")
+        try:
+            return load_delivery(folder, record, manifest=manifest, digests=section_digests(manifest))
+        except LogOnly as exc:
+            raise ReviewError(f"{inspection_id}: cannot be marked: {exc}") from None
 
     def contour(self, pkg: _Package, frame: int):
         """The pipe contour fitted at a frame (cached), as the run fits it."""
@@ -253,13 +277,37 @@ class ReviewService:
                 "saved": [{"quantity": q, **asdict(v), "reviewer": who, "marked_at": at}
                           for (r, q, v, who, at) in saved if r == row]}
 
-    def candidates(self, pkg: _Package, obs: Observation, quantity: str, stored: list[dict]) -> list[dict]:
+    def candidate_table(self, inspection_id: str, row: int, quantity: str, *, fit: bool = False,
+                        fit_frame: int | None = None) -> list[dict]:
+        """The best-frame table of a quantity again: with the pose's part for every frame fitted by now.
+
+        fit : fit every candidate's contour not fitted yet first (one to two seconds each on a loaded machine);
+        fit_frame : fit this one frame's first (the page fits the candidates one request at a time, so that its
+        frame steps are never queued behind a dozen fits)."""
+        pkg = self.package(inspection_id)
+        obs = self._observation(pkg, row)
+        if quantity not in self._markable(obs):
+            raise ReviewError(f"row {row} ({obs.code} {obs.char1}): its {quantity} is not measured in the image")
+        if fit_frame is not None:
+            if not 0 <= fit_frame < pkg.location.info.frame_count:
+                raise NotFound(f"no frame {fit_frame} in {pkg.delivery.manifest.video.name}")
+            try:
+                self.contour(pkg, fit_frame)
+            except (PipegaugeError, ValueError, IndexError):
+                pass                 # no pose: the frame keeps the marking noise's bound
+        stored = [m for o in self.observations(inspection_id) if o["row"] == row for m in o["measurements"]]
+        return self.candidates(pkg, obs, quantity, stored, fit=fit)
+
+    def candidates(self, pkg: _Package, obs: Observation, quantity: str, stored: list[dict], *,
+                   fit: bool = False) -> list[dict]:
         """Candidate frames for marking a quantity, each with its predicted U95, the best first.
 
         The feature's position along the pipe is the stored measurement's (its frame's chainage plus the depth
         of its cross-section), else the logged distance plus ``MIN_DEPTH_DN`` DN (the camera logs a feature
         it sees ahead). A candidate is the frame where the camera stands at a depth d from it; its U95 is
-        ``measurement.predict.predicted_U95`` at d with the certificate's focal length and the marking u.
+        ``measurement.predict.predicted_U95`` at d with the certificate's focal length and the marking u (a lower
+        bound, ``pose`` False), with the pose's part added (``pipeline.app.review_predict``, ``pose`` True) where
+        the frame's contour is fitted: a frame shown in this session, or every candidate with ``fit``.
         """
         from pipeline.measurement.methods import METHODS
         from pipeline.measurement.predict import predicted_U95
@@ -291,14 +339,38 @@ class ReviewService:
             d = 1000.0 * (feature_m - chainage)
             if d <= 0:
                 continue
+            marks_U95 = predicted_U95(extent, d, header.height_mm, f_px, REVIEW_MARK_U_PX)
             rows.append({"frame": int(frame), "chainage_m": round(float(chainage), 3), "depth_mm": round(d),
-                         "feature_m": round(float(feature_m), 3),
-                         "U95": predicted_U95(extent, d, header.height_mm, f_px, REVIEW_MARK_U_PX),
-                         "unit": spec.unit, "basis": basis})
+                         "feature_m": round(float(feature_m), 3), "U95": marks_U95, "U95_marks": marks_U95,
+                         "pose": False, "unit": spec.unit, "basis": basis})
+        size_mm = _expected_size_mm(obs, quantity, measured, header.height_mm)
+        if fit:      # the frames the table would rank: fitted now, each once per session
+            for r in sorted(rows, key=lambda r: r["U95"])[:12]:
+                try:
+                    self.contour(pkg, r["frame"])
+                except (PipegaugeError, ValueError, IndexError):
+                    pass
+        for r in rows:
+            self._add_pose(pkg, obs, r, extent, size_mm)
         rows.sort(key=lambda r: r["U95"])
         for i, r in enumerate(rows):
             r["best"] = i == 0
         return rows[:12]
+
+    def _add_pose(self, pkg: _Package, obs: Observation, row: dict, extent: str, size_mm: float) -> None:
+        """A candidate's predicted U95 with the pose's part, where its frame's contour is fitted already."""
+        from pipeline.app.review_predict import pose_U95, pose_u, representative_points
+
+        with pkg.lock:
+            contour = pkg.contours.get(row["frame"])
+        if contour is None:
+            return
+        H = pkg.delivery.header.height_mm
+        points = representative_points(extent, contour.view.shape, row["depth_mm"] / H, size_mm / H, obs.clock_from)
+        u = pose_u(contour.view, contour.covariance, points, H)
+        if math.isfinite(u):
+            row.update(U95=pose_U95(row["U95_marks"], u), U95_pose=K95 * u, pose=True,
+                       pose_confident=bool(contour.confident))
 
     def joint_frames(self, pkg: _Package) -> list[int]:
         """Frames where the camera passes a pipe joint (every unit length from the start), for the stepper."""
@@ -378,6 +450,22 @@ class ReviewService:
                             "recorded": [round(float(r[0]), 1), round(float(r[1]), 1)]}
                            for (h, p), r in zip(clocks, clocks_recorded)],
                 "confident": bool(contour.confident), "problems": list(contour.problems)}
+
+    def convert_points(self, inspection_id: str, points: Sequence[Sequence[float]], to: str) -> list[list[float]]:
+        """Image points [px] carried between the frame as recorded and the undistorted (ideal) one with the
+        certificate: ``to`` "recorded" (a click on the undistorted view, kept as recorded like marks.csv) or
+        "ideal" (a mark drawn on the undistorted view)."""
+        pkg = self.package(inspection_id)
+        pts = np.array([_point(p) for p in points], float).reshape(-1, 2)
+        if to == "ideal":
+            out = pkg.location.undistorter.points(pts)
+        elif to == "recorded":
+            out = recorded_points(pkg.delivery.certificate, pts)
+        else:
+            raise ReviewError(f"convert points to {to!r}: use recorded or ideal")
+        if not np.all(np.isfinite(out)):
+            raise ReviewError("a point outside the image the certificate describes")
+        return [[round(float(x), 3), round(float(y), 3)] for x, y in out]
 
     # -- measuring and saving -----------------------------------------------------------------------------------
 
@@ -482,12 +570,22 @@ class ReviewService:
 
         pkg = self.package(inspection_id)
         outcomes = list(measure_packages([pkg.folder], self.layout, model=self.model, reader=self._reader,
-                                         say=say or (lambda message: None)))
+                                         say=say or (lambda message: None), section=pkg.section))
         return {"status": outcomes[0].status if outcomes else "failed",
                 "error": outcomes[0].error if outcomes else "nothing measured"}
 
 
 # -- helpers -----------------------------------------------------------------------------------------------------
+
+def _expected_size_mm(obs: Observation, quantity: str, measured: list[dict], H: float) -> float:
+    """The size [mm] a quantity is expected to have (for the pose's part of the prediction): the stored value,
+    else the logged one, in mm; else a tenth of the pipe's height."""
+    for value, unit in ([(m.get("value"), m.get("unit")) for m in measured]
+                        + [(obs.q1 if quantity == "Q1" else obs.q2, obs.q1_unit if quantity == "Q1" else obs.q2_unit)]):
+        if unit == "mm" and value is not None and math.isfinite(float(value)) and float(value) > 0:
+            return float(value)
+    return 0.1 * H
+
 
 def _iso(value) -> str | None:
     return value.isoformat() if hasattr(value, "isoformat") else None
@@ -548,6 +646,21 @@ def _inside(path: Path, root: Path) -> Path:
     if resolved != base and base not in resolved.parents:
         raise NotFound(f"{path} leads outside {root}")
     return resolved
+
+
+def recorded_points(cert, ideal) -> np.ndarray:
+    """Points (n, 2) [px] of the frame as recorded whose undistortion is ``ideal`` (n, 2) [px]: the certificate's
+    distortion model applied forward (``cv2.projectPoints`` of the ideal points' rays), exact where
+    ``Undistorter.points`` inverts it (the ideal image keeps the certificate's camera matrix)."""
+    import cv2
+
+    K, dist = cert.camera_matrix(), cert.opencv_distortion()
+    ideal = np.asarray(ideal, float).reshape(-1, 2)
+    rays = np.column_stack([(ideal[:, 0] - K[0, 2]) / K[0, 0], (ideal[:, 1] - K[1, 2]) / K[1, 1], np.ones(len(ideal))])
+    # the skew term, where a certificate has one
+    rays[:, 0] -= K[0, 1] * rays[:, 1] / K[0, 0]
+    out, _ = cv2.projectPoints(rays.reshape(-1, 1, 3), np.zeros(3), np.zeros(3), K, dist)
+    return out.reshape(-1, 2)
 
 
 def _distort(und, ideal: np.ndarray, iterations: int = 8) -> np.ndarray:

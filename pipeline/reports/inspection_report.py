@@ -237,8 +237,11 @@ def _observation_table(observations: list[dict], by_row: dict[int, list[dict]]) 
             if m["status"] == "ok":
                 flag = "" if m.get("confident") else " ⚠"
                 note = resolution_note(m)
+                # a value measured from a reviewer's marks says so where it is read first, not only in its block
+                reviewed = review_note(m)
                 measured.append(f"{_label(m)}: {safe_text(format_record(m))}{flag}"
-                                + (f"; {safe_text(note)}" if note else ""))
+                                + (f"; {safe_text(note)}" if note else "")
+                                + (f" ({safe_text(reviewed)})" if reviewed else ""))
             else:
                 measured.append(f"{_label(m)}: not measured")
         # the column fits "12–12" on one line (a narrower one split the word: "12–1 / 2")

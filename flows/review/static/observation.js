@@ -5,6 +5,7 @@ const state = {
   id: params.get("id"), row: Number(params.get("row")), obs: null, frame: 0, ideal: false, quantity: null,
   marks: {},          // quantity -> {frame: {a: [x, y], b: [x, y]}} in the frame as recorded [px]
   history: [], overlay: null, image: new Image(), scale: 1, seq: 0, drag: null, lastResult: null,
+  idealMarks: {},     // frame -> {a, b} of the current quantity on the undistorted view [px] (drawn, dragged there)
 };
 const canvas = document.getElementById("canvas");
 const ctx = canvas.getContext("2d");
@@ -41,8 +42,9 @@ function draw() {
     ctx.fillStyle = "#e6ffe9"; ctx.font = "12px DejaVu Sans, sans-serif";
     ov.clocks.forEach(c => { const [x, y] = toCanvas(state.ideal ? c.ideal : c.recorded); ctx.fillText(String(c.hour), x - 4, y - 4); });
   }
-  if (!state.ideal) {
-    const m = marksOf()[state.frame];
+  {
+    // marks are kept as recorded; on the undistorted view they are drawn where the certificate puts them
+    const m = state.ideal ? state.idealMarks[state.frame] : marksOf()[state.frame];
     if (m) {
       ctx.strokeStyle = "#ff3b3b"; ctx.fillStyle = "#ff3b3b"; ctx.lineWidth = 1.5;
       const ends = ["a", "b"].filter(k => m[k]).map(k => [k, toCanvas(m[k])]);
@@ -63,6 +65,7 @@ async function showFrame(n) {
   if (state.frame !== n) return;
   state.image = img;
   draw();
+  if (state.ideal) syncIdealMarks();
   document.querySelectorAll("#candidates tr").forEach(tr => tr.classList.toggle("current", Number(tr.dataset.frame) === n));
   loadOverlay(n);
 }
@@ -78,6 +81,8 @@ async function loadOverlay(n) {
       `${ov.chainage_m.toFixed(2)} m` + (ov.confident ? "" : " · outline not trusted");
     document.getElementById("chainage").title = ov.confident ? "the camera's chainage at this frame" : ov.problems.join("; ");
     draw();
+    // a candidate shown for the first time now has its pose fitted: its prediction can include it
+    if (currentCandidates().some(c => c.frame === n && !c.pose)) refreshCandidates(false);
   } catch (e) { /* a frame whose contour cannot be fitted: the image alone */ }
 }
 
@@ -88,10 +93,33 @@ function currentCandidates() {
 
 function renderCandidates() {
   const body = document.querySelector("#candidates tbody");
-  body.innerHTML = currentCandidates().map(c => `<tr data-frame="${c.frame}" class="${c.best ? "best" : ""}" title="${review.esc(c.basis)}">
+  body.innerHTML = currentCandidates().map(c => `<tr data-frame="${c.frame}" data-pose="${c.pose ? 1 : 0}" class="${c.best ? "best" : ""}" title="${review.esc(c.basis)}">
     <td><a href="#">${c.frame}</a>${c.best ? " (best)" : ""}</td><td>${c.chainage_m.toFixed(2)} m</td><td>${c.depth_mm} mm</td>
-    <td>${c.U95.toPrecision(2)} ${review.esc(c.unit)}</td></tr>`).join("");
+    <td>${c.U95.toPrecision(2)} ${review.esc(c.unit)}</td>
+    <td title="${c.pose ? `marks ${c.U95_marks.toPrecision(2)}, pose ${c.U95_pose.toPrecision(2)} ${review.esc(c.unit)} (U95 of each alone)` : "the pose of this frame is not fitted yet: the marking noise alone, a lower bound"}">${c.pose ? "marks + pose" + (c.pose_confident ? "" : " (outline not trusted)") : "marks only (lower bound)"}</td></tr>`).join("");
   body.querySelectorAll("a").forEach(a => a.addEventListener("click", ev => { ev.preventDefault(); showFrame(Number(a.closest("tr").dataset.frame)); }));
+}
+
+async function refreshCandidates(fit) {
+  // the table again with the pose's part for the frames fitted by now; fit: the candidates' poses fitted one
+  // request at a time (each a second or two), the table redrawn after each, so that frame steps never wait long
+  const quantity = state.quantity;
+  if (!quantity) return;
+  const q = state.obs.quantities.find(q => q.quantity === quantity);
+  if (!q) return;
+  const base = `/api/candidates?id=${encodeURIComponent(state.id)}&row=${state.row}&quantity=${quantity}`;
+  const tried = new Set();
+  for (;;) {
+    const next = fit ? q.candidates.find(c => !c.pose && !tried.has(c.frame)) : null;
+    if (fit && !next) break;
+    try {
+      const r = await review.get(base + (next ? `&frame=${next.frame}` : ""));
+      q.candidates = r.candidates;
+      if (state.quantity === quantity) { renderCandidates(); document.querySelectorAll("#candidates tr").forEach(tr => tr.classList.toggle("current", Number(tr.dataset.frame) === state.frame)); }
+    } catch (e) { /* the table keeps the marking-noise bound */ }
+    if (!fit || state.quantity !== quantity) break;
+    tried.add(next.frame);
+  }
 }
 
 function renderMarks() {
@@ -107,6 +135,7 @@ function views() {
 
 async function update() {
   renderMarks(); draw();
+  if (state.ideal) syncIdealMarks();
   const v = views();
   const seq = ++state.seq;
   const out = document.getElementById("value");
@@ -146,27 +175,63 @@ function showResult(r, preview) {
 
 // -- marking: click, drag, undo ----------------------------------------------------------------------------------
 function nearest(x, y) {
-  const m = marksOf()[state.frame] || {};
+  const m = (state.ideal ? state.idealMarks[state.frame] : marksOf()[state.frame]) || {};
   let best = null;
   ["a", "b"].forEach(k => { if (m[k]) { const [cx, cy] = toCanvas(m[k]); const d = Math.hypot(cx - x, cy - y); if (d < 9 && (!best || d < best.d)) best = {k, d}; } });
   return best && best.k;
 }
+// the undistorted view: points carried to and from the frame as recorded with the certificate (server side, exact)
+async function convert(points, to) {
+  const r = await review.post("/api/points", {id: state.id, to, points});
+  return r.points;
+}
+
+async function syncIdealMarks() {
+  // the current quantity's marks of the shown frame, drawn on the undistorted view
+  const n = state.frame, m = marksOf()[n];
+  const keys = m ? ["a", "b"].filter(k => m[k]) : [];
+  if (!keys.length) { delete state.idealMarks[n]; draw(); return; }
+  try {
+    const pts = await convert(keys.map(k => m[k]), "ideal");
+    state.idealMarks[n] = Object.fromEntries(keys.map((k, i) => [k, pts[i]]));
+    draw();
+  } catch (e) { message(e.message, true); }
+}
+
+async function placeOnIdeal(key, point) {
+  // a click or a drag's end on the undistorted view: kept as recorded, like marks.csv
+  const n = state.frame;
+  try {
+    const [recorded] = await convert([point], "recorded");
+    (marksOf()[n] || (marksOf()[n] = {}))[key] = recorded;
+    update();
+  } catch (e) { message(e.message, true); syncIdealMarks(); }
+}
+
 canvas.addEventListener("mousedown", ev => {
-  if (state.ideal) { message("switch to 'as recorded' to mark: marks are kept in the frame as recorded"); return; }
   const x = ev.offsetX, y = ev.offsetY;
   const hit = nearest(x, y);
   snapshot();
   if (hit) { state.drag = hit; return; }
-  const m = marksOf()[state.frame] || (marksOf()[state.frame] = {});
-  if (!m.a) m.a = toImage(x, y); else if (!m.b) m.b = toImage(x, y); else { state.history.pop(); return; }
+  const m = state.ideal ? (state.idealMarks[state.frame] ||= {}) : (marksOf()[state.frame] || (marksOf()[state.frame] = {}));
+  const key = !m.a ? "a" : !m.b ? "b" : null;
+  if (!key) { state.history.pop(); return; }
+  m[key] = toImage(x, y);
+  if (state.ideal) { draw(); placeOnIdeal(key, m[key]); return; }
   update();
 });
 canvas.addEventListener("mousemove", ev => {
   if (!state.drag) return;
-  marksOf()[state.frame][state.drag] = toImage(ev.offsetX, ev.offsetY);
+  const m = state.ideal ? state.idealMarks[state.frame] : marksOf()[state.frame];
+  m[state.drag] = toImage(ev.offsetX, ev.offsetY);
   draw();
 });
-window.addEventListener("mouseup", () => { if (state.drag) { state.drag = null; update(); } });
+window.addEventListener("mouseup", () => {
+  if (!state.drag) return;
+  const key = state.drag;
+  state.drag = null;
+  if (state.ideal) placeOnIdeal(key, state.idealMarks[state.frame][key]); else update();
+});
 
 function undo() { if (state.history.length) { state.marks = JSON.parse(state.history.pop()); update(); } }
 function cancelMarks() { snapshot(); state.marks[state.quantity] = {}; update(); }
@@ -213,7 +278,7 @@ document.getElementById("undo").onclick = undo;
 document.getElementById("clear").onclick = cancelMarks;
 document.getElementById("save").onclick = save;
 document.getElementById("again").onclick = measureAgain;
-document.getElementById("quantity").onchange = ev => { state.quantity = ev.target.value; renderCandidates(); update(); };
+document.getElementById("quantity").onchange = ev => { state.quantity = ev.target.value; renderCandidates(); update(); refreshCandidates(true); };
 
 window.addEventListener("keydown", ev => {
   if (ev.target.tagName === "INPUT" && ev.key !== "Enter" && ev.key !== "Escape") return;
@@ -247,4 +312,7 @@ window.addEventListener("resize", () => { if (state.obs) { fitScale(); draw(); }
   renderMarks();
   await showFrame(o.frame);
   document.body.dataset.ready = "1";
+  // the candidates' poses fitted in the background; the table then ranks them with the pose's part
+  for (const q of o.quantities) { if (q.quantity === state.quantity) await refreshCandidates(true); }
+  document.body.dataset.poses = "1";
 })();

@@ -33,12 +33,13 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from pipeline.vision.contour.first_pose import initial_view, pose_from_peaks, pose_from_templates, search_pose, template_fit
+from pipeline.vision.contour.first_pose import (initial_view, offset_restarts, pose_from_peaks, pose_from_templates,
+                                                search_pose, template_fit)
 from pipeline.vision.contour.groups import group_members
 from pipeline.vision.contour.result import PipeContour, Ring
 from pipeline.vision.contour.ridges import dark_centre, ridge_points
 from pipeline.vision.contour.ring_fit import assign, coverage_deg, refine
-from pipeline.vision.contour.tuning import MIN_BEST_COVERAGE_DEG, MIN_CURVE_POINTS, MIN_RING_POINTS
+from pipeline.vision.contour.tuning import INLIER_PX, MIN_BEST_COVERAGE_DEG, MIN_CURVE_POINTS, MIN_RING_POINTS
 from pipeline.vision.contour.view import PipeView
 
 __all__ = ["FrameCandidates", "frame_candidates", "detect_contour", "contour_from_candidates",
@@ -48,6 +49,7 @@ MAX_CANDIDATES_PER_FRAME = 2000
 SEARCH_FRAMES = 7           # frames whose candidates steer the pose search (all frames enter the fit)
 MIN_RINGS = 3               # a confident pose needs at least this many rings (and one seen over MIN_BEST_COVERAGE_DEG)
 MAX_RMS_PX = 1.5
+RESTART_GAIN = 0.02        # a restart replaces the fit when it lowers the truncated misfit by this share
 
 
 @dataclass(frozen=True)
@@ -140,7 +142,8 @@ def contour_from_candidates(candidates: list[FrameCandidates], camera_matrix: np
     assigned = [assign(f[0], pts, frame_of, f[1]) for f in fits]
     rms_of = [float(np.sqrt(np.mean(res[ring_of >= 0] ** 2))) for ring_of, res in assigned]
     best = int(np.argmin(rms_of))
-    (view, rings, sol, free, deformed), (ring_of, res), rms = fits[best], assigned[best], rms_of[best]
+    fit, (ring_of, res), rms = _restarted(fits[best], assigned[best], pts, frame_of, curve_of)
+    view, rings, sol, free, deformed = fit
     n_fit = (len(sol.fun) - 2) // 2
     dof = max(2 * n_fit - len(sol.x), 1)
     # Residuals along one ring share its error (blur, texture, the ring's own shape), so the
@@ -170,6 +173,36 @@ def contour_from_candidates(candidates: list[FrameCandidates], camera_matrix: np
                         "partial arcs do not fix the pose")
     return PipeContour(view, cov, sorted(found, key=lambda r: (r.frame, r.depth)), rms, len(pts), tuple(seed),
                        problems, wall_u, sorted(set(deformed)), pose_dof(len(rings), len(free)))
+
+
+def _restarted(fit, assigned, pts, frame_of, curve_of, rounds: int = 2):
+    """The fit after restarts beside it across the offset-for-tilt valley (``offset_restarts``): a restart
+    whose rings lie closer to their points replaces it, and the restarts are repeated from there."""
+    score = truncated_misfit(assigned[1])
+    for _ in range(rounds):
+        view, rings = fit[0], fit[1]
+        depth = float(np.median([t for _, t in rings]))
+        improved = False
+        for start in offset_restarts(view, depth):
+            trial = refine(start, pts, frame_of, curve_of)
+            if trial is None:
+                continue
+            trial_assigned = assign(trial[0], pts, frame_of, trial[1])
+            trial_score = truncated_misfit(trial_assigned[1])
+            if trial_score < score * (1.0 - RESTART_GAIN):
+                fit, assigned, score, improved = trial, trial_assigned, trial_score, True
+        if not improved:
+            break
+    ring_of, res = assigned
+    return fit, assigned, float(np.sqrt(np.mean(res[ring_of >= 0] ** 2)))
+
+
+def truncated_misfit(res: np.ndarray) -> float:
+    """Mean of min(r, INLIER_PX)^2 over the candidates' distances r [px] to their nearest ring: how well a pose
+    explains all the ridge points, where a pose that leaves points unassigned pays for each (the RMS over the
+    assigned points alone rewards dropping the hard ones)."""
+    r = np.where(np.isfinite(res), np.minimum(res, INLIER_PX), INLIER_PX)
+    return float(np.mean(r ** 2))
 
 
 def pose_dof(rings: int, fitted: int) -> float:

@@ -292,20 +292,19 @@ def test_windows_fitted_while_decoding_equal_the_fits_one_after_another_and_keep
     assert all(np.array_equal(kept[f], und.frame(read_frame(video, f))) for f in frames)
 
 
-def test_offset_restarts_move_the_offset_and_keep_the_axis_point_at_the_anchor_depth():
-    """The restarts step ox (or oy) by +-step and turn the camera so the axis point at the rings' depth stays."""
+def test_offset_restarts_step_the_offset_and_follow_the_fits_valley():
+    """The restarts step ox (or oy) by +-step and the other parameters by their regression on it under the
+    fit's covariance (the valley where offset trades for yaw or pitch); a parameter held fixed stays."""
     from pipeline.vision.contour.first_pose import offset_restarts
 
     view = PipeView("circular", 800.0, 800.0, 360.0, 288.0, 0.02, -0.03, math.radians(0.5), math.radians(-1.0), 0.0)
-    depth = 3.0
-    anchor = view.project(np.array([[0.0, 0.0, depth]]))[0]
-    starts = offset_restarts(view, depth, steps=(0.01,))
-    assert len(starts) == 4
-    moved = sorted(np.round(s.pose[:2] - view.pose[:2], 6).tolist() for s in starts)
-    assert moved == [[-0.01, 0.0], [0.0, -0.01], [0.0, 0.01], [0.01, 0.0]]
-    for s in starts:
-        assert np.allclose(s.project(np.array([[0.0, 0.0, depth]]))[0], anchor, atol=1e-6)
-        assert abs(s.yaw - view.yaw) + abs(s.pitch - view.pitch) > math.radians(0.05)   # the camera did turn
+    C = np.zeros((5, 5))
+    C[:4, :4] = [[4.0, 0.0, -1.6, 0.0], [0.0, 9.0, 0.0, 2.7], [-1.6, 0.0, 1.0, 0.0], [0.0, 2.7, 0.0, 1.0]]
+    starts = offset_restarts(view, C, steps=(0.01,))
+    moves = sorted(np.round((s.pose - view.pose) / 0.01, 9).tolist() for s in starts)
+    assert moves == [[-1.0, 0.0, 0.4, 0.0, 0.0], [0.0, -1.0, 0.0, -0.3, 0.0], [0.0, 1.0, 0.0, 0.3, 0.0],
+                     [1.0, 0.0, -0.4, 0.0, 0.0]]
+    assert offset_restarts(view, np.full((5, 5), np.inf)) == []
 
 
 @pytest.mark.slow

@@ -39,7 +39,7 @@ from pipeline.vision.contour.groups import group_members
 from pipeline.vision.contour.result import PipeContour, Ring
 from pipeline.vision.contour.ridges import dark_centre, ridge_points
 from pipeline.vision.contour.ring_fit import assign, coverage_deg, refine
-from pipeline.vision.contour.tuning import INLIER_PX, MIN_BEST_COVERAGE_DEG, MIN_CURVE_POINTS, MIN_RING_POINTS
+from pipeline.vision.contour.tuning import MIN_BEST_COVERAGE_DEG, MIN_CURVE_POINTS, MIN_RING_POINTS
 from pipeline.vision.contour.view import PipeView
 
 __all__ = ["FrameCandidates", "frame_candidates", "detect_contour", "contour_from_candidates",
@@ -49,7 +49,7 @@ MAX_CANDIDATES_PER_FRAME = 2000
 SEARCH_FRAMES = 7           # frames whose candidates steer the pose search (all frames enter the fit)
 MIN_RINGS = 3               # a confident pose needs at least this many rings (and one seen over MIN_BEST_COVERAGE_DEG)
 MAX_RMS_PX = 1.5
-RESTART_GAIN = 0.02        # a restart replaces the fit when it lowers the truncated misfit by this share
+RESTART_GAIN = 0.02        # a restart replaces the fit when its mean squared residual on the common points is this share lower
 
 
 @dataclass(frozen=True)
@@ -149,12 +149,7 @@ def contour_from_candidates(candidates: list[FrameCandidates], camera_matrix: np
     # Residuals along one ring share its error (blur, texture, the ring's own shape), so the
     # rings, not the points, are the independent observations: scale by points per ring.
     s2 = float(np.sum(sol.fun[:-2] ** 2) / dof) * n_fit / len(rings)
-    try:
-        cov_x = np.linalg.inv(sol.jac.T @ sol.jac) * s2
-    except np.linalg.LinAlgError:
-        cov_x = np.full((len(sol.x), len(sol.x)), np.inf)
-    cov = np.zeros((5, 5))
-    cov[np.ix_(free, free)] = cov_x[:len(free), :len(free)]
+    cov = _pose_covariance(sol, free, s2)
     found = []
     wall, _ = view.wall_hits(pts)
     for i, (frame, t) in enumerate(rings):
@@ -178,31 +173,42 @@ def contour_from_candidates(candidates: list[FrameCandidates], camera_matrix: np
 def _restarted(fit, assigned, pts, frame_of, curve_of, rounds: int = 2):
     """The fit after restarts beside it across the offset-for-tilt valley (``offset_restarts``): a restart
     whose rings lie closer to their points replaces it, and the restarts are repeated from there."""
-    score = truncated_misfit(assigned[1])
     for _ in range(rounds):
-        view, rings = fit[0], fit[1]
-        depth = float(np.median([t for _, t in rings]))
+        view, sol, free = fit[0], fit[2], fit[3]
         improved = False
-        for start in offset_restarts(view, depth):
+        for start in offset_restarts(view, _pose_covariance(sol, free, 1.0)):
             trial = refine(start, pts, frame_of, curve_of)
             if trial is None:
                 continue
             trial_assigned = assign(trial[0], pts, frame_of, trial[1])
-            trial_score = truncated_misfit(trial_assigned[1])
-            if trial_score < score * (1.0 - RESTART_GAIN):
-                fit, assigned, score, improved = trial, trial_assigned, trial_score, True
+            if closer(trial_assigned, assigned):
+                fit, assigned, improved = trial, trial_assigned, True
         if not improved:
             break
     ring_of, res = assigned
     return fit, assigned, float(np.sqrt(np.mean(res[ring_of >= 0] ** 2)))
 
 
-def truncated_misfit(res: np.ndarray) -> float:
-    """Mean of min(r, INLIER_PX)^2 over the candidates' distances r [px] to their nearest ring: how well a pose
-    explains all the ridge points, where a pose that leaves points unassigned pays for each (the RMS over the
-    assigned points alone rewards dropping the hard ones)."""
-    r = np.where(np.isfinite(res), np.minimum(res, INLIER_PX), INLIER_PX)
-    return float(np.mean(r ** 2))
+def _pose_covariance(sol, free, s2: float) -> np.ndarray:
+    """(J^T J)^-1 s^2 of the fit, its pose block placed in (5, 5) (zero for parameters held fixed)."""
+    try:
+        cov_x = np.linalg.inv(sol.jac.T @ sol.jac) * s2
+    except np.linalg.LinAlgError:
+        cov_x = np.full((len(sol.x), len(sol.x)), np.inf)
+    cov = np.zeros((5, 5))
+    cov[np.ix_(free, free)] = cov_x[:len(free), :len(free)]
+    return cov
+
+
+def closer(trial, current, gain: float = RESTART_GAIN) -> bool:
+    """Whether the ``trial`` fit's rings lie closer than the ``current`` fit's to the ridge points both assign to a
+    ring (``assign``'s (ring index, residual [px]) of each): its mean squared residual over those points lower
+    by the share ``gain``. On the common points only: a pose that claims more points with more rings (a wrong
+    pose splits rings into arcs) or drops the hard ones gains nothing from it."""
+    both = (trial[0] >= 0) & (current[0] >= 0)
+    if not both.any():
+        return False
+    return float(np.mean(trial[1][both] ** 2)) < (1.0 - gain) * float(np.mean(current[1][both] ** 2))
 
 
 def pose_dof(rings: int, fitted: int) -> float:

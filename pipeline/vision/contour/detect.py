@@ -14,7 +14,9 @@ Method (docs/contour.md):
    [px]), rings that do not follow the family dropped, and so are deformed
    rings (their whole ridge curves, carried into their plane, are squashed
    against the profile: ``section_shape``; circular pipes), repeated
-   (``ring_fit``); the fit whose rings are closest to their points is kept;
+   (``ring_fit``); the fit whose rings are closest to their points is kept,
+   then restarted beside itself along the offset-for-tilt valley where a fit
+   can stop in a local minimum (``_restarted``, ``first_pose.offset_restarts``);
 4. the pose covariance from that fit, C = (J^T J)^-1 s^2 with the residual
    variance s^2 scaled by points per ring (the rings, not the points, are
    the independent observations); a pose from fewer than ``MIN_RINGS``

@@ -14,7 +14,9 @@ Method (docs/contour.md):
    [px]), rings that do not follow the family dropped, and so are deformed
    rings (their whole ridge curves, carried into their plane, are squashed
    against the profile: ``section_shape``; circular pipes), repeated
-   (``ring_fit``); the fit whose rings are closest to their points is kept;
+   (``ring_fit``); the fit whose rings are closest to their points is kept,
+   then restarted beside itself along the offset-for-tilt valley where a fit
+   can stop in a local minimum (``_restarted``, ``first_pose.offset_restarts``);
 4. the pose covariance from that fit, C = (J^T J)^-1 s^2 with the residual
    variance s^2 scaled by points per ring (the rings, not the points, are
    the independent observations); a pose from fewer than ``MIN_RINGS``
@@ -33,7 +35,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from pipeline.vision.contour.first_pose import initial_view, pose_from_peaks, pose_from_templates, search_pose, template_fit
+from pipeline.vision.contour.first_pose import (initial_view, offset_restarts, pose_from_peaks, pose_from_templates,
+                                                search_pose, template_fit)
 from pipeline.vision.contour.groups import group_members
 from pipeline.vision.contour.result import PipeContour, Ring
 from pipeline.vision.contour.ridges import dark_centre, ridge_points
@@ -48,6 +51,7 @@ MAX_CANDIDATES_PER_FRAME = 2000
 SEARCH_FRAMES = 7           # frames whose candidates steer the pose search (all frames enter the fit)
 MIN_RINGS = 3               # a confident pose needs at least this many rings (and one seen over MIN_BEST_COVERAGE_DEG)
 MAX_RMS_PX = 1.5
+RESTART_GAIN = 0.02        # a restart replaces the fit when its mean squared residual on the common points is this share lower
 
 
 @dataclass(frozen=True)
@@ -140,18 +144,14 @@ def contour_from_candidates(candidates: list[FrameCandidates], camera_matrix: np
     assigned = [assign(f[0], pts, frame_of, f[1]) for f in fits]
     rms_of = [float(np.sqrt(np.mean(res[ring_of >= 0] ** 2))) for ring_of, res in assigned]
     best = int(np.argmin(rms_of))
-    (view, rings, sol, free, deformed), (ring_of, res), rms = fits[best], assigned[best], rms_of[best]
+    fit, (ring_of, res), rms = _restarted(fits[best], assigned[best], pts, frame_of, curve_of)
+    view, rings, sol, free, deformed = fit
     n_fit = (len(sol.fun) - 2) // 2
     dof = max(2 * n_fit - len(sol.x), 1)
     # Residuals along one ring share its error (blur, texture, the ring's own shape), so the
     # rings, not the points, are the independent observations: scale by points per ring.
     s2 = float(np.sum(sol.fun[:-2] ** 2) / dof) * n_fit / len(rings)
-    try:
-        cov_x = np.linalg.inv(sol.jac.T @ sol.jac) * s2
-    except np.linalg.LinAlgError:
-        cov_x = np.full((len(sol.x), len(sol.x)), np.inf)
-    cov = np.zeros((5, 5))
-    cov[np.ix_(free, free)] = cov_x[:len(free), :len(free)]
+    cov = _pose_covariance(sol, free, s2)
     found = []
     wall, _ = view.wall_hits(pts)
     for i, (frame, t) in enumerate(rings):
@@ -170,6 +170,47 @@ def contour_from_candidates(candidates: list[FrameCandidates], camera_matrix: np
                         "partial arcs do not fix the pose")
     return PipeContour(view, cov, sorted(found, key=lambda r: (r.frame, r.depth)), rms, len(pts), tuple(seed),
                        problems, wall_u, sorted(set(deformed)), pose_dof(len(rings), len(free)))
+
+
+def _restarted(fit, assigned, pts, frame_of, curve_of, rounds: int = 2):
+    """The fit after restarts beside it across the offset-for-tilt valley (``offset_restarts``): a restart
+    whose rings lie closer to their points replaces it, and the restarts are repeated from there."""
+    for _ in range(rounds):
+        view, sol, free = fit[0], fit[2], fit[3]
+        improved = False
+        for start in offset_restarts(view, _pose_covariance(sol, free, 1.0)):
+            trial = refine(start, pts, frame_of, curve_of)
+            if trial is None:
+                continue
+            trial_assigned = assign(trial[0], pts, frame_of, trial[1])
+            if closer(trial_assigned, assigned):
+                fit, assigned, improved = trial, trial_assigned, True
+        if not improved:
+            break
+    ring_of, res = assigned
+    return fit, assigned, float(np.sqrt(np.mean(res[ring_of >= 0] ** 2)))
+
+
+def _pose_covariance(sol, free, s2: float) -> np.ndarray:
+    """(J^T J)^-1 s^2 of the fit, its pose block placed in (5, 5) (zero for parameters held fixed)."""
+    try:
+        cov_x = np.linalg.inv(sol.jac.T @ sol.jac) * s2
+    except np.linalg.LinAlgError:
+        cov_x = np.full((len(sol.x), len(sol.x)), np.inf)
+    cov = np.zeros((5, 5))
+    cov[np.ix_(free, free)] = cov_x[:len(free), :len(free)]
+    return cov
+
+
+def closer(trial, current, gain: float = RESTART_GAIN) -> bool:
+    """Whether the ``trial`` fit's rings lie closer than the ``current`` fit's to the ridge points both assign to a
+    ring (``assign``'s (ring index, residual [px]) of each): its mean squared residual over those points lower
+    by the share ``gain``. On the common points only: a pose that claims more points with more rings (a wrong
+    pose splits rings into arcs) or drops the hard ones gains nothing from it."""
+    both = (trial[0] >= 0) & (current[0] >= 0)
+    if not both.any():
+        return False
+    return float(np.mean(trial[1][both] ** 2)) < (1.0 - gain) * float(np.mean(current[1][both] ** 2))
 
 
 def pose_dof(rings: int, fitted: int) -> float:

@@ -269,3 +269,30 @@ def search_pose(view: PipeView, pts: np.ndarray, frame_of: np.ndarray) -> PipeVi
                 break
         step = step / 2.5
     return view.with_pose(pose)
+
+
+RESTART_OFFSETS_H = (0.008,)   # camera offset steps [H] of the restarts: the wrong minima seen lie 0.3-1.2 % H off
+
+
+def offset_restarts(view: PipeView, covariance: np.ndarray, steps=RESTART_OFFSETS_H) -> list[PipeView]:
+    """Starts beside a fitted pose, along the valley where camera offset trades for yaw and pitch.
+
+    A ring fit started 0.5-1 % H off in the offset can settle in a local
+    minimum where the offset error is traded for yaw (or pitch): the rings
+    near the middle depths stay in place while the nearer ones split into
+    arcs at two depths, each fitted on its own (issue 30; docs/contour.md).
+    These starts move ox (or oy) by +-step [H] and the other pose parameters
+    by their regression on it under the fit's ``covariance`` (5, 5) (any
+    scale; zero rows for parameters held fixed), C[:, i] / C[i, i]: the
+    direction the fit itself finds least determined, which steps across that
+    valley.
+    """
+    out = []
+    for axis in (0, 1):
+        if not (np.all(np.isfinite(covariance[:, axis])) and covariance[axis, axis] > 0):
+            continue        # a singular fit has no valley to follow
+        direction = covariance[:, axis] / covariance[axis, axis]
+        for step in steps:
+            for sign in (-1.0, 1.0):
+                out.append(view.with_pose(view.pose + sign * step * direction))
+    return out

@@ -40,7 +40,7 @@ from pipeline.measurement.connections import (CONNECTION_CODES, DEPOSIT_SPAN_H, 
 from pipeline.measurement.joints import (ANGULAR_NOT_MEASURED, found_not_measured, measurable_joint, measure_joint,
                                          step_clock)
 from pipeline.measurement.marked import marked_quantity
-from pipeline.measurement.quantity import MODELS, MarkedQuantity, QuantityResult, measure_quantity
+from pipeline.measurement.quantity import MODELS, MarkedQuantity, QuantityResult, doubts, measure_quantity
 from pipeline.measurement.wall import contour_under
 from pipeline.core.numeric import finite_number
 from pipeline.judgement.grading import class_edges, scheme as grading_scheme
@@ -471,7 +471,7 @@ def _measure_feature(obs: Observation, views: list[tuple[int, float]], track, mo
     if not auto.measured:
         # as a joint found but not trusted: unmeasured (no grade, no log check), the reasons said
         row.update(status="unmeasured", confident=False, warnings="; ".join(res.reasons) or None,
-                   error="found, not measured: " + "; ".join(res.reasons))
+                   error="found, not measured: " + "; ".join(doubts(res)))
         return row
     # the frame stands before the feature on purpose: its chainage is not compared with the logged distance
     row.update(quantity_fields(res))

@@ -27,7 +27,7 @@ from pipeline.camera import Certificate
 from pipeline.core.errors import MeasurementError
 from pipeline.domain.records import Observation
 from pipeline.measurement.frames import measure_over_frames
-from pipeline.measurement.quantity import MarkedQuantity, QuantityResult
+from pipeline.measurement.quantity import MarkedQuantity, QuantityResult, doubts
 from pipeline.vision.contour import PipeContour
 from pipeline.vision.contour.joint_ends import JointSighting, _wall
 from pipeline.vision.contour.view import PipeView
@@ -138,7 +138,7 @@ def measure_joint(obs: Observation, sightings: Sequence[JointSighting], contour:
 
 def found_not_measured(res: QuantityResult) -> str | None:
     """Why a joint found is not a measurement (stored "found, not measured": no grade, no log check), or None."""
-    return None if res.confident else "found, not measured: " + "; ".join(res.reasons)
+    return None if res.confident else "found, not measured: " + "; ".join(doubts(res))
 
 
 def step_clock(sightings: Sequence[JointSighting]) -> float:

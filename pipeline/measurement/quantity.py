@@ -72,13 +72,14 @@ from pipeline.measurement.rays import marked_points
 from pipeline.domain.results import BudgetLine
 
 __all__ = ["MarkedQuantity", "QuantityResult", "BudgetEntry", "measure_quantity", "certificate_scale_u", "MODELS",
-           "INPUT_DESCRIPTIONS", "RESOLUTION_PX", "INPUT_UNITS", "input_unit"]
+           "INPUT_DESCRIPTIONS", "RESOLUTION_PX", "MC_NOT_CONVERGED", "doubts", "INPUT_UNITS", "input_unit"]
 
 MODELS = ("orthographic", "perspective")
 POSE_LABELS = ("ox", "oy", "yaw", "pitch", "roll")
 SHARED_LABELS = ("certificate", "H", "wall")   # the same quantity in every frame of one feature (measure_over_frames)
 CERTIFICATE_DRAWS = 200
 MAX_TRIALS = 400_000    # cap of the adaptive Monte Carlo: a run stopped by it is stated as not converged
+MC_NOT_CONVERGED = "Monte Carlo not converged"   # a reason that states the interval's last digit, not a doubt
 RESOLUTION_PX = 2.0     # an extent under about 2 px is not resolved: a blurred edge spreads over 1-2 px
 
 INPUT_DESCRIPTIONS = {
@@ -173,6 +174,12 @@ class QuantityResult:
     class_edges: list[float] = field(default_factory=list)        # the grading scheme's class edges asked for [unit]
     class_edges_cdf: list[float] = field(default_factory=list)    # share of the Monte Carlo draws below each [1]
     nu_eff: float = math.inf          # effective degrees of freedom of u (Welch-Satterthwaite; the pose's nu)
+
+
+def doubts(res: "QuantityResult") -> tuple[str, ...]:
+    """The reasons of a result that bear on trusting it: all but the Monte Carlo's convergence, which says only
+    that the interval's last digit is uncertain (a result found but not trusted is stored with these)."""
+    return tuple(r for r in res.reasons if not r.startswith(MC_NOT_CONVERGED))
 
 
 def certificate_scale_u(cert: Certificate, K: np.ndarray, ideal_points: np.ndarray, reference: np.ndarray,
@@ -467,7 +474,7 @@ def _result(fn, inputs: InputSet, *, value_at_estimates: float, v_ortho: float, 
                        f"(under {RESOLUTION_PX:g} px); only the upper bound {high:.3g} {method.unit} is measured")
     if not mc.converged:
         # one warning: the warnings column joins reasons with "; "
-        reasons.append(f"Monte Carlo not converged: the interval's endpoints were not stable to 2 significant digits "
+        reasons.append(f"{MC_NOT_CONVERGED}: the interval's endpoints were not stable to 2 significant digits "
                        f"of u within {mc.trials} trials (JCGM 101 7.9), so their last digit is uncertain")
     budget = _budget(lin, q.origin, suffixes) + nuisance_lines
     plane = main.plane

@@ -117,7 +117,8 @@ def test_sample_reports_lay_out_cleanly(sample_night, name):
     _assert_numbers_whole(lines, _budget_numbers(m))
     flat = " ".join(" ".join(lines).split())
     for r in m.itertuples():
-        assert format_record(r) in flat, (r.row, format_record(r))
+        if r.status == "ok":        # a feature found but not trusted keeps its value in the dataset, not in the report
+            assert format_record(r) in flat, (r.row, format_record(r))
     if name == "S01-circular-clean":
         assert len(pages) <= S01_PAGES_AT_MOST < S01_PAGES_BEFORE, len(pages)
 

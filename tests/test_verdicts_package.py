@@ -31,14 +31,15 @@ def _no_nan(text):
 @pytest.fixture(scope="module")
 def measured(tmp_path_factory):
     """S02 with its water level (row 1, truth 30 %) logged honestly as 30 % and its intrusion (row 2, truth
-    15.04 %) logged wrongly as 10 %, its section 36.5 m long with the finish node there while the video ends
+    15.04 %) logged wrongly as 5 % (10 % would be a log to tens with the truth at its edge: undecided, by the
+    guarded rule of docs/verdicts.md), its section 36.5 m long with the finish node there while the video ends
     near 3 m, measured by ``pipegauge measure --json``."""
     root = tmp_path_factory.mktemp("verdicts")
     package = root / PACKAGE
     shutil.copytree(SAMPLES / PACKAGE, package)
     rows = list(csv.DictReader((package / "observations.csv").open()))
     assert (rows[1]["code"], rows[2]["code"]) == ("BDD", "BAG")
-    rows[1]["q1"], rows[2]["q1"] = "30.0", "10.0"
+    rows[1]["q1"], rows[2]["q1"] = "30.0", "5.0"
     rows[-1]["distance_m"] = "36.5"         # a survey that stops early: the finish node 36.5 m on, the video ends ~3 m
     header = json.loads((package / "header.json").read_text())
     header["section_length_m"] = 36.5
@@ -64,8 +65,8 @@ def test_the_wrong_log_is_flagged_with_its_E_n_and_the_honest_one_is_not(measure
     _, records, truth = measured
     wrong, honest = _measurement(records, 2), _measurement(records, 1)
     true_of = {o["row"]: o["quantities"][0]["true_value"] for o in truth["observations"]}
-    assert abs(10.0 - true_of[2]) > 2 * wrong["U95"]                   # wrong on purpose, beyond the measurement's U95
-    expected = abs(10.0 - wrong["value"]) / math.hypot(wrong["U95"], U_RES_FACTOR * 5.0)
+    assert abs(5.0 - true_of[2]) > 2 * wrong["U95"]                    # wrong on purpose, beyond the measurement's U95
+    expected = abs(5.0 - wrong["value"]) / math.hypot(wrong["U95"], U_RES_FACTOR * 5.0)
     assert wrong["log_check"] == "disagrees" and wrong["E_n"] == pytest.approx(expected)
     assert 5 * round(true_of[1] / 5) == 30.0 and honest["log_check"] == "agrees" and honest["E_n"] <= 1
 
@@ -101,8 +102,8 @@ def test_export_and_report_carry_the_verdicts(measured, tmp_path):
     root, records, _ = measured
     assert main(["export", "--data", str(root / "dataset"), "--out", str(tmp_path / "x.csv"), "--level", "quantity"]) == 0
     rows = list(csv.DictReader((tmp_path / "x.csv").open()))
-    bag = next(r for r in rows if r["code"] == "BAG")
-    assert bag["log_check"] == "disagrees" and float(bag["logged_value"]) == 10.0
+    bag = next(r for r in rows if r["code"] == "BAG" and r["source"] == "marks")
+    assert bag["log_check"] == "disagrees" and float(bag["logged_value"]) == 5.0
     assert bag["grading_scheme"] == "vsa-2023" and bag["grade"] and bag["certificate_id"] and bag["pipeline_version"]
     assert float(bag["E_n_display"]) == pytest.approx(round(float(bag["E_n"]), 2))
     pdf = render_inspection_report(root / "dataset", PACKAGE, tmp_path / "r.pdf")
@@ -111,4 +112,4 @@ def test_export_and_report_carry_the_verdicts(measured, tmp_path):
     assert "Verdicts" in page1 and " ".join(i["survey_statement"].split())[:60] in page1
     assert f"{i['log_agrees']} agree, {i['log_disagrees']} disagree" in page1
     assert f"Section grade {i['section_grade']}" in page1
-    assert "row 2 Q1 BAG: logged 10 %" in page1
+    assert "row 2 Q1 BAG: logged 5 %" in page1

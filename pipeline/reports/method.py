@@ -4,13 +4,11 @@ from __future__ import annotations
 
 __all__ = ["method_statement", "VALIDATION"]
 
-# From `python benchmarks/measurement_coverage.py` (--per-frame 17), recorded in docs/measurement.md
-# (2026-11-30, after issue 20); update both together when the benchmark is rerun.
-VALIDATION = ("Validation against synthetic ground truth (benchmarks/measurement_coverage.py, 221 quantities of "
-              "nine kinds measured through the whole chain): the true value lay inside the reported 95 % interval "
-              "for 94.6 % of quantities with the perspective model and 98.2 % with the orthographic model; "
-              "the median |error| / U95 was 0.24 and 0.28. Per code family, bias and interval width against an "
-              "ideal one: benchmarks/measurement_extent.py (docs/measurement.md).")
+# From `measurement_coverage.py --cache` then `coverage_stats.py` (the commands in docs/measurement.md, "all" rows,
+# 2026-12-02, after the pose's restarts); update both together when the benchmark is rerun.
+VALIDATION = ("Validation against synthetic ground truth (docs/measurement.md): the true value lay inside the "
+              "reported 95 % interval for 94.1 % of 221 quantities (perspective model) and 98.4 % of 125 "
+              "(orthographic).")
 
 
 def method_statement(model: str | None) -> list[str]:

@@ -85,7 +85,7 @@ def measurement_warnings(measurements: Iterable[Mapping], describe) -> list[str]
         entry = by_row.setdefault(m["row"], {"name": describe(m), "problems": {}, "failed": {}})
         label = m["quantity"] + (" from the image alone" if (m.get("source") or "marks") == "contour" else " as marked")
         if m.get("status") != "ok":
-            entry["failed"].setdefault(str(m.get("error") or "no reason stored"), []).append(label)
+            entry["failed"].setdefault(_plain_error(str(m.get("error") or "no reason stored")), []).append(label)
         elif not m.get("confident"):
             for problem in plain_warnings(m.get("warnings")) or [("the measurement is of low confidence",
                                                                   f"{INDICATIVE}; check the thumbnail")]:
@@ -96,9 +96,19 @@ def measurement_warnings(measurements: Iterable[Mapping], describe) -> list[str]
         for (sentence, action), labels in e["problems"].items():
             out.append(f"Row {row}, {e['name']} ({_join(labels)}): {sentence}. Action: {action}.")
         for error, labels in e["failed"].items():
-            out.append(f"Row {row}, {e['name']} ({_join(labels)}): not measured ({error}). Action: re-mark it on a "
-                       "clearer frame, or measure it on site.")
+            out.append(f"Row {row}, {e['name']} ({_join(labels)}): not measured ({error}). Action: mark it on a "
+                       "clearer frame (pipegauge review), or measure it on site.")
     return out
+
+
+FOUND_NOT_MEASURED = "found, not measured: "
+
+
+def _plain_error(error: str) -> str:
+    """A stored error in plain words: a feature found but not trusted gives its reasons as the warnings do."""
+    if not error.startswith(FOUND_NOT_MEASURED):
+        return error
+    return FOUND_NOT_MEASURED + "; ".join(sentence for sentence, _ in plain_warnings(error[len(FOUND_NOT_MEASURED):]))
 
 
 def _join(labels: list[str]) -> str:

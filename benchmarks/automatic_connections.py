@@ -45,6 +45,7 @@ from pipeline.synth.render import Renderer
 from pipeline.synth.scene import Connection, Deposit, Pipe, Scene
 from pipeline.vision.contour import detect_contour
 from pipeline.vision.contour.detect import wall_u_from_tolerance
+from pipeline.vision.video.reader import iter_frames
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from coverage_stats import robust_sd, wilson  # noqa: E402
@@ -117,14 +118,7 @@ def _through_codec(raw, codec: str, tmp: Path, cert):
         w.write(f)
     w.release()
     video = delivered(path, "h264" if codec == "h264" else None, tmp)
-    cap = cv2.VideoCapture(str(video))
-    out = []
-    while True:
-        ok, f = cap.read()
-        if not ok:
-            break
-        out.append(f)
-    cap.release()
+    out = [f for _, f in iter_frames(video)]
     if len(out) != len(raw):
         raise RuntimeError(f"{codec}: {len(out)} frames read back of {len(raw)}")
     return out

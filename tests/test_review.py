@@ -339,3 +339,30 @@ def test_the_reports_row_table_flags_a_reviewed_value():
 
     assert "marked in review by Ann Example on 2026-12-02" in measured_cell(m)
     assert "review" not in measured_cell({**m, "marked_by": None, "marked_at": None})
+
+
+@pytest.mark.parametrize("shape", ["circular", "egg"])
+def test_a_percent_quantitys_prediction_is_in_percent(shape):
+    """The best-frame table is in the quantity's unit: an extent's U95 [mm] times the slope of the % quantity
+    against it, checked against the levels' tables differentiated numerically (a deposit's area) and against the
+    definitions 100 d / H and 100 (1 - d / D)."""
+    import numpy as np
+
+    from pipeline.app.review_predict import percent_per_mm
+    from pipeline.maths.profiles import level_tables
+    from pipeline.measurement.methods import reference_dimension
+
+    H = 400.0
+    assert percent_per_mm("water_level", shape, H) == pytest.approx(100.0 / H)
+    assert percent_per_mm("intrusion", shape, H) == pytest.approx(100.0 / H)
+    for char1 in ("A", "B"):
+        D = H * reference_dimension(shape, char1)
+        assert percent_per_mm("deformation", shape, H, char1) == pytest.approx(100.0 / D)
+    h, _, fraction = level_tables(shape)
+    for share in (0.05, 0.3, 0.7):
+        level = np.interp(share, fraction, h)                          # [H]
+        dh = 1e-3
+        slope = 100.0 * (np.interp(level + dh, h, fraction) - np.interp(level - dh, h, fraction)) / (2 * dh * H)
+        assert percent_per_mm("deposit_area", shape, H, value_percent=100 * share) == pytest.approx(slope, rel=2e-3)
+    with pytest.raises(ValueError, match="not give a quantity in %"):
+        percent_per_mm("axial", shape, H)

@@ -310,11 +310,13 @@ class ReviewService:
         the frame's contour is fitted: a frame shown in this session, or every candidate with ``fit``.
         """
         from pipeline.measurement.methods import METHODS
+        from pipeline.app.review_predict import percent_per_mm
         from pipeline.measurement.predict import predicted_U95
 
         spec = obs.quantification(quantity)
         assert spec is not None and spec.method is not None
-        extent = METHODS[spec.method_for(obs.char2) or spec.method].extent
+        method = METHODS[spec.method_for(obs.char2) or spec.method]
+        extent = method.extent
         header, track, cert = pkg.delivery.header, pkg.location.track, pkg.delivery.certificate
         measured = [m for m in stored if m["quantity"] == quantity and m["status"] == "ok"
                     and m.get("plane_depth_mm") and m.get("chainage_m") is not None]
@@ -325,6 +327,9 @@ class ReviewService:
             feature_m = (obs.distance_m or 0.0) + MIN_DEPTH_DN * header.height_mm / 1000.0
             basis = "the logged distance (no measurement stored)"
         f_px = float(cert.focal_px[0])
+        # the table in the quantity's unit: an extent in mm, times the slope of a quantity in % (review_predict)
+        per_mm = 1.0 if spec.unit == "mm" else percent_per_mm(
+            method.name, header.shape, header.height_mm, obs.char1, _expected_value(obs, quantity, measured, "%"))
         rows = []
         seen = set()
         for depth in candidate_depths_mm(header.height_mm):
@@ -339,7 +344,7 @@ class ReviewService:
             d = 1000.0 * (feature_m - chainage)
             if d <= 0:
                 continue
-            marks_U95 = predicted_U95(extent, d, header.height_mm, f_px, REVIEW_MARK_U_PX)
+            marks_U95 = per_mm * predicted_U95(extent, d, header.height_mm, f_px, REVIEW_MARK_U_PX)
             rows.append({"frame": int(frame), "chainage_m": round(float(chainage), 3), "depth_mm": round(d),
                          "feature_m": round(float(feature_m), 3), "U95": marks_U95, "U95_marks": marks_U95,
                          "pose": False, "unit": spec.unit, "basis": basis})
@@ -351,14 +356,16 @@ class ReviewService:
                 except (PipegaugeError, ValueError, IndexError):
                     pass
         for r in rows:
-            self._add_pose(pkg, obs, r, extent, size_mm)
+            self._add_pose(pkg, obs, r, extent, size_mm, per_mm)
         rows.sort(key=lambda r: r["U95"])
         for i, r in enumerate(rows):
             r["best"] = i == 0
         return rows[:12]
 
-    def _add_pose(self, pkg: _Package, obs: Observation, row: dict, extent: str, size_mm: float) -> None:
-        """A candidate's predicted U95 with the pose's part, where its frame's contour is fitted already."""
+    def _add_pose(self, pkg: _Package, obs: Observation, row: dict, extent: str, size_mm: float,
+                  per_mm: float = 1.0) -> None:
+        """A candidate's predicted U95 with the pose's part, where its frame's contour is fitted already; per_mm:
+        the quantity's slope against the extent [unit/mm] (1 for a quantity in mm)."""
         from pipeline.app.review_predict import pose_U95, pose_u, representative_points
 
         with pkg.lock:
@@ -367,7 +374,7 @@ class ReviewService:
             return
         H = pkg.delivery.header.height_mm
         points = representative_points(extent, contour.view.shape, row["depth_mm"] / H, size_mm / H, obs.clock_from)
-        u = pose_u(contour.view, contour.covariance, points, H)
+        u = per_mm * pose_u(contour.view, contour.covariance, points, H)
         if math.isfinite(u):
             row.update(U95=pose_U95(row["U95_marks"], u), U95_pose=K95 * u, pose=True,
                        pose_confident=bool(contour.confident))
@@ -577,14 +584,20 @@ class ReviewService:
 
 # -- helpers -----------------------------------------------------------------------------------------------------
 
+def _expected_value(obs: Observation, quantity: str, measured: list[dict], unit: str) -> float | None:
+    """The value a quantity is expected to have in ``unit``: the stored one, else the logged one, else None."""
+    for value, u in ([(m.get("value"), m.get("unit")) for m in measured]
+                     + [(obs.q1 if quantity == "Q1" else obs.q2, obs.q1_unit if quantity == "Q1" else obs.q2_unit)]):
+        if u == unit and value is not None and math.isfinite(float(value)):
+            return float(value)
+    return None
+
+
 def _expected_size_mm(obs: Observation, quantity: str, measured: list[dict], H: float) -> float:
     """The size [mm] a quantity is expected to have (for the pose's part of the prediction): the stored value,
     else the logged one, in mm; else a tenth of the pipe's height."""
-    for value, unit in ([(m.get("value"), m.get("unit")) for m in measured]
-                        + [(obs.q1 if quantity == "Q1" else obs.q2, obs.q1_unit if quantity == "Q1" else obs.q2_unit)]):
-        if unit == "mm" and value is not None and math.isfinite(float(value)) and float(value) > 0:
-            return float(value)
-    return 0.1 * H
+    value = _expected_value(obs, quantity, measured, "mm")
+    return value if value is not None and value > 0 else 0.1 * H
 
 
 def _iso(value) -> str | None:

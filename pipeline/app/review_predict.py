@@ -20,6 +20,9 @@ differences, the steps of ``PipeContour.at_point``):
     u_pose(E)^2 = g^T C g,   g = dE / d pose
     U95 = sqrt(U95_marks^2 + (K95 u_pose)^2)
 
+A quantity in % (a deformation, an intrusion, a level, a deposit's area) is a function of the extent in mm:
+its U95 is the extent's times that function's slope (``percent_per_mm``), so the table is in the quantity's unit.
+
 Left out still: the certificate, H's tolerance, the wall's position; the predicted U95 stays below the measured one.
 """
 
@@ -30,9 +33,9 @@ import math
 import numpy as np
 
 from pipeline.maths.metrology import K95
-from pipeline.maths.profiles import clock_to_theta, wall_point
+from pipeline.maths.profiles import clock_to_theta, level_tables, wall_point
 
-__all__ = ["representative_points", "pose_u", "pose_U95"]
+__all__ = ["representative_points", "pose_u", "pose_U95", "percent_per_mm"]
 
 # the central-difference steps of the pose [H, H, rad, rad, rad] (as PipeContour.at_point takes them)
 _STEPS = (1e-6, 1e-6, 1e-7, 1e-7, 1e-7)
@@ -84,3 +87,35 @@ def pose_u(view, covariance: np.ndarray, points_pipe: np.ndarray, H: float) -> f
 def pose_U95(U95_marks: float, u_pose_mm: float) -> float:
     """The predicted U95 [mm] of the marks and the pose together (module docstring)."""
     return math.hypot(U95_marks, K95 * u_pose_mm)
+
+
+def percent_per_mm(method: str, shape: str, H: float, char1: str = "", value_percent: float | None = None) -> float:
+    """Slope [%/mm] of a quantity in % against the extent [mm] its marks span (``pipeline.measurement.methods``).
+
+    deformation : 100 (1 - d / D), D the height (char. A) or the width (B): 100 / D
+    deformation_width : 100 (1 - w / W), W the profile's width: 100 / W
+    intrusion, water_level : 100 d / H: 100 / H
+    deposit_area : 100 A(h) / A: 100 w(h) / A at the level h where A(h) / A is ``value_percent`` (10 % if None)
+
+    H : the pipe's height [mm]. Raises ValueError for a method not in %.
+
+    >>> round(percent_per_mm("water_level", "circular", 300.0), 4)
+    0.3333
+    >>> round(percent_per_mm("deposit_area", "circular", 300.0, value_percent=50.0), 4)   # 100 H / (pi H^2 / 4)
+    0.4244
+    """
+    from pipeline.measurement.methods import reference_dimension
+
+    if method in ("intrusion", "water_level"):
+        return 100.0 / H
+    if method == "deformation":
+        return 100.0 / (H * reference_dimension(shape, char1))
+    if method == "deformation_width":
+        return 100.0 / (H * reference_dimension(shape, "B"))
+    if method == "deposit_area":
+        h, width, fraction = level_tables(shape)
+        area_H2 = float(np.sum(0.5 * (width[1:] + width[:-1]) * np.diff(h)))      # the unit-height profile's area
+        share = 0.1 if value_percent is None else min(max(value_percent / 100.0, 0.0), 1.0)
+        w = float(np.interp(share, fraction, width))
+        return 100.0 * w / (area_H2 * H)
+    raise ValueError(f"the method {method!r} does not give a quantity in %")

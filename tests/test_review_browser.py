@@ -370,3 +370,31 @@ def test_a_delivery_section_is_marked_and_measured_from_its_review_marks(reader,
     outcome = service.measure_again(iid)
     assert outcome["status"] in ("ok", "partial"), outcome
     assert _digests(inbox) == delivered
+
+
+@pytest.mark.slow
+def test_a_frame_whose_contour_fails_ranks_last(night, reader):
+    """A candidate frame whose pipe contour cannot be fitted keeps only the marking noise's lower bound: it ranks
+    after every frame with the pose's part, and its line says why."""
+    from pipeline.app.review import ReviewService
+    from pipeline.core.errors import PipegaugeError
+
+    inbox, layout = night
+    service = ReviewService(layout.out, inbox, reader=reader)
+    bound = service.candidate_table(PACKAGE, ROW, QUANTITY)
+    failing = bound[0]["frame"]                   # the best lower bound: it would rank first without the rule
+    real = service.contour
+
+    def contour(pkg, frame):
+        if frame == failing:
+            raise PipegaugeError("no contour here (test)")
+        return real(pkg, frame)
+
+    service.contour = contour
+    fitted = service.candidate_table(PACKAGE, ROW, QUANTITY, fit=True)
+    frames = [c["frame"] for c in fitted]
+    assert failing not in frames[:-1]             # last, or past the table's dozen lines
+    for c in fitted:
+        if c["frame"] == failing:
+            assert not c["pose"] and "could not be fitted" in c["basis"]
+    assert fitted[0]["pose"]

@@ -349,15 +349,19 @@ class ReviewService:
                          "feature_m": round(float(feature_m), 3), "U95": marks_U95, "U95_marks": marks_U95,
                          "pose": False, "unit": spec.unit, "basis": basis})
         size_mm = _expected_size_mm(obs, quantity, measured, header.height_mm)
+        unfitted: set[int] = set()
         if fit:      # the frames the table would rank: fitted now, each once per session
             for r in sorted(rows, key=lambda r: r["U95"])[:12]:
                 try:
                     self.contour(pkg, r["frame"])
                 except (PipegaugeError, ValueError, IndexError):
-                    pass
+                    unfitted.add(r["frame"])
         for r in rows:
             self._add_pose(pkg, obs, r, extent, size_mm, per_mm)
-        rows.sort(key=lambda r: r["U95"])
+            if r["frame"] in unfitted:
+                r["basis"] += "; its pipe contour could not be fitted: the measurement would fail there"
+        # a frame whose contour could not be fitted keeps only its lower bound: ranked after every other
+        rows.sort(key=lambda r: (r["frame"] in unfitted, r["U95"]))
         for i, r in enumerate(rows):
             r["best"] = i == 0
         return rows[:12]

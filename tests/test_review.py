@@ -79,7 +79,8 @@ def test_token_required_on_every_request(served, out):
     r = client.post("/api/save", json=SAVE)
     assert r.status_code == 403
     # a POST may not take the token from the query or the cookie: only the header, which no other site can send
-    r = client.post(f"/api/save?token={TOKEN}", json=SAVE, cookies={TOKEN_COOKIE: TOKEN})
+    client.cookies.set(TOKEN_COOKIE, TOKEN)
+    r = client.post(f"/api/save?token={TOKEN}", json=SAVE)
     assert r.status_code == 403
     assert service.calls == []
     assert _tree(out) == before

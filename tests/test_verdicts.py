@@ -216,3 +216,14 @@ def test_a_log_that_fits_a_coarser_step_only_is_neither_accused_nor_confirmed():
     assert c.verdict == "undecided" and "logged to 10 or 5 %" in c.reason
     # where both readings agree the verdict is plain
     assert check_logged(20.0, "%", value=20.4, U95=0.6, unit="%", code="BDD").verdict == "agrees"
+
+
+def test_a_codes_own_logging_steps_hold_for_its_unit_only():
+    """BAA's deformation is logged in whole percent; a quantity of the same code in another unit keeps its unit's
+    customary steps, and another code's percentages keep 10 and 5 %."""
+    from pipeline.judgement.verdicts.log_check import RESOLUTION, logging_steps
+
+    assert logging_steps("%", "BAA") == (1.0,)
+    assert logging_steps("mm", "BAA") == RESOLUTION["mm"]
+    assert logging_steps("%", "BDD") == RESOLUTION["%"] == (10.0, 5.0)
+    assert logging_steps("%") == RESOLUTION["%"]

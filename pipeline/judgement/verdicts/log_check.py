@@ -94,7 +94,8 @@ __all__ = ["RESOLUTION", "CODE_STEPS", "LogCheck", "logging_resolution", "loggin
 
 # customary logging steps per unit, coarsest first (module docstring)
 RESOLUTION: dict[str, tuple[float, ...]] = {"mm": (1.0,), "%": (10.0, 5.0), "deg": (1.0,), "count": (1.0,)}
-CODE_STEPS: dict[str, tuple[float, ...]] = {"BAA": (1.0,)}      # codes whose practice differs from their unit's
+# codes whose practice differs from their unit's, keyed by (code, unit): a code's other quantities keep their unit's
+CODE_STEPS: dict[tuple[str, str], tuple[float, ...]] = {("BAA", "%"): (1.0,)}
 U_RES_FACTOR = 0.95 / 2          # U_res = 0.95 r / 2: 95 % half-width of a rectangular error over +-r/2
 TOLERANCE_STEPS = 0.5            # the logging tolerance T in steps r: a value logged to r claims the truth within r/2
 P_AGREE = 0.95                   # conformity probability at or above which the log agrees
@@ -110,7 +111,7 @@ def _multiple_of(value: float, step: float) -> bool:
 
 def logging_steps(unit: str, code: str | None = None) -> tuple[float, ...]:
     """The customary logging steps [unit] of a code's quantity, coarsest first (module docstring)."""
-    return CODE_STEPS.get(code or "", RESOLUTION.get(unit, (1.0,)))
+    return CODE_STEPS.get((code or "", unit), RESOLUTION.get(unit, (1.0,)))
 
 
 def logging_resolutions(value: float, unit: str, code: str | None = None) -> tuple[float, ...]:

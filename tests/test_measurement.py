@@ -163,3 +163,24 @@ def test_a_logged_displaced_joint_widens_the_wall_term_on_the_pipe_after_it():
     assert u[1] == 0.0 and u[5] == 0.0           # before the joint; on the pipe after the next joint
     assert u[2] == 0.0                            # the step itself models the displaced pipe
     assert u[3] == u[4] == pytest.approx(9.0 / np.sqrt(3.0) / 300.0)
+
+
+def test_a_point_beyond_the_distortion_models_fold_has_no_ideal_position():
+    """The 720x576 sample certificate's barrel model turns back before the frame's corners: there the iterative
+    inverse returned a point 35-48 px wrong; now every point it returns distorts back to within ROUND_TRIP_PX, the
+    corners are NaN, and a mark there is an error naming the point and the fix."""
+    from pipeline.camera.undistort import ROUND_TRIP_PX, distort_points
+    from pipeline.measurement.marked import ideal_point_and_u
+
+    cert = load_certificate(SAMPLES / "certificates" / "SYN-720x576.json")
+    und = Undistorter(cert, 720, 576)
+    xs, ys = np.meshgrid(np.arange(0, 720, 8.0), np.arange(0, 576, 8.0))
+    recorded = np.column_stack([xs.ravel(), ys.ravel()])
+    ideal = und.points(recorded)
+    ok = np.isfinite(ideal[:, 0])
+    assert 0 < (~ok).sum() < 0.02 * len(ok)                    # the corners only
+    assert np.all(np.hypot(*(distort_points(und.K, und.dist, ideal[ok]) - recorded[ok]).T) <= ROUND_TRIP_PX)
+    assert not np.isfinite(und.points([[0.0, 0.0]])).any()
+    assert np.all(np.isfinite(und.points([[360.0, 288.0], [100.0, 288.0]])))
+    with pytest.raises(MeasurementError, match=r"\(0\.0, 0\.0\) px .* no inverse.*nearer the centre"):
+        ideal_point_and_u(und, (0.0, 0.0), 0.7, 0.1)

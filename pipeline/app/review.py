@@ -451,9 +451,10 @@ class ReviewService:
         except (ValueError, FloatingPointError):
             ideal = np.empty((0, 2))
         ideal = ideal[np.all(np.isfinite(ideal), axis=1)] if ideal.size else ideal
-        recorded = _distort(pkg.location.undistorter, ideal) if len(ideal) else ideal
+        recorded = recorded_points(pkg.delivery.certificate, ideal) if len(ideal) else ideal
         clocks = _clock_positions(ideal)
-        clocks_recorded: Any = _distort(pkg.location.undistorter, np.array([c[1] for c in clocks])) if clocks else []
+        clocks_recorded: Any = (recorded_points(pkg.delivery.certificate, np.array([c[1] for c in clocks])) if clocks
+                                else [])
         chainage, u = pkg.location.track.at_frame(frame)
         return {"frame": frame, "chainage_m": float(chainage), "u_chainage_m": float(u), "depth_mm": t * H,
                 "ideal": ideal.round(1).tolist(), "recorded": np.asarray(recorded).round(1).tolist(),
@@ -667,26 +668,11 @@ def _inside(path: Path, root: Path) -> Path:
 
 def recorded_points(cert, ideal) -> np.ndarray:
     """Points (n, 2) [px] of the frame as recorded whose undistortion is ``ideal`` (n, 2) [px]: the certificate's
-    distortion model applied forward (``cv2.projectPoints`` of the ideal points' rays), exact where
+    distortion model applied forward (``pipeline.camera.undistort.distort_points``), exact where
     ``Undistorter.points`` inverts it (the ideal image keeps the certificate's camera matrix)."""
-    import cv2
+    from pipeline.camera.undistort import distort_points
 
-    K, dist = cert.camera_matrix(), cert.opencv_distortion()
-    ideal = np.asarray(ideal, float).reshape(-1, 2)
-    rays = np.column_stack([(ideal[:, 0] - K[0, 2]) / K[0, 0], (ideal[:, 1] - K[1, 2]) / K[1, 1], np.ones(len(ideal))])
-    # the skew term, where a certificate has one
-    rays[:, 0] -= K[0, 1] * rays[:, 1] / K[0, 0]
-    out, _ = cv2.projectPoints(rays.reshape(-1, 1, 3), np.zeros(3), np.zeros(3), K, dist)
-    return out.reshape(-1, 2)
-
-
-def _distort(und, ideal: np.ndarray, iterations: int = 8) -> np.ndarray:
-    """Recorded points whose undistortion is ``ideal`` (n, 2) [px]: fixed-point iteration on ``und.points``."""
-    ideal = np.asarray(ideal, float).reshape(-1, 2)
-    recorded = ideal.copy()
-    for _ in range(iterations):
-        recorded = recorded + (ideal - und.points(recorded))
-    return recorded
+    return distort_points(cert.camera_matrix(), cert.opencv_distortion(), ideal)
 
 
 def _clock_positions(polygon: np.ndarray) -> list[tuple[int, tuple[float, float]]]:

@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from pipeline.camera.undistort import Undistorter
+from pipeline.core.errors import MeasurementError
 from pipeline.domain.records import Mark, Observation
 from pipeline.measurement.quantity import MarkedQuantity
 
@@ -20,6 +21,11 @@ def ideal_point_and_u(und: Undistorter, point, u_px: float, u_cert_px: float) ->
     p = np.asarray(point, float)
     e = 0.5
     around = und.points(np.array([p, p + (e, 0), p - (e, 0), p + (0, e), p - (0, e)]))
+    if not np.all(np.isfinite(around)):
+        raise MeasurementError(
+            f"the point ({p[0]:.1f}, {p[1]:.1f}) px lies where the certificate's distortion model has no inverse "
+            "(the frame's corner, beyond the calibrated field): mark the feature on a frame where it lies nearer "
+            "the centre")
     J = np.column_stack([(around[1] - around[2]) / (2 * e), (around[3] - around[4]) / (2 * e)])
     stretch = float(np.sqrt(abs(np.linalg.det(J))))
     return (float(around[0, 0]), float(around[0, 1])), stretch * float(np.hypot(u_px, u_cert_px))

@@ -68,6 +68,24 @@ def test_the_sandwich_states_the_scatter_of_a_fit_whose_rings_share_their_error(
     assert stats.median_abs_deviation(z_old.ravel(), scale="normal") < 0.7     # it overstates u here too
 
 
+def test_it_is_the_jackknife_of_refits_with_one_ring_left_out():
+    """On a linear ring problem the covariance is exactly (G - 1) / G sum_k (x_-k - x)(x_-k - x)^T over the
+    pose refitted without ring k (its rows and its depth)."""
+    rng = np.random.default_rng(32)
+    J, y, _ = _ring_problem(rng, ring_sd=0.05, point_sd=0.3)
+    x, r = _fit(J, y)
+    ring = ring_of_rows(J, N_POSE)
+    moves = []
+    for k in range(RINGS):
+        rows = ring != k
+        cols = np.r_[np.arange(N_POSE), N_POSE + np.delete(np.arange(RINGS), k)]
+        x_k, *_ = np.linalg.lstsq(J[np.ix_(rows, cols)], y[rows], rcond=None)
+        moves.append(x_k[:N_POSE] - x[:N_POSE])
+    moves = np.array(moves)
+    np.testing.assert_allclose(ring_clustered_covariance(J, r, N_POSE), moves.T @ moves * (RINGS - 1) / RINGS,
+                               rtol=1e-8)
+
+
 def test_with_independent_points_the_sandwich_is_the_usual_covariance():
     rng = np.random.default_rng(31)
     ratios = []

@@ -46,7 +46,7 @@ def test_the_rows_clusters_are_read_from_the_depth_columns():
 
 def test_the_sandwich_states_the_scatter_of_a_fit_whose_rings_share_their_error():
     """Over repeated draws of the ring problem, the mean stated covariance matches the estimates' scatter, and
-    z = error / u has unit spread; the points-per-ring scaling and the plain (J^T J)^-1 s^2 do not."""
+    z = error / u has unit spread; the points-per-ring scaling does not."""
     rng = np.random.default_rng(30)
     errors, sandwich, scaled = [], [], []
     for _ in range(600):

@@ -135,12 +135,19 @@ def case_record(r, truth: float, *, height_mm: float, f_px: float, u_mark_px: fl
     return dict(more, method=r.method, model=r.model, truth=float(truth), value=r.value, u=r.u, U95=r.U95,
                 low=r.low, high=r.high, confident=bool(r.confident), height_mm=float(height_mm),
                 depth_mm=float(r.plane_depth_mm), ideal_U95=float(ideal), nu_eff=float(r.nu_eff),
-                below_resolution=bool(r.below_resolution), reasons="; ".join(r.reasons))
+                below_resolution=bool(r.below_resolution), reasons="; ".join(r.reasons),
+                mc_trials=int(r.mc_trials), mc_converged=bool(r.mc_converged))
 
 
 def report(cases: list[dict], title: str) -> None:
     """Print the tables per method and model, by DN, by depth and by confidence."""
     cases = [c for c in cases if c["u"] and c["U95"]]
+    for model in sorted({c.get("model", "perspective") for c in cases}):
+        mine = [c for c in cases if c.get("model", "perspective") == model]
+        capped = sum("Monte Carlo not converged" in c.get("reasons", "") for c in mine)
+        low, high = wilson(capped, len(mine))
+        print(f"{model}: the Monte Carlo stopped at its trial cap for {capped} of {len(mine)} "
+              f"({100 * capped / len(mine):.1f} %, Wilson 95 % {100 * low:.1f}-{100 * high:.1f} %)")
     print(f"{len(cases)} quantities, {title}; by method and model:\n")
     print("\n".join(rows(cases, lambda c: f"{c['method']} ({c.get('model', 'perspective')})")))
     for label, key in (("by DN [mm]", lambda c: f"DN {c['height_mm']:g}"), ("by depth of the plane", depth_band),

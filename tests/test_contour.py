@@ -311,8 +311,12 @@ def test_offset_restarts_step_the_offset_and_follow_the_fits_valley():
 def test_pose_fit_leaves_the_minimum_where_offset_is_traded_for_yaw():
     """A rendered window (the first case of ``benchmarks/pose_coverage.py --seed 3``) whose ring fit from
     either first pose settled 1 % H off in ox with yaw turned to compensate (9 sigma, flagged confident):
-    the restarts across that valley find the pose within 0.15 % H and 0.05 degrees of the truth, inside
-    4 standard uncertainties of its stated covariance."""
+    the restarts across that valley find the pose within 0.15 % H and 0.05 degrees of the truth.
+
+    (It also asserted the error inside 4 u of the stated covariance, which held under the points-per-ring
+    scaling, 4 times too wide; with the ring-clustered covariance this window's oy is 4.9 u off, 0.04 % H: one
+    of the heavy tails docs/contour.md names. The covariance's calibration is tested over several windows in
+    tests/test_pose_covariance.py.)"""
     from pipeline.synth.scene import Pipe, Scene
     from pipeline.synth.window import render_window
 
@@ -325,4 +329,3 @@ def test_pose_fit_leaves_the_minimum_where_offset_is_traded_for_yaw():
     err = c.view.pose[:4] - truth
     assert c.confident
     assert np.all(np.abs(err[:2]) < 0.0015) and np.all(np.abs(np.degrees(err[2:])) < 0.05), err
-    assert np.all(np.abs(err / np.sqrt(np.diag(c.covariance)[:4])) < 4.0)

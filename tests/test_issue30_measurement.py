@@ -97,7 +97,17 @@ def test_the_predicted_U95_of_a_marked_extent_is_the_measured_one_where_the_mark
 def test_the_report_says_a_monte_carlo_that_did_not_converge_in_one_warning_with_its_action():
     from pipeline.reports.warning_text import plain_warnings
 
-    technical = ("Monte Carlo not converged: the interval's endpoints were not stable to 2 significant digits of u "
-                 "within 400000 trials (JCGM 101 7.9), so their last digit is uncertain")
+    technical = ("Monte Carlo not converged: the interval's endpoints were not stable to the digits printed "
+                 "(2 significant digits of U95) within 400000 trials (JCGM 101 7.9), so their last digit is uncertain")
     [(sentence, action)] = plain_warnings(technical)
     assert "trial cap" in sentence and action == "read the interval to one digit less"
+
+
+def test_the_monte_carlo_stops_at_the_digits_the_result_prints():
+    """Issue 30: the BDD's orthographic run (u about 0.98 %, U95 about 2.0 %) needed two significant digits of u,
+    a 0.005 % tolerance, and met the 400,000-trial cap; its interval prints to 0.1 %, which 10 blocks settle."""
+    marked, contour, cert = _bdd()
+    r = measure_quantity(marked, contour, cert, H=400.0, tolerance=4.0, model="orthographic", seed=11)
+    assert 1.0 < r.U95 < 10.0
+    assert r.mc_converged and r.mc_trials < quantity_module.MAX_TRIALS
+    assert not any("Monte Carlo not converged" in reason for reason in r.reasons)

@@ -83,3 +83,24 @@ def test_shortest_interval_is_shorter_for_a_skewed_output():
                                             (0.00996, 2, 0.0005), (1.234, 3, 0.005), (0.0, 2, 0.0)])
 def test_numerical_tolerance_jcgm101_7_9_2(u, ndig, delta):
     assert numerical_tolerance(u, ndig) == pytest.approx(delta)
+
+
+def test_the_tolerance_of_the_digits_printed_ends_a_run_the_digits_of_u_kept_to_the_cap():
+    """Issue 30: with u = 7.5 (leading digit 7) two significant digits of u ask delta = 0.05, a tenth of u's
+    tens: a run of a normal output meets the 400,000-trial cap. The result prints U95 = 14.7 to two
+    significant digits, i.e. to the unit, and its stability to that digit is reached in the first blocks."""
+    model, inputs = (lambda x: x), {"x": Normal(10.0, 7.5)}
+    of_u = propagate_monte_carlo(model, inputs, seed=2, max_trials=400_000)
+    printed = propagate_monte_carlo(model, inputs, seed=2, max_trials=400_000, tolerance_of="interval")
+    assert not of_u.converged and of_u.trials == 400_000
+    assert printed.converged and printed.trials < 400_000
+    s = printed.stability
+    half = min(printed.interval.high - printed.estimate, printed.estimate - printed.interval.low)
+    assert s.delta == pytest.approx(numerical_tolerance(half, 2)) == pytest.approx(0.5)
+    assert 2 * max(s.s_y, s.s_u, s.s_low, s.s_high) <= s.delta
+    # where u's and U95's second digits are the same decade (u = 2.2, U95 = 4.3) the two rules are one
+    a = propagate_monte_carlo(model, {"x": Normal(10.0, 2.2)}, seed=2)
+    b = propagate_monte_carlo(model, {"x": Normal(10.0, 2.2)}, seed=2, tolerance_of="interval")
+    assert a.stability.delta == b.stability.delta and a.trials == b.trials
+    with pytest.raises(ValueError, match="tolerance_of"):
+        propagate_monte_carlo(model, inputs, seed=2, tolerance_of="U")

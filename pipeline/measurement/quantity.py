@@ -443,12 +443,14 @@ def _result(fn, inputs: InputSet, *, value_at_estimates: float, v_ortho: float, 
         return _linear_preview(main, lin, value_at_estimates, v_ortho, v_persp, [*reasons, *model_reasons], p_X,
                                confident, _budget(lin, q.origin, suffixes) + nuisance_lines, seed, edges)
     # the stopping rule checks the interval reported: the shortest for the perspective model, the symmetric one
-    # (the one the clause 8 check compares) for the orthographic
+    # (the one the clause 8 check compares) for the orthographic; to the digits the result prints (U95 to two
+    # significant digits), not to two of u, which asked a digit more than printed where u's leading digit is 5-9
     # a t-distributed input (the pose's nu) has tails that can put a marked ray past the wall: those trials are drawn
     # again (the inputs truncated to the model's domain); without one nothing changes
     mc = propagate_monte_carlo(fn, inputs, seed=seed, name=q.quantity, max_trials=MAX_TRIALS, keep_samples=bool(edges),
                                interval="shortest" if model == "perspective" else "symmetric",
-                               redraw_outside=any(math.isfinite(m.dof) for m in inputs.members))
+                               redraw_outside=any(math.isfinite(m.dof) for m in inputs.members),
+                               tolerance_of="interval")
     edges_cdf = [float(np.mean(mc.samples < e)) for e in edges] if mc.samples is not None else []
     check = validate_linear(lin, mc)
     bound_low, bound_high = method.domain
@@ -474,8 +476,9 @@ def _result(fn, inputs: InputSet, *, value_at_estimates: float, v_ortho: float, 
                        f"(under {RESOLUTION_PX:g} px); only the upper bound {high:.3g} {method.unit} is measured")
     if not mc.converged:
         # one warning: the warnings column joins reasons with "; "
-        reasons.append(f"{MC_NOT_CONVERGED}: the interval's endpoints were not stable to 2 significant digits "
-                       f"of u within {mc.trials} trials (JCGM 101 7.9), so their last digit is uncertain")
+        reasons.append(f"{MC_NOT_CONVERGED}: the interval's endpoints were not stable to the digits printed "
+                       f"(2 significant digits of U95) within {mc.trials} trials (JCGM 101 7.9), so their last "
+                       "digit is uncertain")
     budget = _budget(lin, q.origin, suffixes) + nuisance_lines
     plane = main.plane
     return QuantityResult(

@@ -40,7 +40,7 @@ _RULES = [
     (re.compile(r"water line"), "the water line was seen on one side only or over a short stretch",
      "compare the value with the logged water level"),
     (re.compile(r"Monte Carlo not converged"),
-     "the Monte Carlo run stopped at its trial cap before the interval's ends settled to two significant digits of u "
+     "the Monte Carlo run stopped at its trial cap before the interval's ends settled to the digits printed "
      "(JCGM 101 7.9), so their last digit is uncertain", "read the interval to one digit less"),
     (re.compile(r"may be an undeformed joint|off the wall"),
      "the ring used for the deformation may be an undeformed joint", "check the deformation on the video"),

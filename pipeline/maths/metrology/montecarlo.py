@@ -11,7 +11,14 @@ Two modes:
   computed from all h M trials (7.9.4 h). y_low and y_high are the
   endpoints of the interval that will be reported (``interval``: the
   probabilistically symmetric one, or the shortest, JCGM 101 7.7.3), so
-  the stability checked is that of the numbers reported. A run that meets
+  the stability checked is that of the numbers reported. delta is that of
+  ``ndig`` significant digits of u(y) (``tolerance_of="u"``, 7.9.2 as
+  written) or of the interval's shorter half-width (``"interval"``): the
+  digits a result written as value ± U95 or value [low, high] with U95 to
+  two significant digits states (GUM 7.2.6; ``display.format_result``).
+  The two differ by ten times where u's leading digits are 5-9 (U95 then
+  has one digit more before the decimal point than u), and u's digits
+  there asked for a digit the report does not print. A run that meets
   ``max_trials`` first stops there with ``converged`` False: JCGM 101 7.9
   wants that stated with the result.
 
@@ -126,7 +133,7 @@ class _BlockStats:
         self.highs.append(high)
         self.chunks.append(y)
 
-    def stability(self, M: int, ndig: int) -> Stability:
+    def stability(self, M: int, ndig: int, tolerance_of: str = "u") -> Stability:
         h = len(self.means)
         means = np.asarray(self.means)
         # Pooled variance of all h*M trials from block means and variances.
@@ -138,12 +145,17 @@ class _BlockStats:
         def s_of_mean(values: np.ndarray) -> float:  # JCGM 101 eq. (15)
             return float(np.std(values, ddof=1) / math.sqrt(h))
 
+        stated = u_all
+        if tolerance_of == "interval":
+            # the digits of the interval as written: its shorter side sets the decimals of a lopsided one
+            half = min(float(np.mean(self.highs)) - grand, grand - float(np.mean(self.lows)))
+            stated = half if half > 0 else u_all
         return Stability(
             s_of_mean(means),
             s_of_mean(block_u),
             s_of_mean(np.asarray(self.lows)),
             s_of_mean(np.asarray(self.highs)),
-            numerical_tolerance(u_all, ndig),
+            numerical_tolerance(stated, ndig),
         )
 
 
@@ -212,6 +224,7 @@ def propagate_monte_carlo(
     keep_samples: bool = False,
     interval: str = "symmetric",
     redraw_outside: bool = False,
+    tolerance_of: str = "u",
 ) -> MonteCarloResult | dict[str, MonteCarloResult]:
     """Propagate the input distributions through ``model`` by Monte Carlo.
 
@@ -231,12 +244,17 @@ def propagate_monte_carlo(
     redraw_outside : draw again the trials whose inputs fall outside the model's domain
         (a non-finite output; at most ``MAX_REDRAWN_SHARE`` of a block), for
         inputs with unbounded tails such as a multivariate t pose
+    tolerance_of : "u": delta from ``ndig`` significant digits of u(y) (JCGM 101 7.9.2); "interval": from
+        ``ndig`` significant digits of the reported interval's shorter half-width, the digits a result written
+        with U95 to two significant digits states (module docstring)
 
     Returns a MonteCarloResult, or a dict of them when the model returns a mapping.
     """
     inputs = InputSet.of(inputs)
     if interval not in ("symmetric", "shortest"):
         raise ValueError(f"interval must be 'symmetric' or 'shortest', got {interval!r}")
+    if tolerance_of not in ("u", "interval"):
+        raise ValueError(f"tolerance_of must be 'u' or 'interval', got {tolerance_of!r}")
     if seed is None:
         seed = secrets.randbits(63)
     rng = np.random.Generator(np.random.PCG64(seed))
@@ -268,12 +286,12 @@ def propagate_monte_carlo(
         for key, y in outputs.items():
             stats.setdefault(key, _BlockStats()).add(y, lo_i, hi_i, interval)
         if h >= min_blocks:
-            stability = {key: s.stability(M, ndig) for key, s in stats.items()}
+            stability = {key: s.stability(M, ndig, tolerance_of) for key, s in stats.items()}
             if all(s.stable for s in stability.values()):
                 converged = True
                 break
         if (h + 1) * M > max_trials:
-            stability = {key: s.stability(M, ndig) for key, s in stats.items()} if h >= 2 else {}
+            stability = {key: s.stability(M, ndig, tolerance_of) for key, s in stats.items()} if h >= 2 else {}
             break
 
     results = {

@@ -9,9 +9,11 @@ agree. Two checks follow from that:
   wrong fit (a local minimum of the pose search: offset traded for pitch).
   Its pose is replaced by the better one and flagged, so the result is
   never a confident wrong answer.
-* **Reproducibility.** The fit's own covariance ignores model error (a wall
-  off the nominal profile, roll held at zero). The scatter of the agreeing
-  windows' poses is a Type A evaluation of what that misses (JCGM 100 4.2);
+* **Reproducibility.** The fit's own covariance (ring-clustered,
+  ``pose_covariance``) holds what scatters from ring to ring within a
+  window, not what a window's rings share (a mount that moved, a wall off
+  its profile over metres). The scatter of the agreeing windows' poses is a
+  Type A evaluation of what that misses (JCGM 100 4.2);
   with three or more windows, what it holds beyond the fits' own noise is
   added to each window's covariance. The windows' fit noise is in their
   scatter already, reduced by the frames they share: for windows whose

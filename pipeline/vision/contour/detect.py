@@ -17,10 +17,10 @@ Method (docs/contour.md):
    (``ring_fit``); the fit whose rings are closest to their points is kept,
    then restarted beside itself along the offset-for-tilt valley where a fit
    can stop in a local minimum (``_restarted``, ``first_pose.offset_restarts``);
-4. the pose covariance from that fit, C = (J^T J)^-1 s^2 with the residual
-   variance s^2 scaled by points per ring (the rings, not the points, are
-   the independent observations); a pose from fewer than ``MIN_RINGS``
-   rings, or from partial arcs only, is not trusted;
+4. the pose covariance from that fit, cluster-robust with the rings as the
+   clusters (the rings, not the points, are the independent observations;
+   ``pose_covariance``); a pose from fewer than ``MIN_RINGS`` rings, or
+   from partial arcs only, is not trusted;
 5. for any wall point, the cross-section through it and its p_H, with
    u(p_H) from the pose covariance and the wall's departure from the
    profile (``result.PipeContour.at_point``); a plane near a deformed ring
@@ -38,6 +38,7 @@ import numpy as np
 from pipeline.vision.contour.first_pose import (initial_view, offset_restarts, pose_from_peaks, pose_from_templates,
                                                 search_pose, template_fit)
 from pipeline.vision.contour.groups import group_members
+from pipeline.vision.contour.pose_covariance import ring_clustered_covariance
 from pipeline.vision.contour.result import PipeContour, Ring
 from pipeline.vision.contour.ridges import dark_centre, ridge_points
 from pipeline.vision.contour.ring_fit import assign, coverage_deg, refine
@@ -146,12 +147,10 @@ def contour_from_candidates(candidates: list[FrameCandidates], camera_matrix: np
     best = int(np.argmin(rms_of))
     fit, (ring_of, res), rms = _restarted(fits[best], assigned[best], pts, frame_of, curve_of)
     view, rings, sol, free, deformed = fit
-    n_fit = (len(sol.fun) - 2) // 2
-    dof = max(2 * n_fit - len(sol.x), 1)
     # Residuals along one ring share its error (blur, texture, the ring's own shape), so the
-    # rings, not the points, are the independent observations: scale by points per ring.
-    s2 = float(np.sum(sol.fun[:-2] ** 2) / dof) * n_fit / len(rings)
-    cov = _pose_covariance(sol, free, s2)
+    # rings, not the points, are the independent observations: the ring-clustered sandwich.
+    cov = np.zeros((5, 5))
+    cov[np.ix_(free, free)] = ring_clustered_covariance(sol.jac, sol.fun, len(free))
     found = []
     wall, _ = view.wall_hits(pts)
     for i, (frame, t) in enumerate(rings):
@@ -192,7 +191,8 @@ def _restarted(fit, assigned, pts, frame_of, curve_of, rounds: int = 2):
 
 
 def _pose_covariance(sol, free, s2: float) -> np.ndarray:
-    """(J^T J)^-1 s^2 of the fit, its pose block placed in (5, 5) (zero for parameters held fixed)."""
+    """(J^T J)^-1 s^2 of the fit, its pose block placed in (5, 5) (zero for parameters held fixed): the shape
+    of the fit's valley the restarts follow (its scale does not matter there)."""
     try:
         cov_x = np.linalg.inv(sol.jac.T @ sol.jac) * s2
     except np.linalg.LinAlgError:
@@ -214,9 +214,8 @@ def closer(trial, current, gain: float = RESTART_GAIN) -> bool:
 
 
 def pose_dof(rings: int, fitted: int) -> float:
-    """Degrees of freedom of the fit's covariance: the rings are its independent observations (the residual
-    variance is scaled by points per ring), each fixing its own depth and two coordinates of the image, so
-    2 rings - (rings + fitted pose parameters) = rings - fitted, at least 1."""
+    """Degrees of freedom of the fit's covariance: the rings are its independent observations (the clusters of
+    its sandwich, ``pose_covariance``), so G rings less the fitted pose parameters, at least 1."""
     return float(max(rings - fitted, 1))
 
 

@@ -40,9 +40,9 @@ __all__ = ["JOINT_CHARS", "ORIGIN", "ANGULAR_NOT_MEASURED", "joint_points", "mea
 JOINT_CHARS = {"A": "axial", "B": "step"}
 ORIGIN = "joint ends fit"
 # Whether the frames agree on a joint: the chi-square of their values about the combined one, with the u of each
-# frame's own inputs (what the frames share moves them alike), is beyond its 99.9 % point: one of them took
+# frame's own inputs (what the frames share moves them alike), is beyond its 99 % point: one of them took
 # something else for the joint's end.
-AGREE_P = 0.001
+AGREE_P = 0.01
 ANGULAR_NOT_MEASURED = ("BAJ C (angular displacement) is not measured from the image alone: the far pipe's axis "
                         "needs its wall over a length beyond the joint, which the ring of its end does not fix; "
                         "mark it (marks.csv) or measure it with `pipegauge review`")

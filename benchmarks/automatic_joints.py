@@ -11,7 +11,7 @@ Prints, per quantity and codec (and for DN >= 200 apart): the share found and me
 coverage of the confident results with its Wilson interval, median z and robust SD of z, median U95 (all and
 DN 300), and the false-find rate; ``--json FILE`` keeps every case's row.
 
-    nice -n 10 python benchmarks/automatic_joints.py --cases 150 --empty 50 --work /tmp/joint-cases
+    nice -n 10 python benchmarks/automatic_joints.py --cases 150 --empty 40 --work /tmp/joint-cases --contours /tmp/joint-poses
 """
 
 from __future__ import annotations

@@ -11,13 +11,15 @@ Prints, per quantity and codec (and for DN >= 200 apart): the share found and me
 coverage of the confident results with its Wilson interval, median z and robust SD of z, median U95 (all and
 DN 300), and the false-find rate; ``--json FILE`` keeps every case's row.
 
-    nice -n 10 python benchmarks/automatic_joints.py --cases 150 --empty 50 --work /tmp/joint-cases
+    nice -n 10 python benchmarks/automatic_joints.py --cases 150 --empty 40 --work /tmp/joint-cases --contours /tmp/joint-poses
 """
 
 from __future__ import annotations
 
 import argparse
+import hashlib
 import json
+import pickle
 import sys
 import time
 from dataclasses import asdict
@@ -48,14 +50,28 @@ def _obs(char1: str) -> Observation:
     return Observation(1, 0.0, "BAJ", char1, "", None, "mm", None, "", None, None, True, "", None, "", "", {})
 
 
-def measure_case(video: Path, truth: dict, cert) -> list[dict]:
+def case_contour(video: Path, truth: dict, cert, cache: Path | None = None):
+    """The video's ideal grey frames (one decoding) and the pose fitted to them; the fit kept in ``cache`` (a
+    folder) when given, keyed by the video's bytes: a rerun of the joint code alone does not fit the poses again."""
+    case = truth["case"]
+    und = Undistorter(cert, cert.image_width_px, cert.image_height_px)
+    grays = [cv2.cvtColor(und.frame(f), cv2.COLOR_BGR2GRAY) for _, f in iter_frames(video)]     # one decoding
+    kept = cache / (hashlib.sha256(video.read_bytes()).hexdigest()[:20] + ".pickle") if cache else None
+    if kept is not None and kept.is_file():
+        return grays, pickle.loads(kept.read_bytes())
+    contour = detect_contour(grays, und.K, case["shape"], wall_u=wall_u_from_tolerance(case["height_mm"], 0.0))
+    if kept is not None:
+        kept.parent.mkdir(parents=True, exist_ok=True)
+        kept.write_bytes(pickle.dumps(contour))
+    return grays, contour
+
+
+def measure_case(video: Path, truth: dict, cert, cache: Path | None = None) -> list[dict]:
     """Both quantities of one encoding of a case: rows with the truth, the result or why none."""
     case = truth["case"]
     H = case["height_mm"]
-    und = Undistorter(cert, cert.image_width_px, cert.image_height_px)
-    grays = [cv2.cvtColor(und.frame(f), cv2.COLOR_BGR2GRAY) for _, f in iter_frames(video)]     # one decoding
+    grays, contour = case_contour(video, truth, cert, cache)
     chain = truth["frames_chainage_m"][:len(grays)]
-    contour = detect_contour(grays, und.K, case["shape"], wall_u=wall_u_from_tolerance(H, 0.0))
     frames = [(i, g, c) for i, (g, c) in enumerate(zip(grays, chain))]
     t0 = time.perf_counter()
     sightings, notes = follow_joint(frames, contour.view, H)
@@ -63,7 +79,11 @@ def measure_case(video: Path, truth: dict, cert) -> list[dict]:
     for char1, truth_value in (("A", truth["gap_mm"]), ("B", truth["step_mm"])):
         row = {"case": case["case_id"], "H": H, "shape": case["shape"], "displaced": case["displaced"],
                "quantity": char1, "truth": truth_value, "n_frames": len(sightings), "water": case["water_percent"],
-               "contour_confident": contour.confident}
+               "contour_confident": contour.confident,
+               # each frame's own ends (for looking into a case): gap and step [mm], their depths [H], problems
+               "frames": [{"frame": s.frame, "depth": s.depth, "gap_mm": (s.ends.far_depth - s.ends.near_depth) * H,
+                           "step_mm": float(np.hypot(*s.ends.step)) * H, "u_near": s.ends.u_near,
+                           "u_far": s.ends.u_far, "problems": list(s.ends.problems)} for s in sightings]}
         try:
             _, res = measure_joint(_obs(char1), sightings, contour, cert, H=H, tolerance=0.0, seed=7)
             row.update(status="measured" if res.confident else "found, not measured", value=res.value, u=res.u,
@@ -114,6 +134,7 @@ def main() -> None:
     ap.add_argument("--seed", type=int, default=34)
     ap.add_argument("--work", type=Path, default=Path("/tmp/joint-cases"), help="where the cases' videos are kept")
     ap.add_argument("--json", type=Path, help="write every row here")
+    ap.add_argument("--contours", type=Path, help="keep each video's pose fit here (reruns skip the fits)")
     ap.add_argument("--table", type=Path, help="only print the table of rows kept by --json")
     args = ap.parse_args()
     if args.table:
@@ -134,7 +155,7 @@ def main() -> None:
                 or read_truth(folder)["case"] != json.loads(json.dumps(asdict(case))):
             write_case(case, cert, args.work, codecs=(CODECS[codec],))
         truth = read_truth(folder)
-        for row in measure_case(video, truth, cert):
+        for row in measure_case(video, truth, cert, args.contours):
             rows.append({**row, "codec": codec})
         if args.json:                    # kept as it goes: a long run's rows survive an interruption
             args.json.write_text(json.dumps(rows, indent=1, default=str))

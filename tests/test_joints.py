@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+import re
 from pathlib import Path
 
 import cv2
@@ -12,7 +13,8 @@ from pipeline.camera.undistort import Undistorter
 from pipeline.core.errors import MeasurementError
 from pipeline.domain.records import Observation
 from pipeline.formats.certificate import load_certificate
-from pipeline.measurement.joints import ANGULAR_NOT_MEASURED, found_not_measured, measure_joint
+from pipeline.measurement.joints import (ANGULAR_NOT_MEASURED, found_not_measured, frames_disagree, joint_points,
+                                        measure_joint, plain_reasons)
 from pipeline.synth.joint_cases import JointCase, approach_chainages, case_scene
 from pipeline.synth.render import Renderer
 from pipeline.synth.scene import DisplacedJoint, Pipe, Scene
@@ -117,20 +119,78 @@ def test_the_angular_displacement_says_why_it_is_not_measured(joint, cert):
     assert "pipegauge review" in ANGULAR_NOT_MEASURED
 
 
+def test_frames_that_disagree_on_the_joint_give_found_not_measured(joint, cert):
+    """One frame taking another feature for the far pipe's end (its gap 40 % longer, its rings as settled as the
+    others'): the frames' values disagree beyond their own u, so the joint is found but not measured. Before the
+    check, the wrong frame was averaged in and the result trusted."""
+    frames, contour = joint
+    sightings, _ = follow_joint(frames, contour.view, H)
+    assert len(sightings) >= 2
+    _, agreed = measure_joint(_obs("A"), sightings, contour, cert, H=H, tolerance=0.0, seed=3)
+    assert agreed.confident and not any("disagree" in r for r in agreed.reasons)
+    e = sightings[-1].ends
+    wrong = dataclasses.replace(e, far_depth=e.near_depth + 1.4 * (e.far_depth - e.near_depth))
+    bad = [*sightings[:-1], dataclasses.replace(sightings[-1], ends=wrong)]
+    _, res = measure_joint(_obs("A"), bad, contour, cert, H=H, tolerance=0.0, seed=3)
+    assert not res.confident
+    why = found_not_measured(res)
+    assert why is not None and "the frames disagree on the joint's gap" in why
+    assert f" and {bad[-1].frame}" in why                    # the frames named
+
+
+def test_frames_disagree_reads_the_chi_square_of_the_frames_own_u():
+    assert frames_disagree([20.0, 20.4, 19.8], [0.3, 0.3, 0.3], [1, 2, 3], "gap") is None
+    why = frames_disagree([20.0, 24.0, 19.8], [0.3, 0.3, 0.3], [1, 2, 3], "gap")
+    assert why is not None and "20.0, 24.0 and 19.8 mm from frames 1, 2 and 3" in why
+    assert frames_disagree([20.0, 24.0], [3.0, 3.0], [1, 2], "gap") is None       # within their own u
+
+
+def test_a_point_s_u_is_its_ring_s_edge_scatter_in_that_frame(joint, cert):
+    frames, contour = joint
+    sightings, _ = follow_joint(frames, contour.view, H)
+    s = sightings[0]
+    assert 0.0 < s.ends.scatter_near_px < 1.0 and 0.0 < s.ends.scatter_far_px < 1.0
+    q = joint_points(_obs("A"), s, contour.view, cert)
+    rough = dataclasses.replace(s, ends=dataclasses.replace(s.ends, scatter_far_px=3 * s.ends.scatter_far_px + 1.0))
+    q_rough = joint_points(_obs("A"), rough, contour.view, cert)
+    assert q_rough.u_a == pytest.approx(q.u_a) and q_rough.u_b > q.u_b + 0.9
+
+
+def test_the_frames_reasons_are_said_once_with_their_frames():
+    said = plain_reasons(["f540: u(p_H) is 3.0 % of p_H", "f540: u(p_H) is 3.1 % of p_H", "f507: u(p_H) is 2.9 % of p_H",
+                          "contour untrusted: few rings",
+                          "frame 540: the edges follow the pipe ends' rings to 4.3 % of H only (texture)",
+                          "frame 507: the edges follow the pipe ends' rings to 3.0 % of H only (texture)"])
+    assert said == ("frames 507 and 540: u(p_H) is 2.9-3.1 % of p_H", "contour untrusted: few rings",
+                    "frames 507 and 540: the edges follow the pipe ends' rings to 3.0-4.3 % of H only (texture)")
+    assert plain_reasons(["f12: glare: 7 % of the pixels at the gap are saturated"]) == (
+        "frame 12: glare: 7 % of the pixels at the gap are saturated",)
+
+
+@pytest.fixture(scope="module")
+def s02(reader):
+    """S02 measured from its package (no marks needed for its joint), counting the frames read again."""
+    from pipeline.app import measure as conductor
+
+    reads: list[int] = []
+    real = conductor.read_frame
+    conductor.read_frame = lambda path, i: reads.append(i) or real(path, i)
+    try:
+        result = conductor.measure_package(SAMPLES / "S02-circular-water-offset", reader=reader)
+    finally:
+        conductor.read_frame = real
+    return result, reads
+
+
 @pytest.mark.slow
-def test_a_package_s_displaced_joint_is_measured_without_marks_from_the_contours_one_decoding(reader, monkeypatch):
+def test_a_package_s_displaced_joint_is_measured_without_marks_from_the_contours_one_decoding(s02):
     """S02's joint (gap 18 mm, step 8 mm) from its video alone: the step measured with its clock, the gap found;
     the frames come from the contours' one forward decoding (no frame read again)."""
     import json
 
-    from pipeline.app import measure as conductor
-
     truth = json.loads((SAMPLES / "S02-circular-water-offset" / "truth" / "truth.json").read_text())
     true = {o["char1"]: o["quantities"][0]["true_value"] for o in truth["observations"] if o["code"] == "BAJ"}
-    reads: list[int] = []
-    real = conductor.read_frame
-    monkeypatch.setattr(conductor, "read_frame", lambda path, i: reads.append(i) or real(path, i))
-    result = conductor.measure_package(SAMPLES / "S02-circular-water-offset", reader=reader)
+    result, reads = s02
     rows = {m.char1: m for m in result.measurements if m.code == "BAJ" and m.source == "contour"}
     assert set(rows) == {"A", "B"}
     step = rows["B"]
@@ -142,3 +202,30 @@ def test_a_package_s_displaced_joint_is_measured_without_marks_from_the_contours
         assert gap.error.startswith("found, not measured") and gap.grade_status != "graded"
     assert gap.low <= true["A"] <= gap.high
     assert reads == []
+    for m in rows.values():                     # each frame's reason said once, not "f1: ...; f1: ..."
+        text = "; ".join(x for x in (m.warnings, m.error) if x)
+        assert not re.search(r"(^|; )f\d+: ", text), text
+
+
+@pytest.mark.slow
+def test_the_image_alone_joint_s_thumbnail_shows_the_overlay_as_recorded(s02):
+    """The joint's nearest frame is one of the contour window's frames, kept as an ideal image only: its thumbnail
+    lacked the recorded overlay (bent and cut at the frame's edge). Where the recorded frame shows the overlay's
+    white text (its top left), the thumbnail shows it too."""
+    import numpy as np
+
+    from pipeline.vision.video.reader import read_frame
+
+    result, _ = s02
+    rows = {(m.row, m.quantity) for m in result.measurements if m.code == "BAJ" and m.source == "contour"}
+    thumbs = [t for t in result.thumbnails if t.source == "contour" and (t.row, t.quantity) in rows]
+    assert thumbs
+    video = next((SAMPLES / "S02-circular-water-offset").glob("*.mp4"))
+    for t in thumbs:
+        thumb = cv2.imdecode(np.frombuffer(t.image_jpeg, np.uint8), cv2.IMREAD_GRAYSCALE)
+        recorded = cv2.cvtColor(read_frame(video, t.frame), cv2.COLOR_BGR2GRAY)
+        recorded = cv2.resize(recorded, (thumb.shape[1], thumb.shape[0]), interpolation=cv2.INTER_AREA)
+        corner = (slice(0, thumb.shape[0] // 4), slice(0, thumb.shape[1] // 2))
+        text = recorded[corner] > 200
+        assert text.sum() > 50                              # the overlay's text is there, as recorded
+        assert np.mean(thumb[corner][text] > 150) > 0.9, t.frame

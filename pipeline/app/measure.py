@@ -165,11 +165,13 @@ def measure_package(folder: str | os.PathLike, *, certificates: str | os.PathLik
             ideal_frames[frame] = und.frame(recorded_frames[frame])
         return ideal_frames[frame]
 
-    def thumbnail(frame: int, marked, row: int, source: str) -> ThumbnailRecord:
+    def thumbnail(frame: int, marked, row: int, source: str, contour=None) -> ThumbnailRecord:
+        """The frame's thumbnail with the burned-in overlay as recorded; ``contour`` the frame's own by default (a
+        joint's nearest frame is drawn with the pose of the frame it was logged at)."""
         image = ideal(frame)                # reads the recorded frame too when the contours' pass did not keep it
         overlay = (recorded_frames[frame], where.thumbnail_mask) \
             if frame in recorded_frames and where.thumbnail_mask is not None else None
-        return _thumbnail(image, contours[frame], marked, row, frame, source, overlay)
+        return _thumbnail(image, contours[frame] if contour is None else contour, marked, row, frame, source, overlay)
 
     # the Monte Carlo runs of the quantities are independent (each its own seed) and mostly large NumPy operations
     # that release the GIL: two at once use both cores; results are assembled in the marks' order
@@ -290,7 +292,7 @@ def measure_package(folder: str | os.PathLike, *, certificates: str | os.PathLik
             untrusted = found_not_measured(res)
             if untrusted is not None:         # a joint found but not trusted is not a measurement: no grade, no log check
                 row.update(status="unmeasured", error=untrusted)
-            result.thumbnails.append(_thumbnail(ideal(nearest), contours[found], qs[0], r, nearest, "contour"))
+            result.thumbnails.append(thumbnail(nearest, qs[0], r, "contour", contours[found]))
         except PipegaugeError as exc:
             row.update(status="error", error=str(exc))
         result.measurements.append(row)

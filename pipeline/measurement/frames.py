@@ -59,7 +59,7 @@ from pipeline.measurement.quantity import (POSE_LABELS, SHARED_LABELS, MarkedQua
                                            _frame_model, _FrameModel, _measure_frame, _result)
 from pipeline.vision.contour import PipeContour
 
-__all__ = ["measure_over_frames", "frame_weights"]
+__all__ = ["measure_over_frames", "frame_weights", "frame_values"]
 
 
 def _same_pose(a: PipeContour, b: PipeContour) -> bool:
@@ -217,3 +217,18 @@ def measure_over_frames(views: Sequence[tuple[MarkedQuantity, PipeContour]], cer
                    p_X=max(f.p_X for f in built),
                    confident=all(f.plane.confident and f.contour.confident for f in built),
                    nuisance_lines=nuisance, seed=seed, edges=edges, suffixes=words, monte_carlo=monte_carlo)
+
+
+def frame_values(views: Sequence[tuple[MarkedQuantity, PipeContour]], cert: Certificate, *, H: float,
+                 tolerance: float, model: str = "perspective", seed: int = 1) -> tuple[np.ndarray, np.ndarray]:
+    """Each view's own value [unit] and its standard uncertainty [unit] from the inputs not common to every view,
+    the inputs ``measure_over_frames`` weights the views by. Whether the views agree is a chi-square of these
+    about their weighted mean: what the views share moves them alike and cannot tell them apart.
+    """
+    views = list(views)
+    built = [_frame_model(q, c, cert, H=H, tolerance=tolerance, model=model, seed=seed) for q, c in views]
+    common = {label for label in SHARED_LABELS if all(label in f.independent for f in built)}
+    if max(_pose_groups([c for _, c in views])) == 0:
+        common |= set(POSE_LABELS)
+    own = [_own_variance(f, common) for f in built]
+    return np.array([f.value for f in built], float), np.sqrt(np.maximum(own, 0.0))

@@ -19,31 +19,30 @@ its end alone do not fix.
 from __future__ import annotations
 
 import math
+import re
 from typing import Sequence
 
 import numpy as np
+import scipy.stats
 
 from pipeline.camera import Certificate
 from pipeline.core.errors import MeasurementError
 from pipeline.domain.records import Observation
-from pipeline.measurement.frames import measure_over_frames
+from pipeline.measurement.frames import frame_values, measure_over_frames
 from pipeline.measurement.quantity import MarkedQuantity, QuantityResult, doubts
 from pipeline.vision.contour import PipeContour
 from pipeline.vision.contour.joint_ends import JointSighting, _wall
 from pipeline.vision.contour.view import PipeView
 
 __all__ = ["JOINT_CHARS", "ORIGIN", "ANGULAR_NOT_MEASURED", "joint_points", "measure_joint", "measurable_joint",
-           "found_not_measured", "step_clock"]
+           "found_not_measured", "step_clock", "frames_disagree", "plain_reasons"]
 
 JOINT_CHARS = {"A": "axial", "B": "step"}
 ORIGIN = "joint ends fit"
-# An edge found where a blurred profile crosses half-way between its plateaus moves when the plateaus are not flat
-# (the far wall darkens with depth, the socket's face is narrow) and with a codec's ringing: a Type B standard
-# uncertainty [px] for each point, beside the rings' own scatter. The gap's far edge lies on the far wall's long
-# grazing ramp, so the gap's points take the larger one. Set on the benchmark's development cases (seed 34;
-# docs/measurement.md), checked on other cases (seed 35).
-EDGE_U_PX = 0.5
-GAP_EDGE_U_PX = 1.0
+# Whether the frames agree on a joint: the chi-square of their values about the combined one, with the u of each
+# frame's own inputs (what the frames share moves them alike), is beyond its 99 % point: one of them took
+# something else for the joint's end.
+AGREE_P = 0.01
 ANGULAR_NOT_MEASURED = ("BAJ C (angular displacement) is not measured from the image alone: the far pipe's axis "
                         "needs its wall over a length beyond the joint, which the ring of its end does not fix; "
                         "mark it (marks.csv) or measure it with `pipegauge review`")
@@ -66,9 +65,11 @@ def joint_points(obs: Observation, sighting: JointSighting, view: PipeView,
     e = sighting.ends
     step = e.step
     direction = math.atan2(step[1], step[0]) if np.hypot(*step) > 0 else 0.0
-    u_img = math.hypot(cert.image_coordinate_u_px, EDGE_U_PX)
+    # each point's u in the image: the certificate's, and how far single edges of its ring scatter about it in
+    # this frame (the fit's residual: blur, texture, noise and the codec as they are in this frame)
+    u_near_img = math.hypot(cert.image_coordinate_u_px, e.scatter_near_px)
+    u_far_img = math.hypot(cert.image_coordinate_u_px, e.scatter_far_px)
     if obs.char1 == "A":
-        u_img = math.hypot(cert.image_coordinate_u_px, GAP_EDGE_U_PX)
         # across from the step, the higher side (above any water), where the far pipe's wall crosses the nominal
         # one: the model places both points on the nominal wall, and a far point standing off it by d would move
         # along the axis by d times its depth over its reach (a step of 8 % of H: 1 % of H off at 90 degrees)
@@ -77,8 +78,8 @@ def joint_points(obs: Observation, sighting: JointSighting, view: PipeView,
         wall = _wall(view.shape, np.array([side]))[0]
         a = view.project(np.array([[*(wall + e.near_centre), e.near_depth]]))[0]
         b = view.project(np.array([[*(wall + e.far_centre), e.far_depth]]))[0]
-        u_a = math.hypot(e.u_near * _px_per_depth(view, wall, e.near_depth), u_img)
-        u_b = math.hypot(e.u_far * _px_per_depth(view, wall, e.far_depth), u_img)
+        u_a = math.hypot(e.u_near * _px_per_depth(view, wall, e.near_depth), u_near_img)
+        u_b = math.hypot(e.u_far * _px_per_depth(view, wall, e.far_depth), u_far_img)
         return MarkedQuantity("BAJ", "A", "Q1", "axial", (float(a[0]), float(a[1])), (float(b[0]), float(b[1])),
                               u_a, u_b, origin=ORIGIN)
     face = direction + math.pi                         # the far end stands into the pipe opposite its shift
@@ -89,8 +90,8 @@ def joint_points(obs: Observation, sighting: JointSighting, view: PipeView,
     px_per_h = float(view.p_H(t)[0])                   # across the pipe at the joint's plane [px per H]
     u_step = math.sqrt(max(float(np.max(np.linalg.eigvalsh(e.cov_step))), 0.0)) if np.all(np.isfinite(e.cov_step)) \
         else 0.0
-    u_a = math.hypot(e.u_near * _px_per_depth(view, wall, t), u_img)
-    u_b = math.hypot(u_step * px_per_h, u_img)
+    u_a = math.hypot(e.u_near * _px_per_depth(view, wall, t), u_near_img)
+    u_b = math.hypot(u_step * px_per_h, u_far_img)
     return MarkedQuantity("BAJ", "B", "Q1", "step", (float(a[0]), float(a[1])), (float(b[0]), float(b[1])),
                           u_a, u_b, origin=ORIGIN)
 
@@ -121,19 +122,97 @@ def measure_joint(obs: Observation, sightings: Sequence[JointSighting], contour:
     if not np.all(np.isfinite(contour.covariance)):
         raise MeasurementError(f"BAJ: no camera pose could be fitted ({'; '.join(contour.problems)})")
     points = [joint_points(obs, s, contour.view, cert) for s in sightings]
-    res = measure_over_frames([(q, contour) for q in points], cert, H=H, tolerance=tolerance, model=model,
-                              seed=seed, edges=edges)
+    frames = [s.frame for s in sightings]
+    views = [(q, contour) for q in points]
+    res = measure_over_frames(views, cert, H=H, tolerance=tolerance, model=model, seed=seed, edges=edges,
+                              frames=frames)
     reasons = list(res.reasons)
     if not contour.confident:
         reasons.append("contour untrusted: " + "; ".join(contour.problems))
     if len(sightings) == 1:
         reasons.append("the joint was found in only one frame")
+    else:
+        values, own_u = frame_values(views, cert, H=H, tolerance=tolerance, model=model, seed=seed)
+        why = frames_disagree(values, own_u, frames, "gap" if obs.char1 == "A" else "step")
+        if why is not None:
+            reasons.append(why)
     for s in sightings:
         reasons += [f"frame {s.frame}: {p}" for p in s.ends.problems]
     if len(reasons) > len(res.reasons):
         res.confident = False
-    res.reasons = tuple(dict.fromkeys(reasons))
+    res.reasons = plain_reasons(reasons)
     return points, res
+
+
+def frames_disagree(values: Sequence[float], own_u: Sequence[float], frames: Sequence[int], what: str,
+                    p_min: float = AGREE_P) -> str | None:
+    """Why the frames' values [mm] of one joint disagree, or None when they agree.
+
+    own_u : each frame's standard uncertainty from its own inputs [mm] (``frame_values``). The chi-square of the
+    values about their inverse-variance mean, with n - 1 degrees of freedom, is beyond its 1 - ``p_min`` point
+    when they disagree.
+    """
+    v, u = np.asarray(values, float), np.asarray(own_u, float)
+    if len(v) < 2 or not np.all(np.isfinite(v)):
+        return None
+    u = np.maximum(u, 1e-9)
+    w = 1.0 / u ** 2
+    mean = float(np.sum(w * v) / np.sum(w))
+    chi2 = float(np.sum(((v - mean) / u) ** 2))
+    if chi2 <= scipy.stats.chi2.ppf(1.0 - p_min, len(v) - 1):
+        return None
+    listed = ", ".join(f"{x:.1f}" for x in v[:-1]) + f" and {v[-1]:.1f}"
+    return (f"the frames disagree on the joint's {what}: {listed} mm from frames {_and(frames)}, further apart "
+            f"than their own uncertainties allow (chi-square {chi2:.0f} for {len(v) - 1} degree(s) of freedom); "
+            "one of them took something else for a pipe end")
+
+
+def _and(items) -> str:
+    items = [str(x) for x in items]
+    return items[0] if len(items) == 1 else ", ".join(items[:-1]) + " and " + items[-1]
+
+
+_PER_FRAME = re.compile(r"^(?:f|frame )(\d+): (.*)$")
+_NUMBER = re.compile(r"\d+(?:\.\d+)?")
+
+
+def plain_reasons(reasons: Sequence[str]) -> tuple[str, ...]:
+    """The reasons with a frame's prefix ("f540: ...", "frame 540: ...") said once for all frames that give it:
+    "frames 507 and 540: u(p_H) is 2.9-3.1 % of p_H". Reasons differing only in their numbers are one, their
+    numbers given as a range; the others are kept as they are, in their order."""
+    groups: dict[str, tuple[list[str], list[list[float]], list[str]]] = {}
+    out: list[str] = []
+    for r in reasons:
+        m = _PER_FRAME.match(r)
+        if m is None:
+            if r not in out:
+                out.append(r)
+            continue
+        frame, text = m.group(1), m.group(2)
+        key = _NUMBER.sub("#", text)
+        if key not in groups:
+            groups[key] = ([], [], [])
+            out.append(key)
+        found, numbers, _ = groups[key]
+        if frame not in found:
+            found.append(frame)
+        numbers.append([float(x) for x in _NUMBER.findall(text)])
+        groups[key][2].append(text)
+    said = []
+    for item in out:
+        if item not in groups:
+            said.append(item)
+            continue
+        found, numbers, texts = groups[item]
+        pieces = iter(item.split("#"))
+        text = next(pieces)
+        for k, piece in enumerate(pieces):
+            column = [n[k] for n in numbers]
+            shown = [_NUMBER.findall(t)[k] for t in texts]
+            lo, hi = shown[int(np.argmin(column))], shown[int(np.argmax(column))]
+            text += (lo if lo == hi else f"{lo}-{hi}") + piece
+        said.append(f"frame{'s' if len(found) > 1 else ''} {_and(sorted(found, key=int))}: {text}")
+    return tuple(said)
 
 
 def found_not_measured(res: QuantityResult) -> str | None:

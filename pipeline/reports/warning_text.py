@@ -26,7 +26,7 @@ _RULES = [
     (re.compile(r"disagrees grossly"),
      "the pipe's outline fitted here disagreed with a better fit from neighbouring frames, which was used instead",
      "check the marks and the green outline on the thumbnail"),
-    (re.compile(r"u\(p_H\) is ([\d.]+) %"),
+    (re.compile(r"u\(p_H\) is (?:[\d.]+-)?([\d.]+) %"),
      "the pipe's size in the image, which sets the scale, is uncertain by about {pct} % here",
      f"{INDICATIVE}; {REMARK}"),
     (re.compile(r"deformed section was found"),
@@ -50,7 +50,7 @@ _RULES = [
 def plain_warnings(technical: str | None) -> list[tuple[str, str]]:
     """(sentence, action) for each distinct reason in a measurement's ``warnings`` text ('; '-separated)."""
     out: dict[tuple[str, str], None] = {}
-    pct = [float(x) for x in re.findall(r"u\(p_H\) is ([\d.]+) %", technical or "")]
+    pct = [float(x) for x in re.findall(r"u\(p_H\) is (?:[\d.]+-)?([\d.]+) %", technical or "")]
     for reason in _split(technical or ""):
         for pattern, sentence, action in _RULES:
             if pattern.search(reason):

@@ -46,6 +46,10 @@ MAX_GLARE = 0.05           # share of saturated samples next to the gap above wh
 LOCAL = 40                 # samples (a quarter pixel each) beyond an edge where its plateau is read
 MIN_CONTRAST = 3.0          # grey levels between the gap's floor and a plateau beside it
 MAX_RING_RMS_H = 0.01      # a ring's residual above this [H]: its edges do not follow one ring
+RESPONSE_GAMMA = 1.35      # a video camera's transfer function, inverted to find the edges in linear light [1]
+MAX_RING_U_H = 0.02        # a ring's depth moving more than this [H] when one sector is left out: not settled
+MAX_STEP_H = 0.2           # the far ring's centre this far [H] off the near one's: not a pipe end (displaced joints
+                           # step a few % of H; a far end 20 % off is another feature taken for it)
 
 
 @dataclass(frozen=True)
@@ -71,6 +75,10 @@ class JointEnds:
     coverage: float
     glare: float
     problems: tuple[str, ...]
+    # the scatter of single edges about their ring along the generators [px] (robust rms of the fit's residual):
+    # how well one edge point is located in this frame, read from the frame itself
+    scatter_near_px: float
+    scatter_far_px: float
 
     @property
     def step(self) -> np.ndarray:
@@ -190,6 +198,11 @@ def _edges(p: np.ndarray) -> tuple[float, float] | None:
     far_level = float(np.median(p[:max(3, i // 3)]))
     if min(near_level, far_level) - floor < max(MIN_CONTRAST, 0.1 * max(near_level, far_level)):
         return None                                 # no edge: a flat profile
+    # the edges are found in linear light: a blurred edge covers half of a pixel in the scene's light, and a
+    # camera's response is concave (a gamma, a knee), so half-way between the grey levels lies on the dark side
+    # of the edge: both edges moved into the gap, the gap found short (by 0.4 px at its nearest frames)
+    p = _linear(p)
+    floor, near_level, far_level = p[i], float(p[i + 1:].max()), float(np.median(p[:max(3, i // 3)]))
     half_near, half_far = 0.5 * (floor + near_level), 0.5 * (floor + far_level)
     j = int(np.nonzero(p < half_near)[0].max())     # the nearest sample below: the edge lies between j and j + 1
     k = int(np.nonzero(p < half_far)[0].min())      # the farthest sample below: the edge lies between k - 1 and k
@@ -214,6 +227,11 @@ def _edges(p: np.ndarray) -> tuple[float, float] | None:
     e_near = j + (p[j] - half_near) / (p[j] - p[j + 1])
     e_far = k - (p[k] - half_far) / (p[k] - p[k - 1])
     return float(e_near), float(e_far)
+
+
+def _linear(grey: np.ndarray) -> np.ndarray:
+    """Grey levels [0-255] to linear light [1] with a video camera's standard response (gamma ``RESPONSE_GAMMA``)."""
+    return (np.clip(grey, 0.0, 255.0) / 255.0) ** RESPONSE_GAMMA
 
 
 def _fit_ring(view: PipeView, pts: np.ndarray, t0: float, radius) -> tuple[np.ndarray, float]:
@@ -320,6 +338,8 @@ def find_joint_ends(gray: np.ndarray, view: PipeView, depth: float, *, mask: np.
     walls = _wall(view.shape, ang)
     (tn, *cn), rms_n = _fit_ring(view, near_px, depth, radius)
     (tf, *cf, tp), rms_f = _fit_far(view, walls, far_u, tn, depth * 1.02, radius)
+    if not (tn > 0 and tf > 0):
+        return None                                     # the edges follow no ring in front of the camera
     # the points off their rings (texture, a crack across the gap): dropped, and the rings fitted again
     keep = (_ring_distance(view, near_px, tn, cn, radius) < max(3 * rms_n, 0.004)) & \
            (np.abs(_far_residual(view, walls, far_u, tn, (tf, *cf, tp), radius)[:-1]) < max(3 * rms_f, 0.004 / tf))
@@ -328,6 +348,12 @@ def find_joint_ends(gray: np.ndarray, view: PipeView, depth: float, *, mask: np.
         return None
     (tn, *cn), rms_n = _fit_ring(view, near_px, tn, radius)
     (tf, *cf, tp), rms_f = _fit_far(view, walls, far_u, tn, tf, radius, (tf, *cf, tp))
+    if not (tn > 0 and tf > 0):
+        return None
+    # the residuals in the image along the generators [px]: the near ring's radial [H] at depth tn, the far
+    # ring's in 1 / t [1/H] (a wall point at radius r lies f r / t from the vanishing point)
+    r_mean = float(np.mean(np.hypot(walls[:, 0] - view.ox, walls[:, 1] - view.oy)))
+    scatter_near, scatter_far = rms_n * f / tn, rms_f * f * r_mean
     rms_f *= tf                                         # in u [1/H] to a share of H at the far ring
     sector = np.floor((ang + np.pi) / (2 * np.pi) * SECTORS).astype(int) % SECTORS
     held = np.unique(sector)
@@ -354,9 +380,18 @@ def find_joint_ends(gray: np.ndarray, view: PipeView, depth: float, *, mask: np.
         problems.append(f"glare: {100 * share_glare:.0f} % of the pixels at the gap are saturated")
     if not tf > tn:
         problems.append("the far edge is not beyond the near one")
+    u_depth = max(math.sqrt(cov[0, 0]), math.sqrt(cov[3, 3])) if m > 1 else 0.0
+    if u_depth > MAX_RING_U_H:
+        problems.append(f"the pipe ends' rings are not settled: their depth moves by {100 * u_depth:.1f} % of H when "
+                        "one part of the circumference is left out (something else taken for an end in part of it)")
+    step = math.hypot(cf[0] - cn[0], cf[1] - cn[1])
+    if step > MAX_STEP_H:
+        problems.append(f"the far end's ring lies {100 * step:.0f} % of H off the near one's, more than a displaced "
+                        "joint steps (another feature taken for the far end)")
     return JointEnds(float(tn), float(tf), (float(cn[0]), float(cn[1])), (float(cf[0]), float(cf[1])),
                      float(math.sqrt(cov[0, 0])), float(math.sqrt(cov[3, 3])), d_step @ cov @ d_step.T,
-                     near_px, far_px, ang, coverage, share_glare, tuple(problems))
+                     near_px, far_px, ang, coverage, share_glare, tuple(problems), float(scatter_near),
+                     float(scatter_far))
 
 
 def _at(line: np.ndarray, i: float) -> np.ndarray:

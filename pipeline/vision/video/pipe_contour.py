@@ -102,7 +102,7 @@ def contours_at_frames(path: str | os.PathLike, frames: Iterable[int], track: Ch
     ideal_frames : when given, receives the ideal (undistorted) BGR image of
     each of ``frames`` (for thumbnails: no seeking back into the video).
     recorded_frames : likewise the recorded (distorted) BGR image of each of
-    ``frames`` (the thumbnail shows the burned-in overlay as recorded).
+    ``frames`` and of ``keep_windows``' windows (the thumbnail shows the burned-in overlay as recorded).
     step_m : chainage step between a window's frames [m]; the default is the
     validated one (benchmarks try others: docs/speed.md).
     keep_windows : frames of ``frames`` whose whole window's ideal images ``ideal_frames`` also receives (a
@@ -123,8 +123,8 @@ def contours_at_frames(path: str | os.PathLike, frames: Iterable[int], track: Ch
         ideal = undistorter.frame(bgr)
         if ideal_frames is not None and (index in windows or index in kept):
             ideal_frames[index] = ideal
-        if recorded_frames is not None and index in windows:
-            recorded_frames[index] = bgr
+        if recorded_frames is not None and (index in windows or index in kept):
+            recorded_frames[index] = bgr          # a kept window's too: a joint's thumbnail shows its nearest frame
         return index, frame_candidates(_gray(ideal), mask)
 
     def fit(frame: int) -> PipeContour:

@@ -48,7 +48,7 @@ from pipeline.vision.contour.detect import wall_u_from_tolerance
 from pipeline.vision.video.reader import iter_frames
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from coverage_stats import robust_sd, wilson  # noqa: E402
+from coverage_stats import false_finds, robust_sd, wilson  # noqa: E402
 
 SAMPLES = Path(__file__).resolve().parent.parent / "sample_videos"
 KINDS = ("bca", "bbc", "bag")
@@ -176,10 +176,7 @@ def summary(rows: list[dict], kind: str, label: str) -> list[str]:
                 line += f" ({np.median([100 * r['U95'] / r['truth'] for r in measured]):.1f} % of the diameter)"
         out.append(line)
     if none:
-        false = sum(r["found"] for r in none)
-        lo, hi = wilson(false, len(none))
-        out.append(f"{kind} {label}: false finds {false}/{len(none)} ({100 * false / len(none):.1f} %, "
-                   f"Wilson {100 * lo:.1f}-{100 * hi:.1f} %)")
+        out.append(f"{kind} {label}: " + false_finds(sum(r["found"] for r in none), len(none)))
     return out
 
 

@@ -105,6 +105,9 @@ def find_intrusion(ideal_bgr: np.ndarray, view: PipeView, *, clock: float | None
     window = int(SEARCH_CLOCK_H * 30 / 360 * THETA_STEPS)
     mid = THETA_STEPS // 2
     want = expected_depth if expected_depth is not None else float(np.sqrt(depths[0] * depths[1]))
+    # the log may put the feature behind the camera's frame (a chainage logged where the camera stood): the
+    # nearest depth searched then, not a log of a negative depth (nan, which left the choice to the list's order)
+    want = max(want, depths[0])
     best = None
     for k in range(1, n):
         x0, y0, w, h, area = stats[k]

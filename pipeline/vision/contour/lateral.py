@@ -264,6 +264,9 @@ def find_lateral(ideal_bgr: np.ndarray, view: PipeView, *, clock: float | None =
     if not found:
         return None
     want = expected_depth if expected_depth is not None else float(np.sqrt(depths[0] * depths[1]))
+    # the log may put the feature behind the camera's frame (a chainage logged where the camera stood): the
+    # nearest depth searched then, not a log of a negative depth (nan, which left the choice to the list's order)
+    want = max(want, depths[0])
     theta0, t0, around, along, darkness = min(found, key=lambda c: (abs(np.log(c[1] / want)), c[4]))
     gray = _gray(ideal_bgr)
     radius = 0.25 * (around + along)

@@ -41,6 +41,16 @@ def wilson(k: int, n: int, z: float = Z95) -> tuple[float, float]:
     return centre - half, centre + half
 
 
+def false_finds(found: int, cases: int, what: str = "cases without the feature") -> str:
+    """The false-find rate as a sentence: ``found`` of ``cases`` without the feature gave one (measured or not),
+    with the rate's Wilson 95 % interval (the target, at most 2 %, holds when the interval's high end does)."""
+    if cases == 0:
+        return f"false finds ({what}): no case"
+    lo, hi = wilson(found, cases)
+    return (f"false finds ({what}): {found} of {cases} ({100 * found / cases:.1f} %, "
+            f"Wilson {100 * lo:.1f}-{100 * hi:.1f} %)")
+
+
 def robust_sd(x: np.ndarray) -> float:
     """1.4826 x the median absolute deviation from the median (the SD for a normal sample)."""
     return float(1.4826 * np.median(np.abs(x - np.median(x)))) if x.size else math.nan

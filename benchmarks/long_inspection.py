@@ -15,11 +15,13 @@ fastest of three: two before the measurement, one after),
 included) and their ratios to decode-only; the track alone (its
 ``time_track_s``) against decode-only; the contour time per observation
 frame; the Monte Carlo time per quantity; and how many quantities were
-measured and how many of their U95 intervals hold the true value.
+measured and how many of their U95 intervals hold the true value. With
+``--automatic``, also the CPU each quantity from the image alone (BDD, BAA,
+BAJ, BCA, BAG, BBC) adds, per code and quantity (``automatic_cpu``).
 Targets (issue 24): measure <= 4 x decode-only wall time for the samples'
 MPEG-4 codec, <= 3 x for H.264; track <= 1.5 x decode-only.
 
-    python benchmarks/long_inspection.py [--dir /tmp/pipegauge-long] [--codec h264] [--workers 2] [--code DIR]
+    python benchmarks/long_inspection.py [--dir /tmp/pipegauge-long] [--codec h264] [--workers 2] [--code DIR] [--automatic]
 
 ``--code DIR`` measures with the pipeline of another checkout (the child
 process puts DIR first on ``sys.path``, ahead of the current directory and
@@ -200,6 +202,47 @@ def stages(package: Path, step_m: float | None = None) -> None:
           f"Monte Carlo and the rest {rest[0]:.1f} / {rest[1]:.1f} s")
 
 
+def automatic_cpu(package: Path) -> None:
+    """The CPU [s] each quantity from the image alone adds to ``measure_package`` (run in this process): its feature's
+    search in the frames the contours' pass already decoded and its Monte Carlo, per code and quantity (BDD and BAA:
+    ``measure_automatic``; BAJ: ``follow_joint`` and ``measure_joint``; BCA, BAG, BBC, BBB: ``_measure_feature``).
+    Their frames' contours are in the contours' pass (``--stages``): no second decoding."""
+    import pipeline.app.measure as conductor
+    spent: dict[str, list[float]] = {}
+
+    def timed(fn, key):
+        def run(*args, **kwargs):
+            c = time.process_time()
+            try:
+                return fn(*args, **kwargs)
+            finally:
+                spent.setdefault(key(*args, **kwargs), []).append(time.process_time() - c)
+        return run
+
+    names = ("measure_automatic", "follow_joint", "measure_joint", "_measure_feature")
+    saved = {name: getattr(conductor, name) for name in names}
+    conductor.measure_automatic = timed(saved["measure_automatic"], lambda obs, *a, **k: f"{obs.code} Q1")
+    conductor.follow_joint = timed(saved["follow_joint"], lambda *a, **k: "BAJ (the joint's ends, its frames)")
+    conductor.measure_joint = timed(saved["measure_joint"], lambda obs, *a, **k: f"BAJ {obs.char1} (measured)")
+    conductor._measure_feature = timed(saved["_measure_feature"],
+                                       lambda obs, *a, quantity="Q1", **k: f"{obs.code} {quantity}")
+    try:
+        c = time.process_time()
+        result = conductor.measure_package(package)
+        total = time.process_time() - c
+    finally:
+        for name, fn in saved.items():
+            setattr(conductor, name, fn)
+    rows = [m for m in result.measurements if m.source == "contour"]
+    added = sum(sum(v) for v in spent.values())
+    print(f"  from the image alone (CPU, this process): {added:.1f} s of measure_package's {total:.1f} s "
+          f"({100 * added / total:.0f} %) for {len(rows)} quantities "
+          f"({sum(m.status == 'ok' for m in rows)} measured):")
+    for key in sorted(spent):
+        v = spent[key]
+        print(f"    {key}: {len(v)} x, {sum(v) / len(v):.2f} s each ({sum(v):.1f} s)")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--dir", type=Path, default=Path(tempfile.gettempdir()) / "pipegauge-long",
@@ -210,6 +253,9 @@ def main() -> None:
     parser.add_argument("--stages", action="store_true",
                         help="also run this checkout's measure_package in this process and print each stage's "
                              "wall and CPU time")
+    parser.add_argument("--automatic", action="store_true",
+                        help="also run measure_package in this process and print the CPU each quantity from the "
+                             "image alone adds")
     parser.add_argument("--window-step", type=float,
                         help="with --stages: another chainage step between a window's frames [m] (changes results)")
     args = parser.parse_args()
@@ -243,6 +289,8 @@ def main() -> None:
           f"{wall - rec['time_track_s'] - rec['time_contour_s'] - rec['time_measure_s']:.1f} s")
     if args.stages:
         stages(package, args.window_step)
+    if args.automatic:
+        automatic_cpu(package)
 
 
 if __name__ == "__main__":

@@ -36,7 +36,7 @@ from pipeline.vision.video.reader import read_frame
 from pipeline.measurement.automatic import measurable_automatically, measure_automatic
 from pipeline.measurement.frames import measure_over_frames
 from pipeline.measurement.connections import (CONNECTION_CODES, DEPOSIT_SPAN_H, DEPOSIT_VIEW_H, FEATURE_CODES, VIEW_DEPTHS_H,
-                                              measure_connection, measure_deposit)
+                                              find_connection, measure_connection, measure_deposit)
 from pipeline.measurement.joints import (ANGULAR_NOT_MEASURED, found_not_measured, measurable_joint, measure_joint,
                                          step_clock)
 from pipeline.measurement.marked import marked_quantity
@@ -297,10 +297,12 @@ def measure_package(folder: str | os.PathLike, *, certificates: str | os.PathLik
             row.update(status="error", error=str(exc))
         result.measurements.append(row)
     for r, feature_frames in sorted(features.items()):
-        result.measurements.append(_measure_feature(
-            by_row[r], feature_frames, ingest.track, model, contours=contours, under=under, ideal=ideal, cert=cert, header=header,
-            mask=mask, seed=quantity_seed(manifest.package_id, r, "Q1 feature"), edges=edges(by_row[r], "Q1"),
-            thumbnails=result.thumbnails))
+        search: dict = {}           # a connection is found once for both its quantities (BCA Q1 and Q2)
+        for quantity in feature_quantities(by_row[r]):
+            result.measurements.append(_measure_feature(
+                by_row[r], feature_frames, ingest.track, model, contours=contours, under=under, ideal=ideal, cert=cert,
+                header=header, mask=mask, seed=quantity_seed(manifest.package_id, r, f"{quantity} feature"),
+                edges=edges(by_row[r], quantity), thumbnails=result.thumbnails, quantity=quantity, found=search))
     result.measurements += unmarked_quantities(by_row.values(), result.measurements, model)
     add_verdicts(result, header, observations, ingest.track)
     # what the image alone could not give is reported on its row, but the logged quantities decide the status
@@ -443,11 +445,21 @@ def _feature_frames(obs: Observation, track, info, height_mm: float) -> list[tup
     return out
 
 
+def feature_quantities(obs: Observation) -> tuple[str, ...]:
+    """The quantities of a connection or deposit measured from the image alone: Q1, and Q2 where the code's Q2 is
+    a measurable extent (BCA: the opening's width along the pipe, the axial method)."""
+    spec = obs.quantification("Q2")
+    return ("Q1", "Q2") if obs.code == "BCA" and spec is not None and spec.method_for(obs.char2 or "") else ("Q1",)
+
+
 def _measure_feature(obs: Observation, views: list[tuple[int, float]], track, model: str, *, contours, under, ideal,
-                     cert, header, mask, seed: int, edges: tuple[float, ...], thumbnails: list) -> MeasurementRecord:
-    """A connection's height around the pipe (BCA Q1) or a deposit's loss (BBC, BBB) from the image alone; one not
-    confident is stored "found, not measured" with its reasons (status error: no grade, no log check)."""
-    row = _automatic_base(obs, views[0][0] if views else None, track, model)
+                     cert, header, mask, seed: int, edges: tuple[float, ...], thumbnails: list, quantity: str = "Q1",
+                     found: dict | None = None) -> MeasurementRecord:
+    """A connection's height around the pipe (BCA Q1) or width along it (Q2), an intrusion (BAG) or a deposit's
+    loss (BBC, BBB) from the image alone; one not confident is stored "found, not measured" with its reasons
+    (status error: no grade, no log check). found : where the connection's search is kept for its next quantity
+    (the search's result, or the error it raised)."""
+    row = _automatic_base(obs, views[0][0] if views else None, track, model, quantity)
     try:
         if not views:
             raise MeasurementError(f"row {obs.row}: no frame before its logged distance")
@@ -455,9 +467,17 @@ def _measure_feature(obs: Observation, views: list[tuple[int, float]], track, mo
                       edges=edges)
         ahead = LOG_AHEAD_M * 1000.0 / header.height_mm
         if obs.code in CONNECTION_CODES:
-            auto = measure_connection(obs.code, obs.char1, obs.clock_from,
-                                      [(under(obs, contours[f]), ideal(f), t) for f, t in views], cert, ahead=ahead,
-                                      **common)
+            frames = [(under(obs, contours[f]), ideal(f), t) for f, t in views]
+            found = {} if found is None else found
+            if "search" not in found:
+                try:
+                    found["search"] = find_connection(obs.code, obs.clock_from, frames, ahead=ahead, mask=mask)
+                except PipegaugeError as exc:
+                    found["search"] = exc
+            if isinstance(found["search"], PipegaugeError):
+                raise found["search"]
+            auto = measure_connection(obs.code, obs.char1, obs.clock_from, frames, cert, ahead=ahead,
+                                      quantity=quantity, found=found["search"], **common)
         else:
             auto = measure_deposit(obs.code, obs.char1,
                                    [(under(obs, contours[f]), ideal(f), (max(t, 0.9), t + ahead + DEPOSIT_SPAN_H))
@@ -491,11 +511,12 @@ def _chainage_at(track, frame: int | None) -> tuple[float, float]:
         return float("nan"), float("nan")
 
 
-def _automatic_base(obs: Observation, frame: int | None, track, model: str) -> MeasurementRecord:
+def _automatic_base(obs: Observation, frame: int | None, track, model: str, quantity: str = "Q1") -> MeasurementRecord:
     chainage, u_chainage = _chainage_at(track, frame)
-    return MeasurementRecord(row=obs.row, quantity="Q1", source="contour", code=obs.code, char1=obs.char1,
+    return MeasurementRecord(row=obs.row, quantity=quantity, source="contour", code=obs.code, char1=obs.char1,
                              char2=obs.char2, model=model, frame=frame, chainage_m=chainage, u_chainage_m=u_chainage,
-                             distance_m=obs.distance_m, operator_value=obs.q1, status="ok")
+                             distance_m=obs.distance_m, operator_value=obs.q1 if quantity == "Q1" else obs.q2,
+                             status="ok")
 
 
 def measurement_base(obs: Observation, m: Mark, track, model: str) -> MeasurementRecord:

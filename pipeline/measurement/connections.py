@@ -42,8 +42,8 @@ from pipeline.vision.contour.lateral import Lateral, find_lateral
 from pipeline.vision.contour.deposit import find_deposit_surface
 
 __all__ = ["CONNECTION_CODES", "DEPOSIT_CODES", "FEATURE_CODES", "Automatic", "lateral_points", "intrusion_points", "deposit_points",
-           "measure_connection", "measure_deposit", "VIEW_DEPTHS_H",
-           "DEPOSIT_VIEW_H", "DEPOSIT_SPAN_H"]
+           "measure_connection", "measure_deposit", "find_connection", "FoundConnection", "VIEW_DEPTHS_H",
+           "DEPOSIT_VIEW_H", "DEPOSIT_SPAN_H", "DEPOSIT_AGREEMENT_H"]
 
 CONNECTION_CODES = frozenset({"BCA", "BAG"})
 DEPOSIT_CODES = frozenset({"BBC", "BBB"})
@@ -53,6 +53,7 @@ FEATURE_CODES = CONNECTION_CODES | DEPOSIT_CODES
 VIEW_DEPTHS_H = (1.6, 2.3)
 DEPOSIT_VIEW_H = (1.2, 1.7)    # a deposit's surface is looked for from these distances before its logged start [H]
 DEPOSIT_SPAN_H = 2.6           # and along this much of the pipe beyond its start [H]
+DEPOSIT_AGREEMENT_H = 0.01     # the frames must place the deposit's surface within this of one another [H]
 CLOCK_AGREEMENT_DEG = 25.0     # the frames must place the lateral within this of one another around the pipe
 LATERAL_SEARCH_H = 0.9         # an opening is looked for this far either side of its expected depth [H]
 ORIGIN = {"BCA": "lateral rim fit", "BAG": "intruding lateral's base and tip", "deposit": "deposit surface edge fit"}
@@ -102,22 +103,22 @@ def intrusion_points(found: Intrusion, cert: Certificate, code: str = "BAG", cha
     return MarkedQuantity(code, char1, "Q1", "intrusion", found.base, found.tip, u_a, u_b, origin=ORIGIN["BAG"])
 
 
-def measure_connection(code: str, char1: str, clock: float | None, views: Sequence[tuple[PipeContour, np.ndarray, float]],
-                       cert: Certificate, *, H: float, tolerance: float, quantity: str = "Q1",
-                       model: str = "perspective", seed: int = 1, mask: np.ndarray | None = None,
-                       edges: tuple[float, ...] = (), ahead: float = 0.0) -> Automatic:
-    """A connection's opening (BCA) or intrusion (BAG) measured from the frames before it.
+@dataclass
+class FoundConnection:
+    """A connection found in the frames before it: (contour, Lateral or Intrusion) per frame where it was found,
+    nearest ``VIEW_DEPTHS_H[0]`` first, the index in the views of that first one, and how many views were tried."""
 
-    views : (contour, ideal BGR frame, depth [H] at which the log puts the opening in that frame) per frame;
-    clock : the logged clock position (None: anywhere around); ahead : how far beyond its logged distance the
-    feature may lie [H] (a log may state the camera's chainage when it was recorded, not the feature's).
-    The quantity is measured on the frame where the opening is found nearest ``VIEW_DEPTHS_H[0]`` (wholly in
-    view, and as near as that allows); the other frames confirm it.
-    Raises MeasurementError when no frame shows an opening (the feature not found).
-    """
+    found: list
+    used: int
+    frames_tried: int
+
+
+def find_connection(code: str, clock: float | None, views: Sequence[tuple[PipeContour, np.ndarray, float]], *,
+                    ahead: float = 0.0, mask: np.ndarray | None = None) -> FoundConnection:
+    """A connection's opening (BCA) or intruding lateral (BAG) found in the frames before it (``measure_connection``'s
+    search, once for all the quantities measured on it). Raises MeasurementError when no frame shows one."""
     intruding = code == "BAG"
     found: list = []
-    used = -1
     index = []
     for k, (contour, ideal, depth) in enumerate(views):
         _pose_reason(contour, code)
@@ -127,16 +128,36 @@ def measure_connection(code: str, char1: str, clock: float | None, views: Sequen
         if lat is not None:
             found.append((contour, lat))
             index.append(k)
-    if found:
-        best = int(np.argmin([abs(math.log(lat.depth / VIEW_DEPTHS_H[0])) for _, lat in found]))
-        found.insert(0, found.pop(best))
-        used = index[best]
     if not found:
         where = f"at {clock:g} o'clock " if clock is not None else ""
         what = "intruding lateral" if intruding else "lateral opening"
         raise MeasurementError(f"not found: {code}: no {what} {where}was found near the logged distance "
                                f"in {len(views)} frame(s)")
-    contour, lat = found[0]
+    best = int(np.argmin([abs(math.log(lat.depth / VIEW_DEPTHS_H[0])) for _, lat in found]))
+    found.insert(0, found.pop(best))
+    return FoundConnection(found, index[best], len(views))
+
+
+def measure_connection(code: str, char1: str, clock: float | None, views: Sequence[tuple[PipeContour, np.ndarray, float]],
+                       cert: Certificate, *, H: float, tolerance: float, quantity: str = "Q1",
+                       model: str = "perspective", seed: int = 1, mask: np.ndarray | None = None,
+                       edges: tuple[float, ...] = (), ahead: float = 0.0,
+                       found: FoundConnection | None = None) -> Automatic:
+    """A connection's opening (BCA Q1 around the pipe, Q2 along it) or intrusion (BAG) measured from the frames
+    before it.
+
+    views : (contour, ideal BGR frame, depth [H] at which the log puts the opening in that frame) per frame;
+    clock : the logged clock position (None: anywhere around); ahead : how far beyond its logged distance the
+    feature may lie [H] (a log may state the camera's chainage when it was recorded, not the feature's);
+    found : ``find_connection``'s result on these views, when another quantity of it was measured already.
+    The quantity is measured on the frame where the opening is found nearest ``VIEW_DEPTHS_H[0]`` (wholly in
+    view, and as near as that allows); the other frames confirm it.
+    Raises MeasurementError when no frame shows an opening (the feature not found).
+    """
+    intruding = code == "BAG"
+    if found is None:
+        found = find_connection(code, clock, views, ahead=ahead, mask=mask)
+    contour, lat = found.found[0]
     q = intrusion_points(lat, cert, code, char1) if intruding else lateral_points(lat, cert, quantity, code, char1)
     try:
         res = measure_quantity(q, contour, cert, H=H, tolerance=tolerance, model=model, seed=seed, edges=edges)
@@ -145,15 +166,15 @@ def measure_connection(code: str, char1: str, clock: float | None, views: Sequen
         # is not a covariance (seen once on an H.264 case: not symmetric)
         raise MeasurementError(f"found, not measured: {exc}") from exc
     reasons = [f"lateral: {p}" for p in lat.problems]
-    if len(found) < 2:
-        reasons.append(f"found in only one of {len(views)} frame(s): nothing confirms it")
-    elif len(found) >= 2:
+    if len(found.found) < 2:
+        reasons.append(f"found in only one of {found.frames_tried} frame(s): nothing confirms it")
+    else:
         # the frames must agree on where the opening is around the pipe (a confirmation, not a second value)
-        spread = abs((found[1][1].theta - lat.theta + math.pi) % (2 * math.pi) - math.pi)
+        spread = abs((found.found[1][1].theta - lat.theta + math.pi) % (2 * math.pi) - math.pi)
         if spread > math.radians(CLOCK_AGREEMENT_DEG):
             reasons.append(f"the frames disagree on the opening's clock position by {math.degrees(spread):.0f} deg")
     _add(res, reasons)
-    return Automatic(q, res, len(found), len(views), used)
+    return Automatic(q, res, len(found.found), found.frames_tried, found.used)
 
 
 def deposit_points(contour: PipeContour, ideal: np.ndarray, cert: Certificate, code: str, char1: str,
@@ -162,13 +183,19 @@ def deposit_points(contour: PipeContour, ideal: np.ndarray, cert: Certificate, c
 
     depths : the stretch the deposit covers in this frame [H], from its front. Raises MeasurementError when no surface stands out.
     """
+    q, problems, _ = _deposit_found(contour, ideal, cert, code, char1, depths, mask)
+    return q, problems
+
+
+def _deposit_found(contour, ideal, cert, code, char1, depths, mask) -> tuple[MarkedQuantity, tuple[str, ...], float]:
+    """``deposit_points`` and the surface's level in that frame [H]."""
     _pose_reason(contour, code)
     found = find_deposit_surface(ideal, contour.view, depths=depths, mask=mask)
     if found is None:
         raise MeasurementError(f"{code}: no deposit surface stands out along the pipe wall")
     u = math.hypot(found.u_px, cert.image_coordinate_u_px)
     q = MarkedQuantity(code, char1, "Q1", "deposit_area", found.a, found.b, u, u, origin=ORIGIN["deposit"])
-    return q, tuple(f"deposit surface: {p}" for p in found.problems)
+    return q, tuple(f"deposit surface: {p}" for p in found.problems), found.level
 
 
 def measure_deposit(code: str, char1: str, views: Sequence[tuple[PipeContour, np.ndarray, tuple[float, float]]],
@@ -180,14 +207,14 @@ def measure_deposit(code: str, char1: str, views: Sequence[tuple[PipeContour, np
     used = -1
     for k, (contour, ideal, depths) in enumerate(views):
         try:
-            results.append((contour, *deposit_points(contour, ideal, cert, code, char1, depths, mask)))
+            results.append((contour, *_deposit_found(contour, ideal, cert, code, char1, depths, mask)))
         except MeasurementError:
             continue
         used = k if used < 0 else used
     if not results:
         raise MeasurementError(f"not found: {code}: no deposit surface stands out along the pipe wall in {len(views)} "
                                "frame(s)")
-    contour, q, problems = results[0]
+    contour, q, problems, level = results[0]
     try:
         res = measure_quantity(q, contour, cert, H=H, tolerance=tolerance, model=model, seed=seed, edges=edges)
     except (PipegaugeError, ValueError) as exc:
@@ -197,6 +224,9 @@ def measure_deposit(code: str, char1: str, views: Sequence[tuple[PipeContour, np
     reasons = list(problems)
     if len(results) < 2:
         reasons.append(f"found in only one of {len(views)} frame(s): nothing confirms it")
+    elif abs(results[1][3] - level) > DEPOSIT_AGREEMENT_H:
+        # a confirmation, not a second value: under H.264 a weak hue edge was found at a wrong level in one frame
+        reasons.append(f"the frames disagree on the deposit's level by {100 * abs(results[1][3] - level):.1f} % of H")
     _add(res, reasons)
     return Automatic(q, res, len(results), len(views), used)
 

@@ -35,7 +35,7 @@ import cv2
 import numpy as np
 from scipy.ndimage import map_coordinates
 
-from pipeline.maths.profiles import clock_to_theta, wall_point
+from pipeline.maths.profiles import clock_to_theta, wall_points
 from pipeline.vision.contour.view import PipeView
 
 __all__ = ["Lateral", "find_lateral", "wall_map"]
@@ -104,7 +104,7 @@ def _masked(values: np.ndarray, points: np.ndarray, mask: np.ndarray | None) -> 
 
 
 def _wall_xy(shape: str, theta: np.ndarray) -> np.ndarray:
-    return np.array([wall_point(shape, 1.0, float(t)) for t in np.ravel(theta)]).reshape(np.shape(theta) + (2,))
+    return wall_points(shape, 1.0, theta)
 
 
 def wall_map(ideal: np.ndarray, view: PipeView, thetas: np.ndarray, depths: np.ndarray,
@@ -264,6 +264,9 @@ def find_lateral(ideal_bgr: np.ndarray, view: PipeView, *, clock: float | None =
     if not found:
         return None
     want = expected_depth if expected_depth is not None else float(np.sqrt(depths[0] * depths[1]))
+    # the log may put the feature behind the camera's frame (a chainage logged where the camera stood): the
+    # nearest depth searched then, not a log of a negative depth (nan, which left the choice to the list's order)
+    want = max(want, depths[0])
     theta0, t0, around, along, darkness = min(found, key=lambda c: (abs(np.log(c[1] / want)), c[4]))
     gray = _gray(ideal_bgr)
     radius = 0.25 * (around + along)

@@ -137,7 +137,8 @@ def _edges(image: np.ndarray, points: np.ndarray, normals: np.ndarray,
 
 def find_water_line(ideal_bgr: np.ndarray, view: PipeView, *, depths: tuple[float, float] = (1.0, 4.0),
                     reference_depth: float | None = None, mask: np.ndarray | None = None,
-                    chromatic: bool = False, min_contrast: float = MIN_CONTRAST) -> WaterLine | None:
+                    chromatic: bool = False, min_contrast: float = MIN_CONTRAST,
+                    edge_image: np.ndarray | None = None) -> WaterLine | None:
     """The water line in an ideal frame seen with the fitted pose ``view``, or None when no line stands out.
 
     ideal_bgr : (rows, cols, 3) or (rows, cols) undistorted frame; depths :
@@ -146,7 +147,8 @@ def find_water_line(ideal_bgr: np.ndarray, view: PipeView, *, depths: tuple[floa
     edge points); mask : non-zero where the image may be used (overlay out);
     chromatic : the coarse search compares the colours' hue, not their brightness (a deposit's lit surface
     grows darker along the pipe as the wall does; only its hue tells it from the wall); min_contrast : the
-    least median colour difference across the line [8-bit levels].
+    least median colour difference across the line [8-bit levels]; edge_image : (rows, cols, channels) image the
+    fine edge search reads, in the same pixels (default: ``ideal_bgr``, as the coarse search).
     """
     image = ideal_bgr if ideal_bgr.ndim == 3 else ideal_bgr[..., None]
     t = np.geomspace(depths[0], depths[1], 48)
@@ -161,7 +163,8 @@ def find_water_line(ideal_bgr: np.ndarray, view: PipeView, *, depths: tuple[floa
     depth_of = np.broadcast_to(t, side_of.shape)
     ok = _usable(pts, image.shape[:2], mask, SEARCH_PX + 2)
     pts, normals, side_of, depth_of = pts[ok], normals[ok], side_of[ok], depth_of[ok]
-    offset, strength = _edges(image, pts, normals, chromatic)
+    offset, strength = (_edges(image, pts, normals, chromatic) if edge_image is None
+                        else _edges(edge_image, pts, normals, False))
     strong = strength >= 0.5 * np.median(strength)
     edges = pts[strong] + offset[strong, None] * normals[strong]
     side_of, depth_of = side_of[strong], depth_of[strong]

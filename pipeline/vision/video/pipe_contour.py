@@ -120,12 +120,14 @@ def contours_at_frames(path: str | os.PathLike, frames: Iterable[int], track: Ch
 
     def work(sample):
         index, bgr = sample
-        ideal = undistorter.frame(bgr)
         if ideal_frames is not None and (index in windows or index in kept):
-            ideal_frames[index] = ideal
+            ideal_frames[index] = undistorter.frame(bgr)
+            gray = _gray(ideal_frames[index])
+        else:          # the grey image alone is undistorted: a third of the remapping
+            gray = undistorter.frame(_gray(bgr))
         if recorded_frames is not None and index in windows:
             recorded_frames[index] = bgr
-        return index, frame_candidates(_gray(ideal), mask)
+        return index, frame_candidates(gray, mask)
 
     def fit(frame: int) -> PipeContour:
         return contour_from_candidates([candidates[i] for i in windows[frame] if i in candidates], undistorter.K, shape,

@@ -21,7 +21,7 @@ import numpy as np
 
 __all__ = [
     "SHAPES", "profile_arcs", "profile_polygon", "ray_to_wall", "profile_width", "segment_height_for_area_fraction", "chord_at_height",
-    "exit_table", "wall_point", "arc_of_hit", "level_tables", "clock_to_theta", "theta_to_clock", "perimeter",
+    "exit_table", "wall_point", "wall_points", "arc_of_hit", "level_tables", "clock_to_theta", "theta_to_clock", "perimeter",
 ]
 
 SHAPES = ("circular", "egg")
@@ -217,6 +217,14 @@ def wall_point(shape: str, H: float, theta: float) -> tuple[float, float]:
     phi, t = _radius_table(shape, float(H))
     r = float(np.interp((theta + np.pi) % (2 * np.pi) - np.pi, phi, t, period=2 * np.pi))
     return r * float(np.cos(theta)), r * float(np.sin(theta))
+
+
+def wall_points(shape: str, H: float, theta) -> np.ndarray:
+    """``wall_point`` of many directions at once: (..., 2) (X, Y) [mm] for the angles ``theta`` (...) [rad]."""
+    phi, t = _radius_table(shape, float(H))
+    theta = np.asarray(theta, dtype=float)
+    r = np.interp((theta + np.pi) % (2 * np.pi) - np.pi, phi, t, period=2 * np.pi)
+    return np.stack([r * np.cos(theta), r * np.sin(theta)], axis=-1)
 
 
 def clock_to_theta(clock: float) -> float:

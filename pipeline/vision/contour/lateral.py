@@ -35,7 +35,7 @@ import cv2
 import numpy as np
 from scipy.ndimage import map_coordinates
 
-from pipeline.maths.profiles import clock_to_theta, wall_point
+from pipeline.maths.profiles import clock_to_theta, wall_points
 from pipeline.vision.contour.view import PipeView
 
 __all__ = ["Lateral", "find_lateral", "wall_map"]
@@ -104,7 +104,7 @@ def _masked(values: np.ndarray, points: np.ndarray, mask: np.ndarray | None) -> 
 
 
 def _wall_xy(shape: str, theta: np.ndarray) -> np.ndarray:
-    return np.array([wall_point(shape, 1.0, float(t)) for t in np.ravel(theta)]).reshape(np.shape(theta) + (2,))
+    return wall_points(shape, 1.0, theta)
 
 
 def wall_map(ideal: np.ndarray, view: PipeView, thetas: np.ndarray, depths: np.ndarray,

@@ -129,9 +129,22 @@ def contours_at_frames(path: str | os.PathLike, frames: Iterable[int], track: Ch
             recorded_frames[index] = bgr
         return index, frame_candidates(gray, mask)
 
+    fitted: dict[int, PipeContour] = {}
+
     def fit(frame: int) -> PipeContour:
-        return contour_from_candidates([candidates[i] for i in windows[frame] if i in candidates], undistorter.K, shape,
-                                       wall_u=wall_u)
+        # the trusted fit of the window sharing most frames with this one starts this fit too (warm start: the fits
+        # run one after another in one thread, in the order their windows complete, so the choice is reproducible);
+        # a warm-started fit that is not trusted is done again from cold starts, with all its restarts
+        found = [candidates[i] for i in windows[frame] if i in candidates]
+        shared = {other: len(set(windows[other]) & set(windows[frame])) for other, c in fitted.items() if c.confident}
+        near = max(shared, key=lambda other: (shared[other], -abs(other - frame)), default=None)
+        contour = None
+        if near is not None and shared[near]:
+            contour = contour_from_candidates(found, undistorter.K, shape, wall_u=wall_u, neighbour=fitted[near].view)
+        if contour is None or not contour.confident:
+            contour = contour_from_candidates(found, undistorter.K, shape, wall_u=wall_u)
+        fitted[frame] = contour
+        return contour
 
     # the fits are mostly Python (they hold the GIL), decoding and ridge points mostly not: one fitting thread
     # keeps the second core busy while the decoder runs; each fit sees exactly the candidates it saw before

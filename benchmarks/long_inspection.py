@@ -144,14 +144,18 @@ def decode_only_cpu(path: Path) -> tuple[float, float]:
     return time.perf_counter() - w, time.process_time() - c
 
 
-def stages(package: Path, step_m: float | None = None) -> None:
-    """Wall and CPU [s] of each stage of ``measure_package`` run in this process: the stages run one after
-    another, so the process's CPU over a stage (all its threads) is the stage's."""
+def stages(package: Path, step_m: float | None = None, true_value: dict | None = None) -> None:
+    """Wall and CPU [s] of each stage of ``process_package`` (measure, store, report) run in this process, each
+    against the CPU of decoding the video alone, measured in the same run. Stages that run one after another are
+    timed by the process's CPU over them (all its threads); those that run beside others (the window frames'
+    ridge points, the pose fits, the marked quantities' Monte Carlo runs) by the CPU of the threads that ran them."""
+    import pipeline.app.locate as locating
     import pipeline.app.measure as conductor
+    import pipeline.app.process as process
     import pipeline.vision.video.pipe_contour as pass_
     spent: dict[str, tuple[float, float]] = {}
-    thread_cpu = {"ridge points": 0.0, "pose fits": 0.0}      # summed over the threads that ran them
-    calls = dict.fromkeys(thread_cpu, 0)                      # ridge points: once per window frame
+    thread_cpu = {"window frames": 0.0, "pose fits": 0.0, "Monte Carlo": 0.0}   # summed over the threads that ran them
+    calls = dict.fromkeys(thread_cpu, 0)
 
     def on_thread(name, fn):
         def run(*args, **kwargs):
@@ -169,37 +173,72 @@ def stages(package: Path, step_m: float | None = None) -> None:
             try:
                 return fn(*args, **kwargs)
             finally:
-                spent[name] = (time.perf_counter() - w, time.process_time() - c)
+                w0, c0 = spent.get(name, (0.0, 0.0))
+                spent[name] = (w0 + time.perf_counter() - w, c0 + time.process_time() - c)
         return run
 
     def contours(*args, **kwargs):
         return contours_at_frames(*args, **kwargs, **({} if step_m is None else {"step_m": step_m}))
 
-    ingest_chainage, contours_at_frames = conductor.ingest_chainage, conductor.contours_at_frames
-    frame_candidates, contour_from_candidates = pass_.frame_candidates, pass_.contour_from_candidates
-    conductor.ingest_chainage = timed("track", ingest_chainage)
-    conductor.contours_at_frames = timed("contours", contours)
-    pass_.frame_candidates = on_thread("ridge points", frame_candidates)
-    pass_.contour_from_candidates = on_thread("pose fits", contour_from_candidates)
+    patches = [(locating, "ingest_chainage", lambda f: timed("track", f)),
+               (conductor, "contours_at_frames", lambda f: timed("contours", contours)),
+               (conductor, "measure_quantity", lambda f: on_thread("Monte Carlo", f)),
+               (conductor, "measure_over_frames", lambda f: on_thread("Monte Carlo", f)),
+               (conductor, "measure_automatic", lambda f: timed("image alone", f)),
+               (conductor, "follow_joint", lambda f: timed("image alone", f)),
+               (conductor, "measure_joint", lambda f: timed("image alone", f)),
+               (conductor, "_measure_feature", lambda f: timed("image alone", f)),
+               (process, "measure_package", lambda f: timed("measure_package", f)),
+               (process, "write_inspection", lambda f: timed("store", f)),
+               (process, "render_inspection_report", lambda f: timed("report", f)),
+               (pass_, "frame_candidates", lambda f: on_thread("window frames", f)),
+               (pass_, "contour_from_candidates", lambda f: on_thread("pose fits", f))]
+    originals = [(module, name, getattr(module, name)) for module, name, _ in patches]
+    contours_at_frames = conductor.contours_at_frames
+    for module, name, wrap in patches:
+        setattr(module, name, wrap(getattr(module, name)))
     try:
-        w, c = time.perf_counter(), time.process_time()
-        result = conductor.measure_package(package)
-        total = (time.perf_counter() - w, time.process_time() - c)
+        with tempfile.TemporaryDirectory(prefix="pipegauge-stages-") as out:
+            w, c = time.perf_counter(), time.process_time()
+            outcome = process.process_package(package, Path(out) / "dataset", reports=Path(out) / "reports",
+                                              skip_known=False, keep_result=True)
+            total = (time.perf_counter() - w, time.process_time() - c)
         if "contours" not in spent:
-            raise SystemExit(f"measure_package stopped before the contours: {result.inspection.get('error')}")
+            raise SystemExit(f"process_package stopped before the contours: {outcome.error}")
     finally:
-        conductor.ingest_chainage, conductor.contours_at_frames = ingest_chainage, contours_at_frames
-        pass_.frame_candidates, pass_.contour_from_candidates = frame_candidates, contour_from_candidates
-    decode = min((decode_only_cpu(package / "video.mp4") for _ in range(3)), key=lambda t: t[0])
-    rest = (total[0] - spent["track"][0] - spent["contours"][0], total[1] - spent["track"][1] - spent["contours"][1])
-    print(f"  stages in one process (wall / CPU, all threads): decode only {decode[0]:.1f} / {decode[1]:.1f} s; "
-          f"measure_package {total[0]:.1f} / {total[1]:.1f} s: track {spent['track'][0]:.1f} / "
-          f"{spent['track'][1]:.1f} s, contours {spent['contours'][0]:.1f} / {spent['contours'][1]:.1f} s "
-          f"({calls['ridge points']} window frames, {1000 * spent['contours'][1] / max(calls['ridge points'], 1):.1f} ms "
-          f"of CPU each; "
-          f"their ridge points {thread_cpu['ridge points']:.1f} s of CPU, the pose fits {thread_cpu['pose fits']:.1f} s, "
-          f"in their own threads, OpenCV's helpers aside), "
-          f"Monte Carlo and the rest {rest[0]:.1f} / {rest[1]:.1f} s")
+        for module, name, fn in originals:
+            setattr(module, name, fn)
+    decode = min((decode_only_cpu(package / "video.mp4") for _ in range(3)), key=lambda t: t[1])
+    measure = spent["measure_package"]
+    alone = spent.get("image alone", (0.0, 0.0))
+    rest = (measure[0] - spent["track"][0] - spent["contours"][0] - alone[0],
+            measure[1] - spent["track"][1] - spent["contours"][1] - alone[1] - thread_cpu["Monte Carlo"])
+    rows = [("decode only (grab loop, least CPU of 3)", decode, ""),
+            ("process_package (measure, store, report)", total, ""),
+            ("  measure_package", measure, ""),
+            ("    track (one decoding: overlay reads, track)", spent["track"], ""),
+            ("    contour pass (second decoding, window frames, fits)", spent["contours"],
+             f"{calls['window frames']} window frames, {calls['pose fits']} fits"),
+            ("      window frames (undistort, ridge points; threads)", (float("nan"), thread_cpu["window frames"]),
+             f"{1000 * thread_cpu['window frames'] / max(calls['window frames'], 1):.1f} ms of CPU each"),
+            ("      pose fits (their thread)", (float("nan"), thread_cpu["pose fits"]), ""),
+            ("    marked quantities' Monte Carlo (threads)", (float("nan"), thread_cpu["Monte Carlo"]),
+             f"{calls['Monte Carlo']} runs"),
+            ("    quantities from the image alone (their Monte Carlo included)", alone, ""),
+            ("    the rest of measure_package (load, masks, thumbnails, verdicts)", rest, "wall: the Monte Carlo's too"),
+            ("  store (Parquet)", spent.get("store", (0.0, 0.0)), ""),
+            ("  report (PDF)", spent.get("report", (0.0, 0.0)), "")]
+    ok = [m for m in outcome.result.measurements if m.status == "ok"] if outcome.result is not None else []
+    marked = [m for m in ok if m.source == "marks"]
+    truth = true_value or {}
+    held = sum(m.low <= truth[(m.row, m.quantity)] <= m.high for m in marked if (m.row, m.quantity) in truth)
+    alone_values = sorted(f"{m.row}:{m.code}{m.char1 or ''} {m.value:.1f}" for m in ok if m.source != "marks")
+    print(f"  stages in one process ({package.name}, status {outcome.status}): {len(ok)} quantities measured "
+          f"({len(marked)} marked, U95 holds the truth for {held}; {len(ok) - len(marked)} from the image alone: "
+          f"{', '.join(alone_values)})")
+    print(f"  {'stage':<70} {'wall [s]':>8} {'CPU [s]':>8} {'CPU / decode CPU':>16}")
+    for name, (wall, cpu), note in rows:
+        print(f"  {name:<70} {wall:8.2f} {cpu:8.2f} {cpu / decode[1]:16.2f}  {note}")
 
 
 def automatic_cpu(package: Path) -> None:
@@ -256,6 +295,8 @@ def main() -> None:
     parser.add_argument("--automatic", action="store_true",
                         help="also run measure_package in this process and print the CPU each quantity from the "
                              "image alone adds")
+    parser.add_argument("--stages-only", action="store_true",
+                        help="only the stages in this process (no `pipegauge measure` child)")
     parser.add_argument("--window-step", type=float,
                         help="with --stages: another chainage step between a window's frames [m] (changes results)")
     args = parser.parse_args()
@@ -263,6 +304,9 @@ def main() -> None:
     package = as_delivered(rendered(args.dir, args.workers), args.codec)
     truth = json.loads((package / "truth" / "truth.json").read_text())
     true_value = {(o["row"], q["quantity"]): q["true_value"] for o in truth["observations"] for q in o["quantities"]}
+    if args.stages_only:
+        stages(package, args.window_step, true_value)
+        return
 
     # the fastest of three, one of them after the measurement: the machine's other load only ever adds time
     t_decode = min(decode_only(package / "video.mp4") for _ in range(2))
@@ -288,7 +332,7 @@ def main() -> None:
           f"the rest (start-up, hashing, thumbnails, verdicts, storing) "
           f"{wall - rec['time_track_s'] - rec['time_contour_s'] - rec['time_measure_s']:.1f} s")
     if args.stages:
-        stages(package, args.window_step)
+        stages(package, args.window_step, true_value)
     if args.automatic:
         automatic_cpu(package)
 

@@ -261,7 +261,10 @@ def test_pose_and_depth_fit_reaches_scipy_least_squares_solution(loss):
 
 
 @pytest.mark.slow
-def test_windows_fitted_while_decoding_equal_the_fits_one_after_another_and_keep_the_ideal_frames():
+def test_windows_fitted_while_decoding_agree_with_the_fits_one_after_another_and_keep_the_ideal_frames():
+    """The pass (frames decoded once, ridge points in threads, each fit started also from the trusted pose of the
+    window sharing most frames with it) trusts every window the fits one by one from cold starts trust, finds their
+    poses within their standard uncertainties, and keeps the ideal images of the frames asked for."""
     from pipeline.vision.contour.consensus import reconcile_windows
     from pipeline.vision.contour.detect import contour_from_candidates, frame_candidates, wall_u_from_tolerance
     from pipeline.vision.video.ingest import ingest_chainage
@@ -279,15 +282,20 @@ def test_windows_fitted_while_decoding_equal_the_fits_one_after_another_and_keep
     got = contours_at_frames(video, frames, ingest.track, und, "egg", height_mm=600, tolerance_mm=5, mask=mask,
                              ideal_frames=kept)
     windows = {f: window_frames(ingest.track, f) for f in frames}
-    grays = read_ideal_grays(video, {i for w in windows.values() for i in w}, und)
+    # the pass undistorts the grey image alone of a frame whose colour image it does not keep
+    grays = {i: (cv2.cvtColor(und.frame(read_frame(video, i)), cv2.COLOR_BGR2GRAY) if i in frames
+                 else und.frame(cv2.cvtColor(read_frame(video, i), cv2.COLOR_BGR2GRAY)))
+             for i in {i for w in windows.values() for i in w}}
     one_by_one = {f: contour_from_candidates([frame_candidates(grays[i], mask) for i in w], und.K, "egg",
                                              wall_u=wall_u_from_tolerance(600, 5)) for f, w in windows.items()}
     expected = reconcile_windows(one_by_one, windows)
     assert set(got) == set(expected) == set(frames) and len(frames) > 1
     for f in frames:
-        assert np.array_equal(got[f].view.pose, expected[f].view.pose)
-        assert np.array_equal(got[f].covariance, expected[f].covariance)
-        assert got[f].problems == expected[f].problems and got[f].rms_px == expected[f].rms_px
+        assert got[f].confident or not expected[f].confident, f       # no window trusted from cold starts is lost
+        if got[f].confident and expected[f].confident:
+            sd = np.sqrt(np.diag(expected[f].covariance))[:4]
+            assert np.all(np.abs(got[f].view.pose[:4] - expected[f].view.pose[:4]) <= 2 * sd), f
+    assert sum(got[f].confident and expected[f].confident for f in frames) >= 2
     assert set(kept) == set(frames)
     assert all(np.array_equal(kept[f], und.frame(read_frame(video, f))) for f in frames)
 

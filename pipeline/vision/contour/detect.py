@@ -118,8 +118,13 @@ def detect_contour(ideal_grays, camera_matrix: np.ndarray, shape: str, *,
 
 
 def contour_from_candidates(candidates: list[FrameCandidates], camera_matrix: np.ndarray, shape: str, *,
-                            seed=None, wall_u: float = 0.0) -> PipeContour:
-    """``detect_contour`` from the frames' ``frame_candidates`` (the first frame is the reference)."""
+                            seed=None, wall_u: float = 0.0, neighbour: PipeView | None = None) -> PipeContour:
+    """``detect_contour`` from the frames' ``frame_candidates`` (the first frame is the reference).
+
+    neighbour : the pose fitted to an overlapping window of the same video (the mount does not move), tried as one
+    more start; when its fit lies closest to the points, the restarts along the offset-for-tilt valley are not
+    repeated here: that pose came out of them already (``_restarted``), and they are most of a fit's work.
+    """
     K = np.asarray(camera_matrix, float)
     view = PipeView(shape, K[0, 0], K[1, 1], K[0, 2], K[1, 2])
     seed = np.median([c.centre for c in candidates], axis=0) if seed is None else np.asarray(seed, float)
@@ -137,7 +142,10 @@ def contour_from_candidates(candidates: list[FrameCandidates], camera_matrix: np
                           pose_from_peaks(start, pts, frame_of)) if v is not None]
     if not starts:
         starts = [search_pose(start, pts[steer], frame_of[steer])]
-    fits = [f for f in (refine(v, pts, frame_of, curve_of) for v in starts) if f is not None]
+    if neighbour is not None:
+        starts.append(neighbour)
+    refined = [refine(v, pts, frame_of, curve_of) for v in starts]
+    fits = [f for f in refined if f is not None]
     if not fits:
         empty.problems.append("no cross-section ring with enough points and arc coverage")
         return empty
@@ -145,7 +153,10 @@ def contour_from_candidates(candidates: list[FrameCandidates], camera_matrix: np
     assigned = [assign(f[0], pts, frame_of, f[1]) for f in fits]
     rms_of = [float(np.sqrt(np.mean(res[ring_of >= 0] ** 2))) for ring_of, res in assigned]
     best = int(np.argmin(rms_of))
-    fit, (ring_of, res), rms = _restarted(fits[best], assigned[best], pts, frame_of, curve_of)
+    if neighbour is not None and refined[-1] is not None and best == len(fits) - 1:
+        fit, (ring_of, res), rms = fits[best], assigned[best], rms_of[best]      # restarted in the neighbour's window
+    else:
+        fit, (ring_of, res), rms = _restarted(fits[best], assigned[best], pts, frame_of, curve_of)
     view, rings, sol, free, deformed = fit
     # Residuals along one ring share its error (blur, texture, the ring's own shape), so the
     # rings, not the points, are the independent observations: the ring-clustered sandwich.

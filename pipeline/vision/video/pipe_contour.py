@@ -120,16 +120,31 @@ def contours_at_frames(path: str | os.PathLike, frames: Iterable[int], track: Ch
 
     def work(sample):
         index, bgr = sample
-        ideal = undistorter.frame(bgr)
         if ideal_frames is not None and (index in windows or index in kept):
-            ideal_frames[index] = ideal
+            ideal_frames[index] = undistorter.frame(bgr)
+            gray = _gray(ideal_frames[index])
+        else:          # the grey image alone is undistorted: a third of the remapping
+            gray = undistorter.frame(_gray(bgr))
         if recorded_frames is not None and (index in windows or index in kept):
             recorded_frames[index] = bgr          # a kept window's too: a joint's thumbnail shows its nearest frame
-        return index, frame_candidates(_gray(ideal), mask)
+        return index, frame_candidates(gray, mask)
+
+    fitted: dict[int, PipeContour] = {}
 
     def fit(frame: int) -> PipeContour:
-        return contour_from_candidates([candidates[i] for i in windows[frame] if i in candidates], undistorter.K, shape,
-                                       wall_u=wall_u)
+        # the trusted fit of the window sharing most frames with this one starts this fit too (warm start: the fits
+        # run one after another in one thread, in the order their windows complete, so the choice is reproducible);
+        # a warm-started fit that is not trusted is done again from cold starts, with all its restarts
+        found = [candidates[i] for i in windows[frame] if i in candidates]
+        shared = {other: len(set(windows[other]) & set(windows[frame])) for other, c in fitted.items() if c.confident}
+        near = max(shared, key=lambda other: (shared[other], -abs(other - frame)), default=None)
+        contour = None
+        if near is not None and shared[near]:
+            contour = contour_from_candidates(found, undistorter.K, shape, wall_u=wall_u, neighbour=fitted[near].view)
+        if contour is None or not contour.confident:
+            contour = contour_from_candidates(found, undistorter.K, shape, wall_u=wall_u)
+        fitted[frame] = contour
+        return contour
 
     # the fits are mostly Python (they hold the GIL), decoding and ridge points mostly not: one fitting thread
     # keeps the second core busy while the decoder runs; each fit sees exactly the candidates it saw before

@@ -203,3 +203,33 @@ def test_night_measures_bca_width_from_the_same_search(lateral, monkeypatch):
     assert [r.quantity for r in rows] == ["Q1", "Q2"] and [r.source for r in rows] == ["contour", "contour"]
     assert rows[1].operator_value == 160.0 and rows[1].status == "ok", rows[1].error
     assert rows[1].low <= 150.0 <= rows[1].high
+
+
+def test_a_connection_logged_at_the_cameras_chainage_is_looked_for_from_the_recorded_frame():
+    """A log may state where the camera stood, not where the feature is (S02's intruding lateral: logged 0.67 m,
+    at 1.5 m). The frames planned before the logged distance then see it from too far; the operator's recorded
+    frame and one half a pipe height before it are looked at too. A feature just past the video's start is seen
+    from the first frames instead of frames the video does not have."""
+    import dataclasses
+    from types import SimpleNamespace
+
+    from pipeline.app.measure import LOGGED_VIEW_STEP_H, NEAREST_VIEW_H, _feature_frames
+    from pipeline.domain.records import Observation
+    from pipeline.vision.video.chainage_track import ChainageTrack, CounterModel
+
+    fps, H = 25.0, 400.0
+    values = np.concatenate([np.full(10, 0.2), 0.2 + np.arange(1000) * 0.15 / fps])   # 0.15 m/s from frame 10
+    track = ChainageTrack(values=values, fps=fps, counter=CounterModel())
+    info = SimpleNamespace(frame_count=len(values), fps=fps)
+    base = Observation(2, 2.0, "BAG", "", "", 10.0, "%", None, "", 2, None, False, "", None, "", "", {})
+    planned = _feature_frames(base, track, info, H)
+    assert [d for _, d in planned[:2]] == pytest.approx([1.6, 2.3], abs=0.15 / fps / (H / 1000))   # to a frame
+    logged = dataclasses.replace(base, video_time_s=400 / fps)        # the operator recorded frame 400
+    frames = dict(_feature_frames(logged, track, info, H))
+    assert 400 in frames or any(abs(values[f] - values[400]) < 1e-9 for f in frames)
+    before = values[400] - LOGGED_VIEW_STEP_H * H / 1000.0
+    assert any(abs(values[f] - before) < 0.15 / fps + 1e-9 for f in frames)
+    # a lateral 0.6 m past the video's start (1.5 H): the first frame, and one half-way to the nearest view
+    near = dataclasses.replace(base, distance_m=0.8)
+    depths = sorted(d for _, d in _feature_frames(near, track, info, H) if d >= NEAREST_VIEW_H)
+    assert depths[-1] == pytest.approx(1.5) and len(depths) >= 2 and depths[0] < 1.5

@@ -420,15 +420,30 @@ def _automatic_frame(obs: Observation, marks: list[Mark], track, info) -> int | 
 # that far beyond its logged distance.
 LOG_AHEAD_M = 1.0
 AHEAD_STEPS_M = (0.5, 1.0)
+LOGGED_VIEW_STEP_H = 0.5  # a second view this far before the operator's recorded frame [H]
+NEAREST_VIEW_H = 1.0     # the nearest view of a connection or deposit near the video's start [H]: wholly in view
 
 
 def _feature_frames(obs: Observation, track, info, height_mm: float) -> list[tuple[int, float]]:
     """(frame, depth of the logged position in it [H]) of the frames a connection or deposit is measured on: the
     camera ``VIEW_DEPTHS_H`` (``DEPOSIT_VIEW_H``) pipe heights before the logged distance, then ``AHEAD_STEPS_M``
     further on from the nearest of them."""
-    depths = VIEW_DEPTHS_H if obs.code in CONNECTION_CODES else DEPOSIT_VIEW_H
+    depths = list(VIEW_DEPTHS_H if obs.code in CONNECTION_CODES else DEPOSIT_VIEW_H)
+    # a feature just past the video's start (a lateral near the manhole) is seen from no farther than the first
+    # frame: the views it allows instead, the first frame's and one half-way to the nearest, so that two confirm
+    deepest = (obs.distance_m - track.at_frame(0)[0]) * 1000.0 / height_mm
+    if deepest < max(depths):
+        allowed = [t for t in depths if t <= deepest]
+        allowed += [t for t in (deepest, 0.5 * (deepest + NEAREST_VIEW_H)) if t >= NEAREST_VIEW_H]
+        depths = sorted(set(allowed))[:len(depths)] or depths
     chainages = [obs.distance_m - t * height_mm / 1000.0 for t in depths]
     chainages += [chainages[0] + step for step in AHEAD_STEPS_M]
+    if obs.video_time_s is not None and 0 <= obs.video_time_s * info.fps < info.frame_count:
+        # where the log states the camera's chainage, the feature lies ahead of the frame the operator recorded:
+        # that frame and one LOGGED_VIEW_STEP_H pipe heights before it see it from where the operator did
+        logged, _ = _chainage_at(track, int(round(obs.video_time_s * info.fps)))
+        if np.isfinite(logged):
+            chainages += [logged, logged - LOGGED_VIEW_STEP_H * height_mm / 1000.0]
     ahead = LOG_AHEAD_M * 1000.0 / height_mm
     out: list[tuple[int, float]] = []
     for c in chainages:

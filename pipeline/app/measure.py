@@ -302,7 +302,8 @@ def measure_package(folder: str | os.PathLike, *, certificates: str | os.PathLik
             result.measurements.append(_measure_feature(
                 by_row[r], feature_frames, ingest.track, model, contours=contours, under=under, ideal=ideal, cert=cert,
                 header=header, mask=mask, seed=quantity_seed(manifest.package_id, r, f"{quantity} feature"),
-                edges=edges(by_row[r], quantity), thumbnails=result.thumbnails, quantity=quantity, found=search))
+                edges=edges(by_row[r], quantity), thumbnails=result.thumbnails, thumbnail=thumbnail, quantity=quantity,
+                found=search))
     result.measurements += unmarked_quantities(by_row.values(), result.measurements, model)
     add_verdicts(result, header, observations, ingest.track)
     # what the image alone could not give is reported on its row, but the logged quantities decide the status
@@ -468,8 +469,8 @@ def feature_quantities(obs: Observation) -> tuple[str, ...]:
 
 
 def _measure_feature(obs: Observation, views: list[tuple[int, float]], track, model: str, *, contours, under, ideal,
-                     cert, header, mask, seed: int, edges: tuple[float, ...], thumbnails: list, quantity: str = "Q1",
-                     found: dict | None = None) -> MeasurementRecord:
+                     cert, header, mask, seed: int, edges: tuple[float, ...], thumbnails: list, thumbnail=None,
+                     quantity: str = "Q1", found: dict | None = None) -> MeasurementRecord:
     """A connection's height around the pipe (BCA Q1) or width along it (Q2), an intrusion (BAG) or a deposit's
     loss (BBC, BBB) from the image alone; one not confident is stored "found, not measured" with its reasons
     (status error: no grade, no log check). found : where the connection's search is kept for its next quantity
@@ -512,7 +513,9 @@ def _measure_feature(obs: Observation, views: list[tuple[int, float]], track, mo
         return row
     # the frame stands before the feature on purpose: its chainage is not compared with the logged distance
     row.update(quantity_fields(res))
-    thumbnails.append(_thumbnail(ideal(frame), contours[frame], q, obs.row, frame, "contour"))
+    # the conductor's thumbnail pastes the burned-in overlay as recorded; without it, the ideal frame alone
+    thumbnails.append(thumbnail(frame, q, obs.row, "contour") if thumbnail is not None
+                      else _thumbnail(ideal(frame), contours[frame], q, obs.row, frame, "contour"))
     return row
 
 

@@ -174,9 +174,9 @@ def test_calibrate_then_measure_a_synthetic_package_with_the_new_certificate(ima
     m = read_table(data, "measurements")
     marked = m[m.source == "marks"]
     assert len(marked) == len(true) and (marked.status == "ok").all()
-    # the deformation, the connection, and the displaced joint's gap and step (issue 34) also from the image alone
-    # (the connection and the joint may be found, not measured)
-    assert sorted(m[m.source == "contour"].code) == ["BAA", "BAJ", "BAJ", "BCA"]
+    # the deformation, the connection's height and width, and the displaced joint's gap and step (issue 34) also
+    # from the image alone (the connection and the joint may be found, not measured)
+    assert sorted(m[m.source == "contour"].code) == ["BAA", "BAJ", "BAJ", "BCA", "BCA"]
     m = m[m.status == "ok"]                  # found but not trusted: stored without a value or a verdict
     inside = [r.low <= true[(r.row, r.quantity)] <= r.high for r in m.itertuples()]
     assert sum(inside) >= len(inside) - 1, list(zip(m.row, m.quantity, m.value, m.low, m.high))

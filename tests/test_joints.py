@@ -212,9 +212,7 @@ def test_the_image_alone_joint_s_thumbnail_shows_the_overlay_as_recorded(s02):
     """The joint's nearest frame is one of the contour window's frames, kept as an ideal image only: its thumbnail
     lacked the recorded overlay (bent and cut at the frame's edge). Where the recorded frame shows the overlay's
     white text (its top left), the thumbnail shows it too."""
-    import numpy as np
-
-    from pipeline.vision.video.reader import read_frame
+    from overlay_check import assert_overlay_as_recorded
 
     result, _ = s02
     # the intruding lateral's too (its frames are the contour pass's window frames, as a joint's)
@@ -224,10 +222,4 @@ def test_the_image_alone_joint_s_thumbnail_shows_the_overlay_as_recorded(s02):
                           for m in result.measurements for t in thumbs)
     video = next((SAMPLES / "S02-circular-water-offset").glob("*.mp4"))
     for t in thumbs:
-        thumb = cv2.imdecode(np.frombuffer(t.image_jpeg, np.uint8), cv2.IMREAD_GRAYSCALE)
-        recorded = cv2.cvtColor(read_frame(video, t.frame), cv2.COLOR_BGR2GRAY)
-        recorded = cv2.resize(recorded, (thumb.shape[1], thumb.shape[0]), interpolation=cv2.INTER_AREA)
-        corner = (slice(0, thumb.shape[0] // 4), slice(0, thumb.shape[1] // 2))
-        text = recorded[corner] > 200
-        assert text.sum() > 50                              # the overlay's text is there, as recorded
-        assert np.mean(thumb[corner][text] > 150) > 0.9, t.frame
+        assert_overlay_as_recorded(t.image_jpeg, video, t.frame)

@@ -366,24 +366,15 @@ def test_the_samples_thumbnails_show_the_overlay_text_as_recorded(sample_night):
     """S01's thumbnails: where the recorded frame shows the overlay's white text (its top left, the header band at
     the frame's left edge), the thumbnail shows it too, at the same place; the undistorted frame alone had moved it
     out of the picture."""
-    import cv2
-    import numpy as np
-
+    from overlay_check import assert_overlay_as_recorded
     from pipeline.store import read_records
-    from pipeline.vision.video.reader import read_frame
 
     inspection = read_records(sample_night / "dataset", "inspections", inspection_ids=["S01-circular-clean"])[0]
     video = sample_night / "inbox" / "S01-circular-clean" / inspection.video_file
     thumbs = read_records(sample_night / "dataset", "thumbnails", inspection_ids=["S01-circular-clean"])
     assert thumbs
     for t in thumbs[:3]:
-        thumb = cv2.imdecode(np.frombuffer(t.image_jpeg, np.uint8), cv2.IMREAD_GRAYSCALE)
-        recorded = cv2.cvtColor(read_frame(video, t.frame), cv2.COLOR_BGR2GRAY)
-        recorded = cv2.resize(recorded, (thumb.shape[1], thumb.shape[0]), interpolation=cv2.INTER_AREA)
-        corner = (slice(0, thumb.shape[0] // 4), slice(0, thumb.shape[1] // 2))
-        text = recorded[corner] > 200
-        assert text.sum() > 50                              # the overlay's text is there, as recorded
-        assert np.mean(thumb[corner][text] > 150) > 0.9, t.frame
+        assert_overlay_as_recorded(t.image_jpeg, video, t.frame)
 
 
 def test_the_glossary_states_the_log_checks_rule_as_the_judgement_applies_it():

@@ -28,8 +28,10 @@ FOOTER_TOP = 36.0           # the footer line lies below this height on every pa
 HEADING_PT = 9.4            # headings (title 15, h2 11, h3 9.5 pt) are set larger than any body text [pt]
 S01_PAGES_BEFORE = 9        # S01's report before issue 23
 # issue 23 halved it (4 pages); issues 30 and 31 added, on purpose, the section grade's distribution with its
-# stated independence, a glossary of every symbol and a legend under each thumbnail: one page more
-S01_PAGES_AT_MOST = 5
+# stated independence, a glossary of every symbol and a legend under each thumbnail: one page more; issue 34 one
+# more, on purpose: four quantities measured from the image alone beside the marked ones (the deformation, the
+# joint's step, the lateral's height and width), each with its thumbnail and budget
+S01_PAGES_AT_MOST = 6
 
 
 def _pages(path: Path) -> list[dict]:

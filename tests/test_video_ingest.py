@@ -262,12 +262,32 @@ def test_a_template_read_that_is_no_chainage_goes_to_the_ocr_and_keeps_the_templ
     crop = _overlay_crop(3.21, 21)
     _, glyphs, (r0, r1) = segment_glyphs(crop)
     crop[r0:r1, glyphs[-1][1] + 4] = 255
-    overlay = _OverlayPass(StubOCR(), (0, 0, crop.shape[1], crop.shape[0]), _taught_templates())
+    overlay = _OverlayPass(StubOCR(), (0, 0, crop.shape[1], crop.shape[0]), glyphs=_taught_templates())
     assert overlay.glyphs.read(crop)[0] == "3.21m."
     overlay.read((7, cv2.cvtColor(crop, cv2.COLOR_GRAY2BGR)))
     assert [(r.frame, r.value) for r in overlay.reads] == [(7, 3.21)]
     assert (overlay.ocr_reads, overlay.disagreements) == (1, 0) and overlay.glyphs.sums
 
+
+
+def test_a_template_read_beyond_the_crawlers_reach_goes_to_the_ocr_and_a_near_one_does_not():
+    """Reads 4 frames apart at 25 fps: 3.21 -> 3.22 m is a step the crawler makes (templates alone); 3.22 -> 5.67 m
+    is not (a misread digit, or a cut): the OCR reads that crop too. Here the OCR agrees, so the templates stay."""
+    from pipeline.vision.video.ingest import _OverlayPass
+
+    class CountingOCR:
+        def read(self, frame, box, index=0):
+            return OverlayRead(index, "5.67m", 5.67, 0.99)
+
+    crops = [_overlay_crop(v, 30 + k) for k, v in enumerate([3.21, 3.22, 5.67])]
+    w = min(c.shape[1] for c in crops)
+    overlay = _OverlayPass(CountingOCR(), (0, 0, w, crops[0].shape[0]), 25.0, glyphs=_taught_templates())
+    for k, crop in enumerate(crops[:2]):
+        overlay.read((4 * k, cv2.cvtColor(crop[:, :w], cv2.COLOR_GRAY2BGR)))
+    assert overlay.ocr_reads == 0 and [r.value for r in overlay.reads] == [3.21, 3.22]
+    overlay.read((8, cv2.cvtColor(crops[2][:, :w], cv2.COLOR_GRAY2BGR)))
+    assert (overlay.ocr_reads, overlay.disagreements) == (1, 0) and overlay.reads[-1].value == 5.67
+    assert overlay.glyphs.sums
 
 @pytest.mark.slow
 def test_ingest_of_a_sample_delivered_as_h264(reader, tmp_path):

@@ -4,7 +4,8 @@ The chainage box and the overlay's header lines are found on the first
 frame by RapidOCR (detection and recognition). Every ``every``-th frame's
 box is then read by glyph templates learned from the OCR's own reads of
 this video (``glyphs``); a crop the templates cannot read clearly or read
-as no chainage (a speck of compression noise taken for a glyph), and every
+as no chainage (a speck of compression noise taken for a glyph), a read
+more than ``VERIFY_STEP_M`` from the one before it, and every
 ``VERIFY_EVERY``-th crop as a check, goes to the OCR. A chainage read by the
 templates that the OCR contradicts drops them (they are learned again).
 """
@@ -26,7 +27,14 @@ from pipeline.vision.video.reader import FrameScan, VideoInfo, iter_frames, prob
 
 __all__ = ["ChainageIngest", "ingest_chainage"]
 
-VERIFY_EVERY = 50        # one template read in this many is read by the OCR too
+# The routine check of the templates by the OCR costs about 25 ms a crop (some 80 template reads); 1 in 50 was 47 of
+# the 72 OCR reads of a 6-minute video, half its decoding's CPU. A misread glyph moves the value by a digit's worth,
+# so a read farther from the read before it than the crawler can drive (the track's top speed) plus VERIFY_STEP_M is
+# checked every time; a misread last digit stays within that and is left to the track's outlier test. The routine
+# check can then be rare.
+VERIFY_EVERY = 250       # one template read in this many is read by the OCR too
+VERIFY_STEP_M = 0.05     # beyond the crawler's reach, a template read this much farther is read by the OCR too [m]
+TOP_SPEED_M_S = 0.5      # the crawler's top speed [m/s] (``fit_track``'s max_speed_m_s)
 LEARN_SCORE = 0.9        # OCR reads at least this sure teach the templates
 MASK_FRAMES = 16         # frames kept, spread over the video, to find the burned-in overlay
 QUEUED = 16              # decoded frames that may wait for the overlay reader
@@ -64,7 +72,7 @@ def ingest_chainage(path: str | os.PathLike, reader: OverlayReader | None = None
     overlay_text: list[str] = []
     if box is None:
         box, overlay_text = _locate(path, info, reader)
-    overlay = _OverlayPass(reader, box)
+    overlay = _OverlayPass(reader, box, info.fps)
     kept: dict[int, np.ndarray] = {}
     scan = FrameScan(path, lambda i: i % every == 0 or i in spread)
 
@@ -86,10 +94,12 @@ def ingest_chainage(path: str | os.PathLike, reader: OverlayReader | None = None
 @dataclass
 class _OverlayPass:
     """The chainage reads of one video, frame after frame in order: glyph templates first, the OCR for unclear
-    crops and every VERIFY_EVERY-th read, the templates dropped when the OCR contradicts them."""
+    crops, reads far from the one before and every VERIFY_EVERY-th read, the templates dropped when the OCR
+    contradicts them."""
 
     reader: OverlayReader
     box: tuple[int, int, int, int]
+    fps: float = 25.0
     glyphs: GlyphTemplates = field(default_factory=GlyphTemplates)
     reads: list[OverlayRead] = field(default_factory=list)
     ocr_reads: int = 0
@@ -102,7 +112,7 @@ class _OverlayPass:
         crop = cv2.cvtColor(frame[y0:y1, x0:x1], cv2.COLOR_BGR2GRAY)
         got = self.glyphs.read(crop)
         value = parse_chainage(got[0]) if got is not None else None
-        if value is not None and (len(self.reads) + 1) % VERIFY_EVERY:
+        if value is not None and self._within_reach(index, value) and (len(self.reads) + 1) % VERIFY_EVERY:
             self.reads.append(OverlayRead(index, got[0], value, got[1]))
             return
         read = self.reader.read(frame, self.box, index)
@@ -113,6 +123,14 @@ class _OverlayPass:
         if read.value is not None and read.score >= LEARN_SCORE:
             self.glyphs.learn(crop, read.text)
         self.reads.append(read)
+
+    def _within_reach(self, index: int, value: float) -> bool:
+        """Whether a chainage [m] read at frame ``index`` lies where the crawler could have driven since the last
+        read with a value (VERIFY_STEP_M to spare), or there is no such read."""
+        before = next((r for r in reversed(self.reads[-3:]) if r.value is not None), None)
+        if before is None:
+            return True
+        return abs(value - before.value) <= VERIFY_STEP_M + TOP_SPEED_M_S * abs(index - before.frame) / self.fps
 
 
 def _locate(path, info: VideoInfo, reader: OverlayReader) -> tuple[tuple[int, int, int, int], list[str]]:

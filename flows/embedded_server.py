@@ -12,6 +12,11 @@ is left alone. Nothing is done when PREFECT_API_URL names a server: that one
 is not ours to start or stop, but it is checked to answer before the run
 starts.
 
+The server's own output (uvicorn's log: at shutdown, under load, a
+traceback of a database session cancelled mid-flight) goes to
+``OUT/.prefect-server.log``, not to the run's terminal, whose lines are
+pipegauge's.
+
 Start-up problems are one line each, never Prefect's traceback: a Prefect
 home that cannot be written (an unwritable or missing HOME), a server named by
 PREFECT_API_URL that does not answer, an embedded server that cannot start
@@ -23,6 +28,7 @@ from __future__ import annotations
 import contextlib
 import os
 import signal
+import sys
 import time
 from pathlib import Path
 from typing import Callable, Iterator
@@ -30,7 +36,7 @@ from typing import Callable, Iterator
 from pipeline.app.layout import Layout
 from pipeline.core.errors import PipegaugeError
 
-__all__ = ["embedded_prefect_server", "prefect_home_problem", "api_problem"]
+__all__ = ["embedded_prefect_server", "prefect_home_problem", "api_problem", "output_to"]
 _SERVER_MARK = b"prefect.server.api.server:create_app"     # in the command line Prefect starts it with
 _OWNER = "PIPEGAUGE_SERVER_OF"                              # in the environment of the server a run starts
 
@@ -109,6 +115,27 @@ def _stop_left_over(layout: Layout, say: Callable[[str], None]) -> None:
 
 
 @contextlib.contextmanager
+def output_to(path: Path) -> Iterator[None]:
+    """Within: this process's stdout and stderr (file descriptors 1 and 2) write to ``path`` (truncated), so a
+    child process started within inherits it; both are restored on leaving."""
+    sys.stdout.flush()
+    sys.stderr.flush()
+    saved = os.dup(1), os.dup(2)
+    try:
+        with open(path, "wb") as log:
+            os.dup2(log.fileno(), 1)
+            os.dup2(log.fileno(), 2)
+            yield
+    finally:
+        sys.stdout.flush()
+        sys.stderr.flush()
+        os.dup2(saved[0], 1)
+        os.dup2(saved[1], 2)
+        os.close(saved[0])
+        os.close(saved[1])
+
+
+@contextlib.contextmanager
 def embedded_prefect_server(layout: Layout, say: Callable[[str], None]) -> Iterator[None]:
     """Within: Prefect's embedded server runs, its pid recorded in the output folder (``Layout.server_pid``).
 
@@ -131,12 +158,14 @@ def embedded_prefect_server(layout: Layout, say: Callable[[str], None]) -> Itera
     server = SubprocessASGIServer()     # the instance Prefect's own client then uses
     os.environ[_OWNER] = str(layout.out.resolve())      # inherited by the server: whose it is (_stop_left_over)
     try:
-        server.start()                  # and stops at exit, after its clients have flushed their logs and events
+        with output_to(layout.server_log):      # the server process inherits it
+            server.start()              # and stops at exit, after its clients have flushed their logs and events
     except (RuntimeError, OSError) as exc:
         first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
         raise PipegaugeError(f"the embedded Prefect server did not start ({first[:300]}); check that a port of "
                              "8000-8999 on 127.0.0.1 is free and that Prefect's home can be written, or set "
-                             "PREFECT_API_URL to a running server (docs/operations.md)") from None
+                             f"PREFECT_API_URL to a running server (docs/operations.md); its output: "
+                             f"{layout.server_log}") from None
     finally:
         os.environ.pop(_OWNER, None)
     process = server.server_process

@@ -607,6 +607,25 @@ def _env(tmp_path: Path, **extra) -> dict:
     return env
 
 
+def test_the_embedded_servers_output_goes_to_its_log_not_to_the_runs_terminal(tmp_path, capfd):
+    """A child started within ``output_to`` (the embedded Prefect server: its shutdown under load logged a
+    cancelled database session's traceback on the run's stderr) writes to the log; the run's own lines stay."""
+    import subprocess
+    import sys
+
+    from flows.embedded_server import output_to
+
+    log = tmp_path / ".prefect-server.log"
+    with output_to(log):
+        child = subprocess.Popen([sys.executable, "-c", "import sys, time; time.sleep(0.3); "
+                                  "print('Traceback (most recent call last):', file=sys.stderr)"])
+    print("pipegauge run: after the server started", file=sys.stderr)
+    child.wait(timeout=30)
+    err = capfd.readouterr().err
+    assert "Traceback" in log.read_text() and "Traceback" not in err
+    assert "after the server started" in err and "after the server started" not in log.read_text()
+
+
 @pytest.mark.slow
 def test_prefect_start_up_problems_are_one_line_each(tmp_path):
     inbox = tmp_path / "inbox"

@@ -7,6 +7,7 @@
                                   file name of its id, pipeline.store.file_stem)
     OUT/run-log.jsonl             each night's package rows with the worker (host:pid) that measured them
     OUT/.prefect-server.pid       the embedded Prefect server of the run in progress (pipegauge run)
+    OUT/.prefect-server.log       that server's own output, of the last run (its shutdown may log a traceback)
 
 Every verb takes OUT, or for those that only read or only write the dataset, the dataset folder itself
 (``Layout.of``).
@@ -69,6 +70,11 @@ class Layout:
     @property
     def server_pid(self) -> Path:
         return self.out / ".prefect-server.pid"
+
+    @property
+    def server_log(self) -> Path:
+        """The embedded Prefect server's own output (stdout and stderr) of the last run."""
+        return self.out / ".prefect-server.log"
 
     def report(self, inspection_id: str) -> Path | None:
         """The PDF condition report of an inspection (None where the layout keeps no reports)."""

@@ -47,6 +47,7 @@ DARK_RATIO = 0.6                  # an opening is darker than this share of the 
 SEARCH_CLOCK_H = 1.5              # an opening is looked for within this many clock hours of the logged position
 MIN_SIZE_H, MAX_SIZE_H = 0.06, 1.0   # extents of an opening [H]
 RAYS = 64                         # edge rays from the opening's centre
+RAY_STEP_PX = 0.5                 # the most the samples along a ray lie apart in the image [px]
 SECTORS = 8                       # independent groups of edge points around the rim
 MIN_RAYS = 0.6                    # share of the rays that must find the rim
 MIN_CONTRAST = 12.0               # least grey step from the opening to the wall [8-bit levels]
@@ -62,7 +63,10 @@ RIM_WEIGHT_U = 0.10               # its standard uncertainty [1]
 # (0.05) and the cases' scatter about it (robust SD 0.14-0.18, which also holds the pose's and the rim points'
 # scatter, in the budget apart).
 DISPLAY_GAMMA = 2.2               # the response assumed to linearise grey levels (sRGB-like)
-EDGE_FLOOR_PX = 0.25              # a blurred, compressed edge is not located better than this [px]
+EDGE_FLOOR_PX = 0.10              # an end is not located better than this [px]: a floor for a rim of few, smooth
+                                  # points, not the term that sets u. At 0.25 it did, for every clean case (seed 34,
+                                  # 17 circular cases: the sectors' scatter 0.02-0.09 px, with the definition 0.14-0.17
+                                  # px; the certificate's image coordinate adds 0.15 px): u about twice the scatter
 
 
 @dataclass(frozen=True)
@@ -200,6 +204,14 @@ def _edges(gray, view, theta0, t0, radius, mask):
     s = np.linspace(0.0, 2.0 * radius, 81)
     du, dz = s[None, :] * np.cos(phi)[:, None], s[None, :] * np.sin(phi)[:, None]
     pts = _to_image(view, theta0, arc, t0, du, dz)
+    # samples no farther apart than RAY_STEP_PX: on a near, large opening 81 samples were 1.6 px apart, and the
+    # 3-sample smoothing then spread the blurred rim over 5 px, moving the light crossing outwards (the values
+    # of DN 150 high, of DN 1000 low against one weight)
+    longest = float(np.nanmax(np.linalg.norm(pts[:, -1] - pts[:, 0], axis=-1), initial=0.0))
+    if longest > 80 * RAY_STEP_PX:
+        s = np.linspace(0.0, 2.0 * radius, int(np.ceil(longest / RAY_STEP_PX)) + 1)
+        du, dz = s[None, :] * np.cos(phi)[:, None], s[None, :] * np.sin(phi)[:, None]
+        pts = _to_image(view, theta0, arc, t0, du, dz)
     prof = _masked(_sample(gray, pts), pts, mask)
     inner, outer = s < 0.4 * radius, (s > 1.4 * radius)
     found = np.full(RAYS, np.nan)

@@ -54,8 +54,8 @@ MIN_CONTRAST = 12.0               # least grey step from the opening to the wall
 GLARE_LEVEL = 250.0               # a grey level this bright near the rim is glare (clipped)
 RIM_WEIGHT = 0.15                 # the rim's place between the two half-way crossings, grey (0) to light (1) [1]
 RIM_WEIGHT_U = 0.10               # its standard uncertainty [1]
-# Both set on the generator's response (benchmarks/automatic_connections.py, seed 34, 18-23 circular cases, the
-# extent found against the truth's arc): the rim lay 0.14-0.18 of the way (median over the cases), the grey
+# Both set on the generator's response (benchmarks/lateral_rim.py: seed 34, 23 circular cases, the extent found
+# against the truth's arc): the rim lay 0.14-0.18 of the way (median over the cases), the grey
 # crossing 0.1 px short of it on each end, the light one about 0.6 px beyond (a step rendered as the generator does,
 # blurred, gives 0-0.12: tests/test_connections.py). The old weight 1/3 put the values 0.25 px high (median z +0.4),
 # and a rectangular term over the whole spread counted the rim's place as unknown between the crossings, making u
@@ -64,9 +64,10 @@ RIM_WEIGHT_U = 0.10               # its standard uncertainty [1]
 # about it (robust SD 0.14-0.18, which also holds the pose's and the rim points' scatter, in the budget apart).
 DISPLAY_GAMMA = 2.2               # the response assumed to linearise grey levels (sRGB-like)
 EDGE_FLOOR_PX = 0.10              # an end is not located better than this [px]: a floor for a rim of few, smooth
-                                  # points, not the term that sets u. At 0.25 it did, for every clean case (seed 34,
-                                  # 17 circular cases: the sectors' scatter 0.02-0.09 px, with the definition 0.14-0.17
-                                  # px; the certificate's image coordinate adds 0.15 px): u about twice the scatter
+                                  # points, not the term that sets u. At 0.25 it did, for every clean case
+                                  # (benchmarks/lateral_rim.py, seed 34: the sectors' scatter 0.03-0.10 px, with the
+                                  # definition 0.14-0.18 px; the certificate's image coordinate adds 0.15 px): u about
+                                  # twice the scatter
 
 
 @dataclass(frozen=True)

@@ -14,14 +14,10 @@ import argparse
 import sys
 from pathlib import Path
 
-import cv2
 import numpy as np
 
-from pipeline.formats.certificate import load_certificate
 from pipeline.maths.profiles import wall_point
 from pipeline.measurement.connections import LATERAL_SEARCH_H, VIEW_DEPTHS_H
-from pipeline.vision.contour import detect_contour
-from pipeline.vision.contour.detect import wall_u_from_tolerance
 from pipeline.vision.contour.intrusion import find_intrusion
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
@@ -34,21 +30,11 @@ def main() -> None:
     ap.add_argument("--cases", type=int, default=20)
     ap.add_argument("--seed", type=int, default=34)
     args = ap.parse_args()
-    cert = load_certificate(ac.SAMPLES / "certificates" / "SYN-720x576.json")
-    rng = np.random.default_rng([args.seed, ac.KINDS.index("bag"), 0])    # the benchmark's cases, clean video
     tips, bases, u_tips, u_bases = [], [], [], []
     depth = VIEW_DEPTHS_H[0]
-    for i in range(args.cases):
-        scene, z, _, clock, mount = ac.case("bag", rng, True)
+    for i, scene, clock, frame, contour in ac.nearest_frames("bag", args.cases, args.seed):
         H, shape, c = scene.pipe.height_mm, scene.pipe.shape, scene.features[0]
-        if shape != "circular":
-            continue
-        frames, K = ac.frames_of(scene, z, cert, mount, VIEW_DEPTHS_H, i, "none", Path("."))
-        contour = detect_contour([cv2.cvtColor(f, cv2.COLOR_BGR2GRAY) for f in frames], K, shape,
-                                 wall_u=wall_u_from_tolerance(H, 0.0))
-        if not np.all(np.isfinite(contour.covariance)):
-            continue
-        f = find_intrusion(frames[0], contour.view, clock=clock, expected_depth=depth,
+        f = find_intrusion(frame, contour.view, clock=clock, expected_depth=depth,
                            depths=(max(0.9, depth - LATERAL_SEARCH_H), depth + LATERAL_SEARCH_H))
         if f is None:
             continue

@@ -16,14 +16,10 @@ import argparse
 import sys
 from pathlib import Path
 
-import cv2
 import numpy as np
 
-from pipeline.formats.certificate import load_certificate
 from pipeline.measurement.connections import LATERAL_SEARCH_H, VIEW_DEPTHS_H
-from pipeline.vision.contour import detect_contour
 from pipeline.vision.contour import lateral as lateral_module
-from pipeline.vision.contour.detect import wall_u_from_tolerance
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import automatic_connections as ac  # noqa: E402
@@ -47,21 +43,11 @@ def main() -> None:
     ap.add_argument("--cases", type=int, default=30)
     ap.add_argument("--seed", type=int, default=34)
     args = ap.parse_args()
-    cert = load_certificate(ac.SAMPLES / "certificates" / "SYN-720x576.json")
-    rng = np.random.default_rng([args.seed, ac.KINDS.index("bca"), 0])    # the benchmark's cases, clean video
     rows = []
-    for i in range(args.cases):
-        scene, z, _, clock, mount = ac.case("bca", rng, True)
-        H, shape, d = scene.pipe.height_mm, scene.pipe.shape, scene.features[0].diameter_mm
-        if shape != "circular":
-            continue
-        frames, K = ac.frames_of(scene, z, cert, mount, VIEW_DEPTHS_H, i, "none", Path("."))
-        contour = detect_contour([cv2.cvtColor(f, cv2.COLOR_BGR2GRAY) for f in frames], K, shape,
-                                 wall_u=wall_u_from_tolerance(H, 0.0))
-        if not np.all(np.isfinite(contour.covariance)):
-            continue
-        lats = [_found(frames[0], contour.view, clock, w, lateral_module.RIM_WEIGHT_U, 0.0) for w in (0.0, 1.0)]
-        sector = _found(frames[0], contour.view, clock, lateral_module.RIM_WEIGHT, 0.0, 0.0)
+    for i, scene, clock, frame, contour in ac.nearest_frames("bca", args.cases, args.seed):
+        H, d = scene.pipe.height_mm, scene.features[0].diameter_mm
+        lats = [_found(frame, contour.view, clock, w, lateral_module.RIM_WEIGHT_U, 0.0) for w in (0.0, 1.0)]
+        sector = _found(frame, contour.view, clock, lateral_module.RIM_WEIGHT, 0.0, 0.0)
         if any(x is None or x.problems for x in lats + [sector]):
             continue
         a, b = np.array(lats[0].around)

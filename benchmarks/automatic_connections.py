@@ -27,6 +27,7 @@ and the false-find rate on cases without the feature.
 from __future__ import annotations
 
 import argparse
+import json
 import math
 import sys
 import tempfile
@@ -112,6 +113,24 @@ def frames_of(scene: Scene, z: float, cert, mount, depths, seed: int, codec: str
     return [und.frame(f) for f in raw], und.K
 
 
+def nearest_frames(kind: str, cases: int, seed: int):
+    """The clean-video cases of ``kind`` with the feature, as ``main`` draws them, in circular pipes where the pose
+    is fitted: (index, scene, clock, the nearest measured frame, its contour) each (``lateral_rim.py``,
+    ``intrusion_tip.py``)."""
+    cert = load_certificate(SAMPLES / "certificates" / "SYN-720x576.json")
+    rng = np.random.default_rng([seed, KINDS.index(kind), 0])
+    for i in range(cases):
+        scene, z, _, clock, mount = case(kind, rng, True)
+        H, shape = scene.pipe.height_mm, scene.pipe.shape
+        if shape != "circular":
+            continue
+        frames, K = frames_of(scene, z, cert, mount, VIEW_DEPTHS_H, i, "none", Path("."))
+        contour = detect_contour([cv2.cvtColor(f, cv2.COLOR_BGR2GRAY) for f in frames], K, shape,
+                                 wall_u=wall_u_from_tolerance(H, 0.0))
+        if np.all(np.isfinite(contour.covariance)):
+            yield i, scene, clock, frames[0], contour
+
+
 def _through_codec(raw, codec: str, tmp: Path, cert):
     from pipeline.synth.delivery import delivered
     folder = tmp / "case"
@@ -150,7 +169,10 @@ def run_case(kind: str, i: int, rng, cert, codec: str, with_feature: bool, tmp: 
         return row
     res = auto.result
     row.update(found=True, measured=auto.measured, value=res.value, u=res.u, U95=res.U95, low=res.low, high=res.high,
-               reason="; ".join(res.reasons))
+               reason="; ".join(res.reasons),
+               # the budget's lines (label: contribution [the quantity's unit]) and the points' u, for ``--json``
+               budget={b.label: b.contribution for b in res.budget}, u_a_px=auto.quantity.u_a,
+               u_b_px=auto.quantity.u_b)
     return row
 
 
@@ -187,6 +209,7 @@ def main() -> None:
     ap.add_argument("--seed", type=int, default=34)
     ap.add_argument("--kind", choices=KINDS, action="append")
     ap.add_argument("--codec", choices=("none", "mp4v", "h264"), action="append")
+    ap.add_argument("--json", type=Path, help="write the per-case rows (value, truth, u, budget lines) to this file")
     args = ap.parse_args()
     cert = load_certificate(SAMPLES / "certificates" / "SYN-720x576.json")
     kinds, codecs = args.kind or KINDS, args.codec or ["none"]
@@ -204,6 +227,8 @@ def main() -> None:
                           f"{r['feature']}, truth {r['truth']:.1f}, value {r['value']}, U95 {r['U95']}, "
                           f"measured {r['measured']}: {r['reason'][:150]}", file=sys.stderr)
     print(f"{len(rows)} cases in {time.perf_counter() - t0:.0f} s")
+    if args.json:
+        args.json.write_text(json.dumps(rows, indent=1))
     for kind in kinds:
         for codec in codecs:
             sel = [r for r in rows if r["codec"] == codec]

@@ -233,3 +233,36 @@ def test_a_connection_logged_at_the_cameras_chainage_is_looked_for_from_the_reco
     near = dataclasses.replace(base, distance_m=0.8)
     depths = sorted(d for _, d in _feature_frames(near, track, info, H) if d >= NEAREST_VIEW_H)
     assert depths[-1] == pytest.approx(1.5) and len(depths) >= 2 and depths[0] < 1.5
+
+
+def _generator_step(s0: float, lo_light: float, hi_light: float, x: np.ndarray) -> np.ndarray:
+    """A ray across an opening's rim at s0 [px] as the generator renders it: the hole's coverage of a pixel in
+    light, the generator's display response, then its optical blur (Gaussian, 0.9 px)."""
+    from scipy.ndimage import gaussian_filter1d
+
+    from pipeline.synth.render import _GAMMA
+    light = lo_light + (hi_light - lo_light) * np.clip(x - s0 + 0.5, 0.0, 1.0)
+    return gaussian_filter1d(255.0 * light ** _GAMMA, 0.9)
+
+
+@pytest.mark.parametrize("s0", [0.0, 0.25, 0.5])
+@pytest.mark.parametrize("contrast", [(0.02, 0.3), (0.08, 1.0)])
+def test_rim_on_a_rendered_step_lies_within_its_definition_term(s0, contrast):
+    """The rim placed between the grey and the light half-way crossings lies within twice its definition term of
+    the generator's true rim (the old weight, a third of the way, put it 0.15-0.21 px beyond: outside)."""
+    from pipeline.vision.contour.lateral import RIM_WEIGHT_U, rim_on_ray
+    x = np.arange(0.0, 81.0)
+    p = _generator_step(40.0 + s0, *contrast, x)
+    lo, hi = float(np.median(p[:20])), float(np.median(p[-20:]))
+    r, gap = rim_on_ray(p, x, lo, hi, 40.0)
+    assert 0.4 < gap < 1.0                                   # the two crossings are apart: the term is not empty
+    # an extent's two ends move alike: its u from the definition is 2 RIM_WEIGHT_U gap, the end's share half that
+    assert abs(r - (40.0 + s0)) <= 2 * RIM_WEIGHT_U * gap, (r - 40.0 - s0, gap)
+
+
+def test_rim_definition_term_is_the_weights_uncertainty_over_the_gap_not_a_rectangle():
+    from pipeline.vision.contour.lateral import RIM_WEIGHT_U, rim_definition_u
+    gap = 0.9
+    # counted on each end as independent, the extent carries sqrt(2) of it: 2 RIM_WEIGHT_U gap in all
+    assert math.isclose(math.sqrt(2) * rim_definition_u(gap), 2 * RIM_WEIGHT_U * gap)
+    assert math.sqrt(2) * rim_definition_u(gap) < gap / math.sqrt(3)   # the old rectangular over the whole gap

@@ -38,7 +38,7 @@ from scipy.ndimage import map_coordinates
 from pipeline.maths.profiles import clock_to_theta, wall_points
 from pipeline.vision.contour.view import PipeView
 
-__all__ = ["Lateral", "find_lateral", "wall_map"]
+__all__ = ["Lateral", "find_lateral", "rim_definition_u", "rim_on_ray", "wall_map"]
 
 THETA_STEPS = 720                 # samples around the ring (0.5 deg)
 DEPTH_STEPS = 160                 # samples along the depths searched (geometric)
@@ -47,14 +47,27 @@ DARK_RATIO = 0.6                  # an opening is darker than this share of the 
 SEARCH_CLOCK_H = 1.5              # an opening is looked for within this many clock hours of the logged position
 MIN_SIZE_H, MAX_SIZE_H = 0.06, 1.0   # extents of an opening [H]
 RAYS = 64                         # edge rays from the opening's centre
+RAY_STEP_PX = 0.5                 # the most the samples along a ray lie apart in the image [px]
 SECTORS = 8                       # independent groups of edge points around the rim
 MIN_RAYS = 0.6                    # share of the rays that must find the rim
 MIN_CONTRAST = 12.0               # least grey step from the opening to the wall [8-bit levels]
 GLARE_LEVEL = 250.0               # a grey level this bright near the rim is glare (clipped)
-RIM_WEIGHT = 1.0 / 3.0           # the rim's place between the two half-way crossings (set on the generator's response:
-                                  # the mean overshot by about a third of a pixel, the grey crossing fell short)
+RIM_WEIGHT = 0.15                 # the rim's place between the two half-way crossings, grey (0) to light (1) [1]
+RIM_WEIGHT_U = 0.10               # its standard uncertainty [1]
+# Both set on the generator's response (benchmarks/lateral_rim.py: seed 34, 23 circular cases, the extent found
+# against the truth's arc): the rim lay 0.14-0.18 of the way (median over the cases), the grey
+# crossing 0.1 px short of it on each end, the light one about 0.6 px beyond (a step rendered as the generator does,
+# blurred, gives 0-0.12: tests/test_connections.py). The old weight 1/3 put the values 0.25 px high (median z +0.4),
+# and a rectangular term over the whole spread counted the rim's place as unknown between the crossings, making u
+# about twice the scatter (robust SD of z 0.5). A camera whose response is unlike the generator's moves the weight,
+# which RIM_WEIGHT_U does not cover: it lies between the median's own uncertainty (0.05) and the cases' scatter
+# about it (robust SD 0.14-0.18, which also holds the pose's and the rim points' scatter, in the budget apart).
 DISPLAY_GAMMA = 2.2               # the response assumed to linearise grey levels (sRGB-like)
-EDGE_FLOOR_PX = 0.25              # a blurred, compressed edge is not located better than this [px]
+EDGE_FLOOR_PX = 0.10              # an end is not located better than this [px]: a floor for a rim of few, smooth
+                                  # points, not the term that sets u. At 0.25 it did, for every clean case
+                                  # (benchmarks/lateral_rim.py, seed 34: the sectors' scatter 0.03-0.10 px, with the
+                                  # definition 0.14-0.18 px; the certificate's image coordinate adds 0.15 px): u about
+                                  # twice the scatter
 
 
 @dataclass(frozen=True)
@@ -192,11 +205,19 @@ def _edges(gray, view, theta0, t0, radius, mask):
     s = np.linspace(0.0, 2.0 * radius, 81)
     du, dz = s[None, :] * np.cos(phi)[:, None], s[None, :] * np.sin(phi)[:, None]
     pts = _to_image(view, theta0, arc, t0, du, dz)
+    # samples no farther apart than RAY_STEP_PX: on a near, large opening 81 samples were 1.6 px apart, and the
+    # 3-sample smoothing then spread the blurred rim over 5 px, moving the light crossing outwards (the values
+    # of DN 150 high, of DN 1000 low against one weight)
+    longest = float(np.nanmax(np.linalg.norm(pts[:, -1] - pts[:, 0], axis=-1), initial=0.0))
+    if longest > 80 * RAY_STEP_PX:
+        s = np.linspace(0.0, 2.0 * radius, int(np.ceil(longest / RAY_STEP_PX)) + 1)
+        du, dz = s[None, :] * np.cos(phi)[:, None], s[None, :] * np.sin(phi)[:, None]
+        pts = _to_image(view, theta0, arc, t0, du, dz)
     prof = _masked(_sample(gray, pts), pts, mask)
     inner, outer = s < 0.4 * radius, (s > 1.4 * radius)
     found = np.full(RAYS, np.nan)
     steps = np.full(RAYS, np.nan)
-    spread = np.full(RAYS, np.nan)
+    gap = np.full(RAYS, np.nan)
     glare = bool(np.nanmax(prof, initial=0.0) >= GLARE_LEVEL) if np.isfinite(prof).any() else False
     for k in range(RAYS):
         p = prof[k]
@@ -205,21 +226,44 @@ def _edges(gray, view, theta0, t0, radius, mask):
         lo, hi = float(np.median(p[inner])), float(np.median(p[outer]))
         if hi - lo < MIN_CONTRAST:
             continue
-        # where the rim lies between the two half-way levels of the grey and of the light (a camera's response is
-        # compressive, about a 2.2 power, unknown in detail: half-way in grey levels lies inside the blurred rim,
-        # half-way in light outside it for a response flatter than the power): RIM_WEIGHT of the way from the first
-        # to the second, and their spread (the rectangular term of the rim's definition covers the whole of it)
-        light = 255.0 * (0.5 * ((lo / 255.0) ** DISPLAY_GAMMA + (hi / 255.0) ** DISPLAY_GAMMA)) ** (1 / DISPLAY_GAMMA)
-        q = np.convolve(p, np.ones(3) / 3, mode="same")
-        rims = [_crossing(q, s, level, radius) for level in (0.5 * (lo + hi), light)]
-        if any(x is None for x in rims):
+        placed = rim_on_ray(p, s, lo, hi, radius)
+        if placed is None:
             continue
-        r = rims[0] + RIM_WEIGHT * (rims[1] - rims[0])
-        spread[k] = 0.5 * abs(rims[1] - rims[0])
+        r, gap[k] = placed
         if not 0.4 * radius <= r <= 1.6 * radius:
             continue
         found[k], steps[k] = r, hi - lo
-    return phi, found, steps, arc, glare, spread
+    return phi, found, steps, arc, glare, gap
+
+
+def rim_on_ray(p: np.ndarray, s: np.ndarray, lo: float, hi: float, radius: float) -> tuple[float, float] | None:
+    """The rim's place on a ray rising from an opening's inside to the wall, and the distance between the two
+    half-way crossings it rests on, both in the unit of ``s``; None when the ray does not cross both levels.
+
+    p : grey levels along the ray [8-bit levels]; s : the ray's positions; lo, hi : the inside's and the wall's
+    levels [8-bit levels]; radius : where the rim is expected (the crossing nearest it is taken).
+    """
+    # where the rim lies between the two half-way levels of the grey and of the light (a camera's response is
+    # compressive, about a 2.2 power, unknown in detail: half-way in grey levels lies inside the blurred rim,
+    # half-way in light outside it for a response flatter than the power): RIM_WEIGHT of the way from the first
+    # to the second; their distance carries the rim's definition term (``rim_definition_u``)
+    light = 255.0 * (0.5 * ((lo / 255.0) ** DISPLAY_GAMMA + (hi / 255.0) ** DISPLAY_GAMMA)) ** (1 / DISPLAY_GAMMA)
+    q = np.convolve(p, np.ones(3) / 3, mode="same")
+    grey, lit = (_crossing(q, s, level, radius) for level in (0.5 * (lo + hi), light))
+    if grey is None or lit is None:
+        return None
+    return grey + RIM_WEIGHT * (lit - grey), abs(lit - grey)
+
+
+def rim_definition_u(gap_px: float) -> float:
+    """Standard uncertainty [px] of an end's coordinate from the rim's definition, counted on each end of an extent.
+
+    gap_px : distance between the grey-level and the light half-way crossings on a ray [px].
+    The rim's place is RIM_WEIGHT of that way with standard uncertainty RIM_WEIGHT_U; an error in it moves both
+    ends of an extent outwards alike, so the extent by 2 RIM_WEIGHT_U gap_px: sqrt(2) RIM_WEIGHT_U gap_px on each
+    end (the measurement model takes the ends as independent) carries it whole.
+    """
+    return float(np.sqrt(2.0) * RIM_WEIGHT_U * gap_px)
 
 
 def _crossing(q: np.ndarray, s: np.ndarray, level: float, radius: float) -> float | None:
@@ -272,7 +316,7 @@ def find_lateral(ideal_bgr: np.ndarray, view: PipeView, *, clock: float | None =
     radius = 0.25 * (around + along)
     fit = None
     for _ in range(3):                          # recentre on the fit, then fit again
-        phi, r, step, arc, glare, spread = _edges(gray, view, theta0, t0, radius, mask)
+        phi, r, step, arc, glare, gap = _edges(gray, view, theta0, t0, radius, mask)
         ok = np.isfinite(r)
         if ok.sum() < 8:
             return None
@@ -297,11 +341,11 @@ def find_lateral(ideal_bgr: np.ndarray, view: PipeView, *, clock: float | None =
     sd_sector = float(np.sqrt(np.mean(means ** 2))) if len(means) else np.inf
     # an axis' end rests on the sectors about it (about a quarter of them each side): its u, for one coordinate
     per_end = sd_sector / np.sqrt(max(len(means) / 4.0, 1.0))
-    # the rim's definition (between the two half-way levels): the same for every ray, so it shifts both ends of an
-    # extent alike: rectangular over the spread, counted sqrt(2) on each end so that the extent's u carries it whole
-    spread_px = float(np.nanmedian(spread[ok])) * float(np.median(np.abs(residual_px) / np.maximum(np.abs(r_pt - r_fit), 1e-12))) \
+    # the rim's definition (its place between the two half-way levels): the same for every ray, so it shifts both
+    # ends of an extent alike
+    gap_px = float(np.nanmedian(gap[ok])) * float(np.median(np.abs(residual_px) / np.maximum(np.abs(r_pt - r_fit), 1e-12))) \
         if np.any(np.abs(r_pt - r_fit) > 0) else 0.0
-    u_definition = np.sqrt(2.0) * spread_px / np.sqrt(3.0)
+    u_definition = rim_definition_u(gap_px)
     u_end = max(float(np.hypot(per_end, u_definition)), EDGE_FLOOR_PX)
     a_ar, b_ar = _to_image(view, theta0, arc, t0, np.array([-Au, Au]), np.zeros(2))
     a_al, b_al = _to_image(view, theta0, arc, t0, np.zeros(2), np.array([-Az, Az]))

@@ -1,0 +1,71 @@
+"""Where a lateral's rim lies between the grey-level and the light half-way crossings, against the generator's truth.
+
+For each generated BCA case (``benchmarks/automatic_connections.py``'s scenes, circular pipes: the truth's arc
+around the pipe is the lateral's diameter) the opening is found in the nearest measured frame with the fitted
+pose, at the rim weights 0 (the grey-level crossing) and 1 (the light one); the extent around, against the truth,
+in the image [px] gives the weight w* that would have hit the truth (pose errors included). Also the distance
+between the crossings over the extent [px], and an end's u parts without the floor: the sectors' scatter and with
+the rim's definition. Prints per case and the medians, and the extent's error at the weights 0, 0.15, 1/3:
+
+    nice -n 10 python benchmarks/lateral_rim.py --cases 30 [--seed 34]
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+import numpy as np
+
+from pipeline.measurement.connections import LATERAL_SEARCH_H, VIEW_DEPTHS_H
+from pipeline.vision.contour import lateral as lateral_module
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+import automatic_connections as ac  # noqa: E402
+from coverage_stats import robust_sd  # noqa: E402
+
+
+def _found(frame, view, clock, weight: float, weight_u: float, floor: float):
+    """find_lateral on the nearest frame with the rim's weight, its u and the end's floor set as given."""
+    saved = lateral_module.RIM_WEIGHT, lateral_module.RIM_WEIGHT_U, lateral_module.EDGE_FLOOR_PX
+    lateral_module.RIM_WEIGHT, lateral_module.RIM_WEIGHT_U, lateral_module.EDGE_FLOOR_PX = weight, weight_u, floor
+    try:
+        depth = VIEW_DEPTHS_H[0]
+        return lateral_module.find_lateral(frame, view, clock=clock, expected_depth=depth,
+                                           depths=(max(0.9, depth - LATERAL_SEARCH_H), depth + LATERAL_SEARCH_H))
+    finally:
+        lateral_module.RIM_WEIGHT, lateral_module.RIM_WEIGHT_U, lateral_module.EDGE_FLOOR_PX = saved
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--cases", type=int, default=30)
+    ap.add_argument("--seed", type=int, default=34)
+    args = ap.parse_args()
+    rows = []
+    for i, scene, clock, frame, contour in ac.nearest_frames("bca", args.cases, args.seed):
+        H, d = scene.pipe.height_mm, scene.features[0].diameter_mm
+        lats = [_found(frame, contour.view, clock, w, lateral_module.RIM_WEIGHT_U, 0.0) for w in (0.0, 1.0)]
+        sector = _found(frame, contour.view, clock, lateral_module.RIM_WEIGHT, 0.0, 0.0)
+        if any(x is None or x.problems for x in lats + [sector]):
+            continue
+        a, b = np.array(lats[0].around)
+        px_per_mm = float(np.linalg.norm(a - b)) / (lats[0].extent_around * H)
+        e0, e1 = ((x.extent_around * H - d) * px_per_mm for x in lats)
+        rows.append((e0, e1 - e0, sector.u_around_px, lats[0].u_around_px))
+        print(f"{i:3d} DN {H:5.0f}: extent's error at the grey crossing {e0:+.2f} px, crossings {e1 - e0:.2f} px "
+              f"apart over the extent, w* {-e0 / (e1 - e0):+.2f}; an end's u: sectors {sector.u_around_px:.3f} px, "
+              f"with the definition {lats[0].u_around_px:.3f} px", flush=True)
+    e0, gap, sector_u, with_def = (np.array(c) for c in zip(*rows))
+    print(f"{len(rows)} circular cases: w* median {np.median(-e0 / gap):.2f} (robust SD {robust_sd(-e0 / gap):.2f}); "
+          f"crossings {np.median(gap):.2f} px apart over the extent; an end's u: sectors "
+          f"{np.percentile(sector_u, 10):.2f}-{np.percentile(sector_u, 90):.2f} px, with the definition "
+          f"{np.percentile(with_def, 10):.2f}-{np.percentile(with_def, 90):.2f} px (10th-90th percentile)")
+    for w in (0.0, lateral_module.RIM_WEIGHT, 1.0 / 3.0):
+        e = e0 + w * gap
+        print(f"weight {w:.2f}: the extent's error median {np.median(e):+.2f} px, robust SD {robust_sd(e):.2f} px")
+
+
+if __name__ == "__main__":
+    main()

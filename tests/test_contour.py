@@ -337,3 +337,36 @@ def test_pose_fit_leaves_the_minimum_where_offset_is_traded_for_yaw():
     err = c.view.pose[:4] - truth
     assert c.confident
     assert np.all(np.abs(err[:2]) < 0.0015) and np.all(np.abs(np.degrees(err[2:])) < 0.05), err
+
+
+def _ring_points(view, depths_by_frame, n=240, noise_px=0.2, seed=0):
+    """Ideal image points of whole cross-section rings seen by ``view``: (points, frame, curve) of each."""
+    rng = np.random.default_rng(seed)
+    poly = profile_polygon(view.shape, 1.0, n)
+    pts, frame_of, curve_of = [], [], []
+    for frame, depths in enumerate(depths_by_frame):
+        for k, t in enumerate(depths):
+            img = view.project(np.column_stack([poly, np.full(n, t)]))
+            inside = np.all((img > 0) & (img < [720, 576]), axis=1)
+            pts.append(img[inside] + rng.normal(0.0, noise_px, (inside.sum(), 2)))
+            frame_of.append(np.full(inside.sum(), frame))
+            curve_of.append(np.full(inside.sum(), 1_000_000 * frame + k))
+    return np.concatenate(pts), np.concatenate(frame_of), np.concatenate(curve_of)
+
+
+def test_a_restart_back_in_the_fits_basin_is_cut_short_and_one_elsewhere_is_not():
+    """``refine(..., back_to=fits)`` returns None when its first fit comes back to within RETURN_H of one fit's
+    camera offset (the rest would end at that fit again), and the full fit when it settles elsewhere."""
+    from pipeline.vision.contour.ring_fit import RETURN_H, refine, returned
+
+    truth = PipeView("circular", 800.0, 800.0, 360.0, 288.0, 0.02, -0.03, math.radians(0.5), math.radians(-1.0))
+    pts, frame_of, curve_of = _ring_points(truth, [[1.5, 2.2, 3.1, 4.4], [1.7, 2.5, 3.5], [1.6, 2.8, 4.0]])
+    start = truth.with_pose(truth.pose + [0.008, 0.0, 0.0, 0.0, 0.0])
+    fit = refine(start, pts, frame_of, curve_of)
+    assert fit is not None and returned(fit[0], truth)
+    elsewhere = truth.with_pose(truth.pose + [0.0, 5 * RETURN_H, 0.0, 0.0, 0.0])
+    assert refine(start, pts, frame_of, curve_of, back_to=[elsewhere, truth]) is None
+    cut = refine(start, pts, frame_of, curve_of, back_to=[elsewhere])
+    assert cut is not None and np.allclose(cut[0].pose, fit[0].pose)
+    assert returned(truth.with_pose(truth.pose + [0.9 * RETURN_H, -0.9 * RETURN_H, 0.1, 0.1, 0.0]), truth)
+    assert not returned(truth.with_pose(truth.pose + [0.0, 1.1 * RETURN_H, 0.0, 0.0, 0.0]), truth)

@@ -370,3 +370,42 @@ def test_a_restart_back_in_the_fits_basin_is_cut_short_and_one_elsewhere_is_not(
     assert cut is not None and np.allclose(cut[0].pose, fit[0].pose)
     assert returned(truth.with_pose(truth.pose + [0.9 * RETURN_H, -0.9 * RETURN_H, 0.1, 0.1, 0.0]), truth)
     assert not returned(truth.with_pose(truth.pose + [0.0, 1.1 * RETURN_H, 0.0, 0.0, 0.0]), truth)
+
+
+def _dense_ring_peaks(view, pts, frame_of, width=0.004):
+    """ring_peaks as it was, on the dense histogram of every bin (the reference of the sparse one)."""
+    from pipeline.vision.contour.first_pose import _FRAME_SPACING, MIN_RING_POINTS, _log_depths
+
+    lt, ok = _log_depths(view, pts, frame_of)
+    lt = lt[ok]
+    lo = lt.min()
+    counts = np.bincount(np.floor((lt - lo) / width).astype(int)).astype(float)
+    smooth = np.convolve(counts, [0.25, 0.5, 0.25], mode="same")
+    padded = np.pad(smooth, 3)
+    window_max = np.maximum.reduce([padded[k:k + len(smooth)] for k in range(7)])
+    out = []
+    for i in np.nonzero((smooth >= MIN_RING_POINTS / 3) & (smooth == window_max))[0]:
+        v = lo + (i + 0.5) * width
+        frame = int(np.floor(v / _FRAME_SPACING + 0.5))
+        out.append((frame, float(np.exp(v - _FRAME_SPACING * frame))))
+    return out
+
+
+@pytest.mark.parametrize("width", [0.004, 0.01])
+def test_ring_peaks_on_the_sparse_histogram_equal_the_dense_ones(width):
+    """The depth histogram kept near its occupied bins only gives the dense histogram's peaks, bit for bit, also
+    for rings whose bins lie a few apart and frames with scattered texture points."""
+    from pipeline.vision.contour.first_pose import ring_peaks, sparse_counts
+
+    view = PipeView("circular", 800.0, 800.0, 360.0, 288.0, 0.02, -0.03, math.radians(0.5), math.radians(-1.0))
+    depths = [[1.5, 1.52, 1.56, 3.1, 4.4], [1.7, 2.5, 2.52], [1.6, 2.8, 4.0, 9.0]]
+    pts, frame_of, _ = _ring_points(view, depths, n=120, noise_px=0.4)
+    rng = np.random.default_rng(1)
+    texture = rng.uniform([0, 0], [720, 576], (600, 2))
+    pts, frame_of = np.vstack([pts, texture]), np.concatenate([frame_of, rng.integers(0, 3, 600)])
+    sparse = ring_peaks(view, pts, frame_of, width)
+    assert sparse == _dense_ring_peaks(view, pts, frame_of, width)
+    assert len(sparse) >= 8          # rings were found (close ones merge in the wider bins)
+    counts, bins = sparse_counts(np.array([3, 3, 9, 40]), 2)
+    assert bins.tolist() == [1, 2, 3, 4, 5, 7, 8, 9, 10, 11, 38, 39, 40, 41, 42]
+    assert counts.tolist() == [0, 0, 2, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0]

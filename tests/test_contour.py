@@ -354,7 +354,7 @@ def _ring_points(view, depths_by_frame, n=240, noise_px=0.2, seed=0):
     return np.concatenate(pts), np.concatenate(frame_of), np.concatenate(curve_of)
 
 
-def test_a_restart_back_in_the_fits_basin_is_cut_short_and_one_elsewhere_is_not():
+def test_a_start_back_in_an_earlier_fits_basin_is_cut_short_and_one_elsewhere_is_not():
     """``refine(..., back_to=fits)`` returns None when its first fit comes back to within RETURN_H of one fit's
     camera offset (the rest would end at that fit again), and the full fit when it settles elsewhere."""
     from pipeline.vision.contour.ring_fit import RETURN_H, refine, returned

@@ -124,7 +124,7 @@ def contour_from_candidates(candidates: list[FrameCandidates], camera_matrix: np
     neighbour : the pose fitted to an overlapping window of the same video (the mount does not move), tried as the
     first start; when its fit lies closest to the points, the restarts along the offset-for-tilt valley are not
     repeated here: that pose came out of them already (``_restarted``), and they are most of a fit's work.
-    Starts whose first fit comes back beside an earlier one's are not fitted on (``ring_fit.refine``, back_to).
+    A start whose first fit comes back beside an earlier start's is not fitted on (``ring_fit.refine``, back_to).
     """
     K = np.asarray(camera_matrix, float)
     view = PipeView(shape, K[0, 0], K[1, 1], K[0, 2], K[1, 2])
@@ -196,7 +196,9 @@ def _restarted(fit, assigned, pts, frame_of, curve_of, rounds: int = 2):
         view, sol, free = fit[0], fit[2], fit[3]
         improved = False
         for start in offset_restarts(view, _pose_covariance(sol, free, 1.0)):
-            trial = refine(start, pts, frame_of, curve_of, back_to=[view])      # None: back in this fit's basin
+            # fitted to the end even when it comes back into this fit's basin (no back_to): coming back, a restart
+            # finds its rings from a pose beside the fit and often more of them (docs/speed.md, round 4)
+            trial = refine(start, pts, frame_of, curve_of)
             if trial is None:
                 continue
             trial_assigned = assign(trial[0], pts, frame_of, trial[1])

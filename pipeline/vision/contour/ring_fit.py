@@ -38,16 +38,16 @@ MAX_RING_RMS_PX = 1.0       # a ring fitting worse than this (or twice the media
 MAX_ASPECT_DEPARTURE = 0.02  # a ring whose height / width departs more than this (and 3 u) from the profile's is deformed
 RETURN_H = 0.001            # a start whose first fit lies this close [H] in camera offset to a fit already made went
                             # back into that fit's basin: the offset-for-tilt valley's other minima lie 0.3-1.2 % H
-                            # off, its restarts 0.8 % H off (first_pose.RESTART_OFFSETS_H)
+                            # off (docs/contour.md)
 
 
 def refine(view: PipeView, pts: np.ndarray, frame_of: np.ndarray, curve_of: np.ndarray,
            back_to: Sequence[PipeView] = ()):
     """Rings as depth peaks of the pose, then the least-squares fit, misfit and deformed rings dropped, repeated.
 
-    back_to : poses already fitted to these points (an earlier start's, or the fit a restart was set beside,
-    ``detect``): when the first fit comes back to within ``RETURN_H`` of one's camera offset, this start lies in
-    that fit's basin, the rest would end at that fit again, and None is returned.
+    back_to : poses already fitted to these points from other first poses (``detect``): when the first fit comes
+    back to within ``RETURN_H`` of one's camera offset, this start lies in that fit's basin, the rest would end
+    beside that fit, and None is returned.
     """
     rings = ring_peaks(view, pts, frame_of)
     sol = free = None

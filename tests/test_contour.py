@@ -337,3 +337,75 @@ def test_pose_fit_leaves_the_minimum_where_offset_is_traded_for_yaw():
     err = c.view.pose[:4] - truth
     assert c.confident
     assert np.all(np.abs(err[:2]) < 0.0015) and np.all(np.abs(np.degrees(err[2:])) < 0.05), err
+
+
+def _ring_points(view, depths_by_frame, n=240, noise_px=0.2, seed=0):
+    """Ideal image points of whole cross-section rings seen by ``view``: (points, frame, curve) of each."""
+    rng = np.random.default_rng(seed)
+    poly = profile_polygon(view.shape, 1.0, n)
+    pts, frame_of, curve_of = [], [], []
+    for frame, depths in enumerate(depths_by_frame):
+        for k, t in enumerate(depths):
+            img = view.project(np.column_stack([poly, np.full(n, t)]))
+            inside = np.all((img > 0) & (img < [720, 576]), axis=1)
+            pts.append(img[inside] + rng.normal(0.0, noise_px, (inside.sum(), 2)))
+            frame_of.append(np.full(inside.sum(), frame))
+            curve_of.append(np.full(inside.sum(), 1_000_000 * frame + k))
+    return np.concatenate(pts), np.concatenate(frame_of), np.concatenate(curve_of)
+
+
+def test_a_start_back_in_an_earlier_fits_basin_is_cut_short_and_one_elsewhere_is_not():
+    """``refine(..., back_to=fits)`` returns None when its first fit comes back to within RETURN_H of one fit's
+    camera offset (the rest would end at that fit again), and the full fit when it settles elsewhere."""
+    from pipeline.vision.contour.ring_fit import RETURN_H, refine, returned
+
+    truth = PipeView("circular", 800.0, 800.0, 360.0, 288.0, 0.02, -0.03, math.radians(0.5), math.radians(-1.0))
+    pts, frame_of, curve_of = _ring_points(truth, [[1.5, 2.2, 3.1, 4.4], [1.7, 2.5, 3.5], [1.6, 2.8, 4.0]])
+    start = truth.with_pose(truth.pose + [0.008, 0.0, 0.0, 0.0, 0.0])
+    fit = refine(start, pts, frame_of, curve_of)
+    assert fit is not None and returned(fit[0], truth)
+    elsewhere = truth.with_pose(truth.pose + [0.0, 5 * RETURN_H, 0.0, 0.0, 0.0])
+    assert refine(start, pts, frame_of, curve_of, back_to=[elsewhere, truth]) is None
+    cut = refine(start, pts, frame_of, curve_of, back_to=[elsewhere])
+    assert cut is not None and np.allclose(cut[0].pose, fit[0].pose)
+    assert returned(truth.with_pose(truth.pose + [0.9 * RETURN_H, -0.9 * RETURN_H, 0.1, 0.1, 0.0]), truth)
+    assert not returned(truth.with_pose(truth.pose + [0.0, 1.1 * RETURN_H, 0.0, 0.0, 0.0]), truth)
+
+
+def _dense_ring_peaks(view, pts, frame_of, width=0.004):
+    """ring_peaks as it was, on the dense histogram of every bin (the reference of the sparse one)."""
+    from pipeline.vision.contour.first_pose import _FRAME_SPACING, MIN_RING_POINTS, _log_depths
+
+    lt, ok = _log_depths(view, pts, frame_of)
+    lt = lt[ok]
+    lo = lt.min()
+    counts = np.bincount(np.floor((lt - lo) / width).astype(int)).astype(float)
+    smooth = np.convolve(counts, [0.25, 0.5, 0.25], mode="same")
+    padded = np.pad(smooth, 3)
+    window_max = np.maximum.reduce([padded[k:k + len(smooth)] for k in range(7)])
+    out = []
+    for i in np.nonzero((smooth >= MIN_RING_POINTS / 3) & (smooth == window_max))[0]:
+        v = lo + (i + 0.5) * width
+        frame = int(np.floor(v / _FRAME_SPACING + 0.5))
+        out.append((frame, float(np.exp(v - _FRAME_SPACING * frame))))
+    return out
+
+
+@pytest.mark.parametrize("width", [0.004, 0.01])
+def test_ring_peaks_on_the_sparse_histogram_equal_the_dense_ones(width):
+    """The depth histogram kept near its occupied bins only gives the dense histogram's peaks, bit for bit, also
+    for rings whose bins lie a few apart and frames with scattered texture points."""
+    from pipeline.vision.contour.first_pose import ring_peaks, sparse_counts
+
+    view = PipeView("circular", 800.0, 800.0, 360.0, 288.0, 0.02, -0.03, math.radians(0.5), math.radians(-1.0))
+    depths = [[1.5, 1.52, 1.56, 3.1, 4.4], [1.7, 2.5, 2.52], [1.6, 2.8, 4.0, 9.0]]
+    pts, frame_of, _ = _ring_points(view, depths, n=120, noise_px=0.4)
+    rng = np.random.default_rng(1)
+    texture = rng.uniform([0, 0], [720, 576], (600, 2))
+    pts, frame_of = np.vstack([pts, texture]), np.concatenate([frame_of, rng.integers(0, 3, 600)])
+    sparse = ring_peaks(view, pts, frame_of, width)
+    assert sparse == _dense_ring_peaks(view, pts, frame_of, width)
+    assert len(sparse) >= 8          # rings were found (close ones merge in the wider bins)
+    counts, bins = sparse_counts(np.array([3, 3, 9, 40]), 2)
+    assert bins.tolist() == [1, 2, 3, 4, 5, 7, 8, 9, 10, 11, 38, 39, 40, 41, 42]
+    assert counts.tolist() == [0, 0, 2, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0]

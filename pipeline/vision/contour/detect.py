@@ -121,9 +121,10 @@ def contour_from_candidates(candidates: list[FrameCandidates], camera_matrix: np
                             seed=None, wall_u: float = 0.0, neighbour: PipeView | None = None) -> PipeContour:
     """``detect_contour`` from the frames' ``frame_candidates`` (the first frame is the reference).
 
-    neighbour : the pose fitted to an overlapping window of the same video (the mount does not move), tried as one
-    more start; when its fit lies closest to the points, the restarts along the offset-for-tilt valley are not
+    neighbour : the pose fitted to an overlapping window of the same video (the mount does not move), tried as the
+    first start; when its fit lies closest to the points, the restarts along the offset-for-tilt valley are not
     repeated here: that pose came out of them already (``_restarted``), and they are most of a fit's work.
+    A start whose first fit comes back beside an earlier start's is not fitted on (``ring_fit.refine``, back_to).
     """
     K = np.asarray(camera_matrix, float)
     view = PipeView(shape, K[0, 0], K[1, 1], K[0, 2], K[1, 2])
@@ -143,9 +144,15 @@ def contour_from_candidates(candidates: list[FrameCandidates], camera_matrix: np
     if not starts:
         starts = [search_pose(start, pts[steer], frame_of[steer])]
     if neighbour is not None:
-        starts.append(neighbour)
-    refined = [refine(v, pts, frame_of, curve_of) for v in starts]
-    fits = [f for f in refined if f is not None]
+        starts.insert(0, neighbour)
+    # one fit per basin: a start whose first fit comes back beside an earlier start's fit would end there again
+    # (``refine``'s back_to); the neighbour's pose goes first, the likeliest to be right
+    fits, origin = [], []
+    for i, v in enumerate(starts):
+        f = refine(v, pts, frame_of, curve_of, back_to=[g[0] for g in fits])
+        if f is not None:
+            fits.append(f)
+            origin.append(i)
     if not fits:
         empty.problems.append("no cross-section ring with enough points and arc coverage")
         return empty
@@ -153,7 +160,7 @@ def contour_from_candidates(candidates: list[FrameCandidates], camera_matrix: np
     assigned = [assign(f[0], pts, frame_of, f[1]) for f in fits]
     rms_of = [float(np.sqrt(np.mean(res[ring_of >= 0] ** 2))) for ring_of, res in assigned]
     best = int(np.argmin(rms_of))
-    if neighbour is not None and refined[-1] is not None and best == len(fits) - 1:
+    if neighbour is not None and origin[best] == 0:
         fit, (ring_of, res), rms = fits[best], assigned[best], rms_of[best]      # restarted in the neighbour's window
     else:
         fit, (ring_of, res), rms = _restarted(fits[best], assigned[best], pts, frame_of, curve_of)
@@ -189,6 +196,8 @@ def _restarted(fit, assigned, pts, frame_of, curve_of, rounds: int = 2):
         view, sol, free = fit[0], fit[2], fit[3]
         improved = False
         for start in offset_restarts(view, _pose_covariance(sol, free, 1.0)):
+            # fitted to the end even when it comes back into this fit's basin (no back_to): coming back, a restart
+            # finds its rings from a pose beside the fit and often more of them (docs/speed.md, round 4)
             trial = refine(start, pts, frame_of, curve_of)
             if trial is None:
                 continue

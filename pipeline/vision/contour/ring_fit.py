@@ -20,6 +20,8 @@ Units: image points [px], depths and the offset [H], angles [rad].
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 import numpy as np
 
 from pipeline.vision.contour.first_pose import pose_mask, ring_peaks
@@ -34,10 +36,19 @@ OFFSET_PRIOR_H = 0.3        # standard deviation of the camera offset prior [H]:
 FIT_POINT_STRIDE = 3        # one ring point in this many enters the least squares
 MAX_RING_RMS_PX = 1.0       # a ring fitting worse than this (or twice the median ring) is not of the family
 MAX_ASPECT_DEPARTURE = 0.02  # a ring whose height / width departs more than this (and 3 u) from the profile's is deformed
+RETURN_H = 0.001            # a start whose first fit lies this close [H] in camera offset to a fit already made went
+                            # back into that fit's basin: the offset-for-tilt valley's other minima lie 0.3-1.2 % H
+                            # off (docs/contour.md)
 
 
-def refine(view: PipeView, pts: np.ndarray, frame_of: np.ndarray, curve_of: np.ndarray):
-    """Rings as depth peaks of the pose, then the least-squares fit, misfit and deformed rings dropped, repeated."""
+def refine(view: PipeView, pts: np.ndarray, frame_of: np.ndarray, curve_of: np.ndarray,
+           back_to: Sequence[PipeView] = ()):
+    """Rings as depth peaks of the pose, then the least-squares fit, misfit and deformed rings dropped, repeated.
+
+    back_to : poses already fitted to these points from other first poses (``detect``): when the first fit comes
+    back to within ``RETURN_H`` of one's camera offset, this start lies in that fit's basin, the rest would end
+    beside that fit, and None is returned.
+    """
     rings = ring_peaks(view, pts, frame_of)
     sol = free = None
     deformed: list[tuple[int, float]] = []
@@ -50,6 +61,9 @@ def refine(view: PipeView, pts: np.ndarray, frame_of: np.ndarray, curve_of: np.n
         sel = ring_of >= 0
         view, depths, sol, free = _fit(view, pts[sel], ring_of[sel], [t for _, t in rings], loss)
         rings = [(frame, t) for (frame, _), t in zip(rings, depths)]
+        if any(returned(view, other) for other in back_to):
+            return None
+        back_to = ()            # judged once, after the first fit: later fits only polish the basin it reached
         if loss != "linear":
             wall, _ = view.wall_hits(pts)
             rings = _drop_misfits(view, pts, frame_of, rings, wall)
@@ -57,6 +71,13 @@ def refine(view: PipeView, pts: np.ndarray, frame_of: np.ndarray, curve_of: np.n
             deformed += [r for r, bad in zip(rings, flags) if bad]
             rings = [r for r, bad in zip(rings, flags) if not bad]
     return view, rings, sol, free, deformed
+
+
+def returned(view: PipeView, fitted: PipeView, within_h: float | None = None) -> bool:
+    """Whether ``view``'s camera offset (ox, oy) lies within ``within_h`` [H] (default ``RETURN_H``) of
+    ``fitted``'s on both axes: the position along the offset-for-tilt valley, where separate minima lie apart."""
+    within_h = RETURN_H if within_h is None else within_h
+    return bool(np.all(np.abs(view.pose[:2] - fitted.pose[:2]) < within_h))
 
 
 def _keep_rings(view, pts, frame_of, rings, wall):

@@ -73,10 +73,9 @@ def refine(view: PipeView, pts: np.ndarray, frame_of: np.ndarray, curve_of: np.n
     return view, rings, sol, free, deformed
 
 
-def returned(view: PipeView, fitted: PipeView, within_h: float | None = None) -> bool:
-    """Whether ``view``'s camera offset (ox, oy) lies within ``within_h`` [H] (default ``RETURN_H``) of
-    ``fitted``'s on both axes: the position along the offset-for-tilt valley, where separate minima lie apart."""
-    within_h = RETURN_H if within_h is None else within_h
+def returned(view: PipeView, fitted: PipeView, within_h: float = RETURN_H) -> bool:
+    """Whether ``view``'s camera offset (ox, oy) lies within ``within_h`` [H] of ``fitted``'s on both axes: the
+    position along the offset-for-tilt valley, where separate minima lie apart."""
     return bool(np.all(np.abs(view.pose[:2] - fitted.pose[:2]) < within_h))
 
 

@@ -31,11 +31,13 @@ import numpy as np
 from pipeline.core.errors import OverlayError
 from pipeline.vision.video.overlay_ocr import OverlayRead
 
-__all__ = ["CounterModel", "ChainageTrack", "fit_track", "JUMP_MIN_M", "JUMP_SPEED_FACTOR", "BACKWARDS_MIN_M"]
+__all__ = ["CounterModel", "ChainageTrack", "fit_track", "JUMP_MIN_M", "JUMP_SPEED_FACTOR", "BACKWARDS_MIN_M",
+           "MAX_SPEED_M_S"]
 
 JUMP_MIN_M = 0.05           # a jump is more than 5 display steps of 0.01 m ...
 JUMP_SPEED_FACTOR = 2.0     # ... at more than twice the crawler's top speed (max_speed_m_s)
 BACKWARDS_MIN_M = 0.10      # a reversing stretch that loses more than this is reported
+MAX_SPEED_M_S = 0.5         # the crawler's top speed [m/s]: reads farther apart than it drives are outliers
 
 
 @dataclass(frozen=True)
@@ -122,7 +124,7 @@ def _reject_outliers(reads: list[OverlayRead], max_step_m: float) -> tuple[list[
 
 
 def fit_track(reads: list[OverlayRead], n_frames: int, fps: float, *, counter: CounterModel = CounterModel(),
-              stop_s: float = 1.0, max_speed_m_s: float = 0.5, source: str = "the video") -> ChainageTrack:
+              stop_s: float = 1.0, max_speed_m_s: float = MAX_SPEED_M_S, source: str = "the video") -> ChainageTrack:
     """Fit the chainage track of a video of ``n_frames`` frames from sampled overlay reads."""
     reads = sorted(reads, key=lambda r: r.frame)
     kept, rejected = _reject_outliers(reads, max_speed_m_s / fps)

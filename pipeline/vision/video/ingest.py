@@ -19,7 +19,7 @@ from itertools import islice
 import cv2
 import numpy as np
 
-from pipeline.vision.video.chainage_track import ChainageTrack, CounterModel, fit_track
+from pipeline.vision.video.chainage_track import MAX_SPEED_M_S, ChainageTrack, CounterModel, fit_track
 from pipeline.vision.video.beside_decoding import ordered_map
 from pipeline.vision.video.glyphs import GlyphTemplates
 from pipeline.vision.video.overlay_ocr import OverlayRead, OverlayReader, parse_chainage
@@ -29,12 +29,11 @@ __all__ = ["ChainageIngest", "ingest_chainage"]
 
 # The routine check of the templates by the OCR costs about 25 ms a crop (some 80 template reads); 1 in 50 was 47 of
 # the 72 OCR reads of a 6-minute video, half its decoding's CPU. A misread glyph moves the value by a digit's worth,
-# so a read farther from the read before it than the crawler can drive (the track's top speed) plus VERIFY_STEP_M is
+# so a read farther from the read before it than the crawler can drive (MAX_SPEED_M_S) plus VERIFY_STEP_M is
 # checked every time; a misread last digit stays within that and is left to the track's outlier test. The routine
 # check can then be rare.
 VERIFY_EVERY = 250       # one template read in this many is read by the OCR too
 VERIFY_STEP_M = 0.05     # beyond the crawler's reach, a template read this much farther is read by the OCR too [m]
-TOP_SPEED_M_S = 0.5      # the crawler's top speed [m/s] (``fit_track``'s max_speed_m_s)
 LEARN_SCORE = 0.9        # OCR reads at least this sure teach the templates
 MASK_FRAMES = 16         # frames kept, spread over the video, to find the burned-in overlay
 QUEUED = 16              # decoded frames that may wait for the overlay reader
@@ -126,11 +125,12 @@ class _OverlayPass:
 
     def _within_reach(self, index: int, value: float) -> bool:
         """Whether a chainage [m] read at frame ``index`` lies where the crawler could have driven since the last
-        read with a value (VERIFY_STEP_M to spare), or there is no such read."""
+        read with a value among the three before it (VERIFY_STEP_M to spare), or none of them has one (after OCR
+        reads that found no chainage, the next read is not judged against an older one)."""
         before = next((r for r in reversed(self.reads[-3:]) if r.value is not None), None)
         if before is None:
             return True
-        return abs(value - before.value) <= VERIFY_STEP_M + TOP_SPEED_M_S * abs(index - before.frame) / self.fps
+        return abs(value - before.value) <= VERIFY_STEP_M + MAX_SPEED_M_S * abs(index - before.frame) / self.fps
 
 
 def _locate(path, info: VideoInfo, reader: OverlayReader) -> tuple[tuple[int, int, int, int], list[str]]:

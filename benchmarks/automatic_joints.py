@@ -12,6 +12,10 @@ coverage of the confident results with its Wilson interval, median z and robust 
 DN 300), and the false-find rate; ``--json FILE`` keeps every case's row.
 
     nice -n 10 python benchmarks/automatic_joints.py --cases 150 --empty 40 --work /tmp/joint-cases --contours /tmp/joint-poses
+
+``--sightings DIR`` keeps each video's joint sightings (``follow_joint``) with its pose fit, keyed by the video's bytes
+and the joint finder's source: a rerun that changes only the measurement (``pipeline.measurement``) neither decodes
+nor follows the joint again, so the measurement of one set of cases can be compared before and after a change.
 """
 
 from __future__ import annotations
@@ -36,6 +40,7 @@ from pipeline.measurement.joints import measure_joint
 from pipeline.synth.joint_cases import random_case, read_truth, write_case
 from pipeline.vision.contour import detect_contour
 from pipeline.vision.contour.detect import wall_u_from_tolerance
+from pipeline.vision.contour import joint_ends
 from pipeline.vision.contour.joint_ends import follow_joint
 from pipeline.vision.video.reader import iter_frames
 
@@ -66,15 +71,31 @@ def case_contour(video: Path, truth: dict, cert, cache: Path | None = None):
     return grays, contour
 
 
-def measure_case(video: Path, truth: dict, cert, cache: Path | None = None) -> list[dict]:
-    """Both quantities of one encoding of a case: rows with the truth, the result or why none."""
-    case = truth["case"]
-    H = case["height_mm"]
+def case_sightings(video: Path, truth: dict, cert, cache: Path | None = None, kept: Path | None = None):
+    """The video's pose fit and the joint's sightings (``follow_joint``), and the seconds following took; kept in
+    ``kept`` (a folder) when given, keyed by the video's bytes and the joint finder's source."""
+    key = hashlib.sha256(video.read_bytes() + Path(joint_ends.__file__).read_bytes()).hexdigest()[:20]
+    file = kept / (key + ".pickle") if kept else None
+    if file is not None and file.is_file():
+        return pickle.loads(file.read_bytes())
     grays, contour = case_contour(video, truth, cert, cache)
     chain = truth["frames_chainage_m"][:len(grays)]
     frames = [(i, g, c) for i, (g, c) in enumerate(zip(grays, chain))]
     t0 = time.perf_counter()
-    sightings, notes = follow_joint(frames, contour.view, H)
+    sightings, _ = follow_joint(frames, contour.view, truth["case"]["height_mm"])
+    found = (contour, sightings, time.perf_counter() - t0)
+    if file is not None:
+        file.parent.mkdir(parents=True, exist_ok=True)
+        file.write_bytes(pickle.dumps(found))
+    return found
+
+
+def measure_case(video: Path, truth: dict, cert, cache: Path | None = None, kept: Path | None = None) -> list[dict]:
+    """Both quantities of one encoding of a case: rows with the truth, the result or why none."""
+    case = truth["case"]
+    H = case["height_mm"]
+    contour, sightings, following = case_sightings(video, truth, cert, cache, kept)
+    t0 = time.perf_counter() - following
     rows = []
     for char1, truth_value in (("A", truth["gap_mm"]), ("B", truth["step_mm"])):
         row = {"case": case["case_id"], "H": H, "shape": case["shape"], "displaced": case["displaced"],
@@ -135,6 +156,8 @@ def main() -> None:
     ap.add_argument("--work", type=Path, default=Path("/tmp/joint-cases"), help="where the cases' videos are kept")
     ap.add_argument("--json", type=Path, help="write every row here")
     ap.add_argument("--contours", type=Path, help="keep each video's pose fit here (reruns skip the fits)")
+    ap.add_argument("--sightings", type=Path, help="keep each video's joint sightings here (reruns of the measurement "
+                    "alone neither decode nor follow the joint)")
     ap.add_argument("--table", type=Path, help="only print the table of rows kept by --json")
     args = ap.parse_args()
     if args.table:
@@ -155,7 +178,7 @@ def main() -> None:
                 or read_truth(folder)["case"] != json.loads(json.dumps(asdict(case))):
             write_case(case, cert, args.work, codecs=(CODECS[codec],))
         truth = read_truth(folder)
-        for row in measure_case(video, truth, cert, args.contours):
+        for row in measure_case(video, truth, cert, args.contours, args.sightings):
             rows.append({**row, "codec": codec})
         if args.json:                    # kept as it goes: a long run's rows survive an interruption
             args.json.write_text(json.dumps(rows, indent=1, default=str))

@@ -11,7 +11,7 @@ import pytest
 from pipeline.maths.metrology import K95
 from pipeline.measurement import MarkedQuantity, measure_quantity
 from pipeline.measurement import quantity as quantity_module
-from pipeline.measurement.frames import frame_weights, measure_over_frames
+from pipeline.measurement.frames import frame_values, frame_weights, measure_over_frames
 from pipeline.vision.contour import PipeView
 from tests.test_measurement import _contour, _truth
 
@@ -88,6 +88,31 @@ def test_the_height_share_does_not_average_down_with_more_frames(setting):
     shared = math.sqrt(sum(_line(many, k).contribution ** 2 for k in ("H", "certificate", "wall")))
     assert many.U95 >= 0.95 * K95 * shared
     assert many.U95 < one.U95
+
+
+def test_an_edge_error_the_frames_share_is_counted_once_not_averaged_down(setting):
+    """Two frames of one gap whose edges are found the same way (an image fit: ``u_edge``): the edge term is one
+    input, so over the two frames its contribution stays that of one frame while the frames' own marks shrink
+    by sqrt(2). Taken as each frame's own (before), it shrank with them and u was short for the joint."""
+    cert, view = setting
+    contour = _contour(view, u_pose=(1e-6,) * 5)               # a sharp pose: the marks and the edge dominate
+    u_edge = 0.6
+    views = [(dataclasses.replace(_gap(view, 600.0, u=0.3), u_edge=u_edge), contour) for _ in range(2)]
+    one = measure_quantity(*views[0], cert, H=H, tolerance=0.0, seed=5)
+    both = measure_over_frames(views, cert, H=H, tolerance=0.0, seed=5, frames=(7, 8))
+    labels = [line.label for line in both.budget]
+    assert labels.count("edge") == 1 and not any(lab.startswith("edge@") for lab in labels)
+    assert _line(both, "edge").contribution == pytest.approx(_line(one, "edge").contribution, rel=0.02)
+    own = math.sqrt(sum(_line(one, k).contribution ** 2 for k in ("xa", "ya", "xb", "yb")))
+    own_both = math.sqrt(sum(_line(both, f"{k}@f{n}").contribution ** 2 for k in ("xa", "ya", "xb", "yb")
+                             for n in (7, 8)))
+    assert own_both == pytest.approx(own / math.sqrt(2), rel=0.02)
+    # the combined u: the edge once, the marks averaged; not the whole of one frame's u over sqrt(2)
+    assert both.u == pytest.approx(math.hypot(_line(one, "edge").contribution, own_both), rel=0.1)
+    assert both.u > 1.2 * one.u / math.sqrt(2)
+    # the agreement check's own u leaves the edge out (it moves both frames alike)
+    _, own_u = frame_values(views, cert, H=H, tolerance=0.0)
+    assert own_u[0] == pytest.approx(own, rel=0.02)
 
 
 def test_frames_of_one_pose_fit_count_the_pose_once(setting):

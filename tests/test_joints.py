@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+import math
 import re
 from pathlib import Path
 
@@ -151,9 +152,12 @@ def test_a_point_s_u_is_its_ring_s_edge_scatter_in_that_frame(joint, cert):
     s = sightings[0]
     assert 0.0 < s.ends.scatter_near_px < 1.0 and 0.0 < s.ends.scatter_far_px < 1.0
     q = joint_points(_obs("A"), s, contour.view, cert)
+    assert q.u_edge == pytest.approx(math.hypot(s.ends.scatter_near_px, s.ends.scatter_far_px))
     rough = dataclasses.replace(s, ends=dataclasses.replace(s.ends, scatter_far_px=3 * s.ends.scatter_far_px + 1.0))
     q_rough = joint_points(_obs("A"), rough, contour.view, cert)
-    assert q_rough.u_a == pytest.approx(q.u_a) and q_rough.u_b > q.u_b + 0.9
+    # the edges' scatter is the frames' shared edge term, not each point's own u (their rings' jackknife)
+    assert q_rough.u_a == pytest.approx(q.u_a) and q_rough.u_b == pytest.approx(q.u_b)
+    assert q_rough.u_edge > q.u_edge + 0.9
 
 
 def test_the_frames_reasons_are_said_once_with_their_frames():

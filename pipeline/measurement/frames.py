@@ -13,6 +13,12 @@ X_i. Shared, drawn once for all frames:
   it does not average down);
 * ``wall``, the wall's departure under the feature (a displaced joint
   before it): one wall, handled as the certificate;
+* ``edge``, an image fit's definition of the feature's edges (where its
+  edge level lies against the true end: the camera's response, the blur, the
+  ends' shape), the same in every frame of one feature (``MarkedQuantity.u_edge``,
+  the joints' ``edge_u``); handled as the certificate: frame i's separation
+  of a and b moves by x u_i / u_max, so it does not shrink by sqrt(n) over
+  the frames as each frame's own points do;
 * the camera pose, where frames' contours come from one pose fit (the same
   ``PipeContour`` object, or the same pose and covariance); otherwise each
   frame has its own, labelled with its frames (``ox@f1234``).

@@ -76,7 +76,8 @@ __all__ = ["MarkedQuantity", "QuantityResult", "BudgetEntry", "measure_quantity"
 
 MODELS = ("orthographic", "perspective")
 POSE_LABELS = ("ox", "oy", "yaw", "pitch", "roll")
-SHARED_LABELS = ("certificate", "H", "wall")   # the same quantity in every frame of one feature (measure_over_frames)
+SHARED_LABELS = ("certificate", "H", "wall", "edge")   # the same quantity in every frame of one feature
+                                                          # (measure_over_frames)
 CERTIFICATE_DRAWS = 200
 MAX_TRIALS = 400_000    # cap of the adaptive Monte Carlo: a run stopped by it is stated as not converged
 MC_NOT_CONVERGED = "Monte Carlo not converged"   # a reason that states the interval's last digit, not a doubt
@@ -95,6 +96,7 @@ INPUT_DESCRIPTIONS = {
     "xo": "anchor on the wall, x (marking, certificate residual)", "yo": "anchor on the wall, y (marking, certificate residual)",
     "wall": "wall position against the nominal profile (displaced joints logged before it; the tolerance is in H)",
     "across": "the marks' separation across the measured extent (nuisance, not part of the value)",
+    "edge": "edge definition of the image fit, the same in every frame of the feature (image fit)",
 }
 
 
@@ -102,7 +104,7 @@ INPUT_DESCRIPTIONS = {
 # (perspective) or px (orthographic). The report's budget table reads them here (input_unit).
 INPUT_UNITS = {"H": "mm", "p_H": "px", "p_X": "px", "xa": "px", "ya": "px", "xb": "px", "yb": "px", "xo": "px",
                "yo": "px", "ox": "H", "oy": "H", "yaw": "rad", "pitch": "rad", "roll": "rad", "wall": "1",
-               "certificate": "1", "across": "mm"}
+               "certificate": "1", "across": "mm", "edge": "px"}
 
 
 def input_unit(label: str, quantity_unit: str, model: str = "perspective") -> str:
@@ -132,6 +134,10 @@ class MarkedQuantity:
     origin: str = "marking"   # where a and b come from: the operator's marking or an image fit
     anchor: tuple[float, float] | None = None   # wall point fixing the cross-section of two points off the wall, ideal [px]
     u_anchor: float = 0.0
+    # standard uncertainty [px] of the separation of a and b along b - a that every frame of the feature shares (an
+    # image fit's edge definition, the same in each frame: input ``edge``, drawn once by ``measure_over_frames``);
+    # 0: none (an operator's marks, whose errors are each frame's own)
+    u_edge: float = 0.0
 
 
 # One input's line in a quantity's budget is the stored record itself: one definition (pipeline.domain.results).
@@ -369,22 +375,28 @@ def _frame_model(q: MarkedQuantity, contour: PipeContour, cert: Certificate, *, 
     K = dict(fx=view.fx, fy=view.fy, cx=view.cx, cy=view.cy)
     mid = 0.5 * (a + b)
 
-    def perspective(ox, oy, yaw, pitch, roll, xa, ya, xb, yb, wall, certificate, H, xo=None, yo=None):
+    unit_ab = (b - a) / np.linalg.norm(b - a)
+
+    def perspective(ox, oy, yaw, pitch, roll, xa, ya, xb, yb, wall, certificate, H, xo=None, yo=None, edge=0.0):
         # the certificate factor stretches the marks about their midpoint
         xa_, ya_ = mid[0] + certificate * (xa - mid[0]), mid[1] + certificate * (ya - mid[1])
         xb_, yb_ = mid[0] + certificate * (xb - mid[0]), mid[1] + certificate * (yb - mid[1])
-        Pa, Pb = points(ox, oy, yaw, pitch, roll, xa_, ya_, xb_, yb_, wall, xo, yo)
+        Pa, Pb = points(ox, oy, yaw, pitch, roll, xa_, ya_, xb_, yb_, wall, xo, yo, edge)
         return within_domain(q.method, value_from_points(q.method, shape, Pa, Pb, H, reference))
 
-    def points(ox, oy, yaw, pitch, roll, xa, ya, xb, yb, wall, xo, yo):
+    def points(ox, oy, yaw, pitch, roll, xa, ya, xb, yb, wall, xo, yo, edge=0.0):
+        # the shared edge definition moves a and b apart along b - a, half each (both ends found the same way)
+        xa, ya = xa - 0.5 * edge * unit_ab[0], ya - 0.5 * edge * unit_ab[1]
+        xb, yb = xb + 0.5 * edge * unit_ab[0], yb + 0.5 * edge * unit_ab[1]
         return marked_points(method.surfaces, shape, xa, ya, xb, yb, ox=ox, oy=oy, yaw=yaw, pitch=pitch,
                              roll=roll, wall=wall, anchor=None if xo is None else (xo, yo), **K)
 
-    def across(ox, oy, yaw, pitch, roll, xa, ya, xb, yb, wall, certificate, H, xo=None, yo=None):
-        return across_from_points(q.method, *points(ox, oy, yaw, pitch, roll, xa, ya, xb, yb, wall, xo, yo), H)
+    def across(ox, oy, yaw, pitch, roll, xa, ya, xb, yb, wall, certificate, H, xo=None, yo=None, edge=0.0):
+        return across_from_points(q.method, *points(ox, oy, yaw, pitch, roll, xa, ya, xb, yb, wall, xo, yo, edge), H)
 
-    def orthographic(p_X, p_H, certificate, approximation, H):
-        raw = value_from_image_ratio(q.method, shape, certificate * p_X / p_H, H, below, reference) + approximation
+    def orthographic(p_X, p_H, certificate, approximation, H, edge=0.0):
+        raw = value_from_image_ratio(q.method, shape, certificate * (p_X + edge) / p_H, H, below, reference) \
+            + approximation
         return within_domain(q.method, raw)
 
     pose = dict(zip(POSE_LABELS, view.pose))
@@ -397,6 +409,8 @@ def _frame_model(q: MarkedQuantity, contour: PipeContour, cert: Certificate, *, 
         raise MeasurementError(f"{q.code} {q.quantity}: the marks do not meet the pipe wall with the fitted camera pose")
 
     common = {"certificate": Normal(1.0, max(u_cert, 1e-12)), "H": _h_input(H, tolerance) if method.scales_with_H else H}
+    if q.u_edge > 0:
+        common["edge"] = Normal(0.0, q.u_edge)
     cov = contour.covariance
     free = [i for i in range(5) if cov[i, i] > 0]
     names = [POSE_LABELS[i] for i in free]

@@ -36,6 +36,7 @@ from pipeline.camera.undistort import Undistorter
 from pipeline.core.errors import PipegaugeError
 from pipeline.domain.records import Observation
 from pipeline.formats.certificate import load_certificate
+from pipeline.measurement.frames import frame_values
 from pipeline.measurement.joints import measure_joint
 from pipeline.synth.joint_cases import random_case, read_truth, write_case
 from pipeline.vision.contour import detect_contour
@@ -106,9 +107,12 @@ def measure_case(video: Path, truth: dict, cert, cache: Path | None = None, kept
                            "step_mm": float(np.hypot(*s.ends.step)) * H, "u_near": s.ends.u_near,
                            "u_far": s.ends.u_far, "problems": list(s.ends.problems)} for s in sightings]}
         try:
-            _, res = measure_joint(_obs(char1), sightings, contour, cert, H=H, tolerance=0.0, seed=7)
+            points, res = measure_joint(_obs(char1), sightings, contour, cert, H=H, tolerance=0.0, seed=7)
+            # each frame's own value and u from its own inputs (what the frames share left out): ``--split``
+            own_values, own_u = frame_values([(q, contour) for q in points], cert, H=H, tolerance=0.0)
             row.update(status="measured" if res.confident else "found, not measured", value=res.value, u=res.u,
-                       U95=res.U95, low=res.low, high=res.high, reasons="; ".join(res.reasons))
+                       U95=res.U95, low=res.low, high=res.high, reasons="; ".join(res.reasons),
+                       frame_values=own_values.tolist(), frame_own_u=own_u.tolist())
         except PipegaugeError as exc:
             row.update(status="not found", reasons=str(exc))
         row["seconds"] = time.perf_counter() - t0
@@ -148,6 +152,31 @@ def table(rows: list[dict]) -> list[str]:
     return out
 
 
+def split(rows: list[dict]) -> list[str]:
+    """What the frames of a case share and what each adds, from the measured cases seen in two frames or more:
+    the frames' scatter about their mean against their own u (chi-square per degree of freedom: 1 when the own
+    u is the size of what each frame adds) and the case's error against its combined u (robust SD of z)."""
+    out = ["| quantity | cases | frames' scatter / own u: chi2 per dof (all; median case) | robust SD of z, each frame "
+           "against its own u | robust SD of z, the case against its u |", "|---|---|---|---|---|"]
+    for q in ("A", "B"):
+        g = [r for r in rows if r["displaced"] and r["quantity"] == q and r["status"] == "measured"
+             and len(r.get("frame_values", [])) >= 2]
+        if not g:
+            continue
+        chi, dof, per_case, z_frame = 0.0, 0, [], []
+        for r in g:
+            v, u = np.array(r["frame_values"]), np.maximum(np.array(r["frame_own_u"]), 1e-9)
+            mean = np.sum(v / u ** 2) / np.sum(1 / u ** 2)
+            c = float(np.sum(((v - mean) / u) ** 2))
+            chi, dof = chi + c, dof + len(v) - 1
+            per_case.append(c / (len(v) - 1))
+            z_frame += list((v - r["truth"]) / u)
+        z = np.array([(r["value"] - r["truth"]) / r["u"] for r in g])
+        out.append(f"| BAJ {q} | {len(g)} | {chi / dof:.2f}; {np.median(per_case):.2f} | {robust_sd(np.array(z_frame)):.2f} | "
+                   f"{robust_sd(z):.2f} |")
+    return out
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--cases", type=int, default=10, help="cases with a displaced joint (default 10)")
@@ -159,9 +188,14 @@ def main() -> None:
     ap.add_argument("--sightings", type=Path, help="keep each video's joint sightings here (reruns of the measurement "
                     "alone neither decode nor follow the joint)")
     ap.add_argument("--table", type=Path, help="only print the table of rows kept by --json")
+    ap.add_argument("--split", type=Path, help="only print what the frames share and what each adds, from rows kept "
+                    "by --json")
     args = ap.parse_args()
     if args.table:
         print("\n".join(table(json.loads(args.table.read_text()))))
+        return
+    if args.split:
+        print("\n".join(split(json.loads(args.split.read_text()))))
         return
     cert = load_certificate(SAMPLES / "certificates" / "SYN-720x576.json")
     rng = np.random.default_rng(args.seed)
@@ -188,6 +222,8 @@ def main() -> None:
                           f"{r.get('value', float('nan')):.1f}/{r['truth']:.1f}" for r in mine), file=sys.stderr)
     print(f"{len(cases)} cases in {time.perf_counter() - t0:.0f} s")
     print("\n".join(table(rows)))
+    print()
+    print("\n".join(split(rows)))
 
 
 if __name__ == "__main__":

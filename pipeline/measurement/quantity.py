@@ -383,9 +383,26 @@ def _frame_model(q: MarkedQuantity, contour: PipeContour, cert: Certificate, *, 
     def across(ox, oy, yaw, pitch, roll, xa, ya, xb, yb, wall, certificate, H, xo=None, yo=None):
         return across_from_points(q.method, *points(ox, oy, yaw, pitch, roll, xa, ya, xb, yb, wall, xo, yo), H)
 
-    def orthographic(p_X, p_H, certificate, approximation, H):
-        raw = value_from_image_ratio(q.method, shape, certificate * p_X / p_H, H, below, reference) + approximation
-        return within_domain(q.method, raw)
+    fixing = [i for i, s in enumerate(method.surfaces) if s == "wall"]     # the marks that fix the plane
+
+    def image_ratio(xa, ya, xb, yb, p_H, xo=None, yo=None):
+        # p_X / p_H [1]. The plane is the one through the marked wall points (or the anchor), so a mark's error
+        # moves p_X and the plane's p_H alike: both are functions of the marks, not independent inputs. For a
+        # chord nearly as long as p_H (a water line, a deposit's surface) the two mostly cancel in the ratio;
+        # taken apart, u(p_X) alone overstated a level's u 1.1-10 times, 1 / (1 - 2 h) at a level h [H].
+        # p_H [px] is the plane's p_H at the marks' estimates with its own error (the pose fit, the wall).
+        xa, ya, xb, yb, *anchor = np.broadcast_arrays(
+            *(np.atleast_1d(np.asarray(v, float)) for v in (xa, ya, xb, yb, *(() if xo is None else (xo, yo)))))
+        dx, dy = xb - xa, yb - ya
+        along = np.hypot(dx, dy) if direction is None else np.abs(direction[0] * dx + direction[1] * dy)
+        ends = [np.column_stack([xa, ya]), np.column_stack([xb, yb])]
+        walls = [ends[i] for i in fixing] or [np.column_stack(anchor)]
+        depth = np.mean([view.depths(w) for w in walls], axis=0)
+        return along / (p_H + view.p_H(depth) - plane.p_H)
+
+    def orthographic(xa, ya, xb, yb, p_H, certificate, approximation, H, xo=None, yo=None):
+        ratio = certificate * image_ratio(xa, ya, xb, yb, p_H, xo, yo)
+        return within_domain(q.method, value_from_image_ratio(q.method, shape, ratio, H, below, reference) + approximation)
 
     pose = dict(zip(POSE_LABELS, view.pose))
     anchored = {} if q.anchor is None else {"xo": q.anchor[0], "yo": q.anchor[1]}
@@ -412,8 +429,9 @@ def _frame_model(q: MarkedQuantity, contour: PipeContour, cert: Certificate, *, 
         delta_ortho = abs(v_ortho - v_persp)
         p_H_input = (StudentT(plane.p_H, plane.u_p_H, plane.dof) if math.isfinite(plane.dof) and plane.u_p_H > 0
                      else Normal(plane.p_H, plane.u_p_H))
-        independent = {"p_X": Normal(p_X, math.hypot(q.u_a, q.u_b)), "p_H": p_H_input,
-                       "approximation": Normal(0.0, delta_ortho) if delta_ortho > 0 else 0.0, **common}
+        independent = {"xa": Normal(a[0], q.u_a), "ya": Normal(a[1], q.u_a), "xb": Normal(b[0], q.u_b),
+                       "yb": Normal(b[1], q.u_b), **{k: Normal(v, max(q.u_anchor, 1e-12)) for k, v in anchored.items()},
+                       "p_H": p_H_input, "approximation": Normal(0.0, delta_ortho) if delta_ortho > 0 else 0.0, **common}
         joint: list = []
         fn = orthographic
         nuisance = None if direction is None else (

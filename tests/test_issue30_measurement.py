@@ -111,3 +111,36 @@ def test_the_monte_carlo_stops_at_the_digits_the_result_prints():
     assert 1.0 < r.U95 < 10.0
     assert r.mc_converged and r.mc_trials < quantity_module.MAX_TRIALS
     assert not any("Monte Carlo not converged" in reason for reason in r.reasons)
+
+
+@pytest.mark.parametrize("method, level", [("water_level", 0.4), ("deposit_area", 0.3), ("deformation", 0.1)])
+def test_the_orthographic_u_of_a_level_or_deformation_is_the_scatter_of_its_values_over_the_click_noise(method, level):
+    """Issue 30: the orthographic plane is the one through the marked wall points, so a mark's error moves p_X and
+    p_H alike. Taken as independent inputs, u(p_X) alone made a water line's u 3.3 times its values' scatter at
+    40 % (1 / (1 - 2 h)); here the marks are the inputs and u is the scatter, within what 80 draws can tell."""
+    from dataclasses import replace
+
+    from pipeline.maths.profiles import level_tables
+    from pipeline.vision.contour.detect import wall_u_from_tolerance
+
+    truth, cert, und, view = _truth("S02-circular-water-offset")          # DN400, camera off the axis, tilted
+    contour = replace(_contour(view, u_pose=(1e-5,) * 5), wall_u=wall_u_from_tolerance(400.0, 4.0))
+    t = 2.0                                                               # the plane 0.8 m ahead [H]
+    if method == "deformation":
+        truth_points = np.array([[0.0, 0.5 - level, t], [0.0, -0.5, t]])    # the crown pushed down, the invert
+    else:
+        h, width, _ = level_tables("circular")
+        half = 0.5 * float(np.interp(level, h, width))
+        truth_points = np.array([[-half, level - 0.5, t], [half, level - 0.5, t]])
+    ideal = view.project(truth_points)
+    rng = np.random.default_rng(30)
+    values, us = [], []
+    for _ in range(80):
+        a, b = ideal + 0.7 * rng.standard_normal((2, 2))
+        q = MarkedQuantity("BDD", "A", "Q1", method, tuple(a), tuple(b), 0.7, 0.7)
+        r = measure_quantity(q, contour, cert, H=400.0, tolerance=4.0, model="orthographic", seed=1, monte_carlo=False)
+        values.append(r.value)
+        us.append(next(line for line in r.budget if line.label == "approximation").contribution)
+        us[-1] = math.sqrt(max(r.u ** 2 - us[-1] ** 2, 0.0))        # the model's own offset is a bias, not scatter
+    scatter = float(np.std(values, ddof=1))
+    assert float(np.median(us)) == pytest.approx(scatter, rel=0.25)

@@ -65,11 +65,11 @@ def test_the_height_tolerance_enters_once_as_H_and_not_again_as_the_wall():
     marked, contour, cert = _bdd()
     contour = replace(contour, wall_u=wall_u_from_tolerance(400.0, 4.0))       # as pipe_contour gives it
     r = measure_quantity(marked, contour, cert, H=400.0, tolerance=4.0, model="perspective", seed=11)
-    wall = next(line for line in r.budget if line.label == "wall")
-    assert wall.u < 1e-9                                # the old code said u(wall) = 2 wall_u = tol / (sqrt(3) H)
+    for label in ("wall_x", "wall_y"):
+        assert next(line for line in r.budget if line.label == label).u < 1e-9     # the old code: tol / (sqrt(3) H)
     stepped = replace(contour, wall_u=math.hypot(contour.wall_u, 0.01))        # a displaced joint before it
     s = measure_quantity(marked, stepped, cert, H=400.0, tolerance=4.0, model="perspective", seed=11)
-    assert next(line for line in s.budget if line.label == "wall").u == pytest.approx(0.02)
+    assert next(line for line in s.budget if line.label == "wall_y").u == pytest.approx(0.01)
 
 
 @pytest.mark.parametrize("method, extent", [("axial", "along"), ("around", "around")])

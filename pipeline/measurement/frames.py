@@ -17,7 +17,7 @@ X_i. Shared, drawn once for all frames:
   ``PipeContour`` object, or the same pose and covariance); otherwise each
   frame has its own, labelled with its frames (``ox@f1234``).
 
-The marks (``xa``, ``ya``, ``xb``, ``yb``, the anchor; ``p_X``, ``p_H``,
+The marks (``xa``, ``ya``, ``xb``, ``yb``, the anchor; with ``p_H`` and
 ``approximation`` for the orthographic model) are each frame's own and carry
 its label: ``xa@f1234``.
 

@@ -173,9 +173,16 @@ def main() -> None:
     parser.add_argument("cases", type=Path, help="a JSON cache of benchmarks/verdicts.py --cache, "
                                                  "measurement_coverage.py --cache or mismatch_coverage.py --cache")
     parser.add_argument("--worst", type=int, default=0, help="also list the N largest |z| with what they were")
+    parser.add_argument("--without", metavar="TEXT", help="leave out the quantities whose warnings contain TEXT "
+                                                          "(e.g. \"that pose is used\": a pose borrowed from another window)")
     args = parser.parse_args()
     cases = json.loads(args.cases.read_text())
-    report(cases, args.cases.name)
+    title = args.cases.name
+    if args.without:
+        kept = [c for c in cases if args.without not in c.get("reasons", "")]
+        title = f"{title}, without the {len(cases) - len(kept)} whose warnings say {args.without!r}"
+        cases = kept
+    report(cases, title)
     if args.worst:
         worst(cases, args.worst)
 

@@ -144,3 +144,30 @@ def test_the_orthographic_u_of_a_level_or_deformation_is_the_scatter_of_its_valu
         us[-1] = math.sqrt(max(r.u ** 2 - us[-1] ** 2, 0.0))        # the model's own offset is a bias, not scatter
     scatter = float(np.std(values, ddof=1))
     assert float(np.median(us)) == pytest.approx(scatter, rel=0.25)
+
+
+@pytest.mark.parametrize("level", [0.15, 0.45])
+def test_a_water_line_on_the_pipe_after_a_displaced_joint_is_covered_by_the_pipes_shift(level):
+    """Issue 30: a displaced joint shifts the next pipe as a whole (EN 13508-2 BAJ B, a radial displacement). Its
+    water line's two ends move alike, by about the step over H in the level: 10 mm in DN300 is 3 % of H near
+    mid-height. The former ``wall`` input scaled the profile about its axis, which moves a level near mid-height
+    hardly at all (z = -6 at 45 %); the shift (``wall_x``, ``wall_y``) covers it."""
+    from dataclasses import replace
+
+    from pipeline.maths.profiles import level_tables
+    from pipeline.vision.contour.detect import wall_u_from_tolerance
+
+    truth, cert, und, view = _truth("S01-circular-clean")                 # DN300, its BAJ B: 10 mm at 6 o'clock
+    H, step, t = 300.0, 10.0, 3.0
+    h, width, _ = level_tables("circular")
+    half = 0.5 * float(np.interp(level, h, width))
+    shifted = np.array([[-half, level - 0.5, t], [half, level - 0.5, t]]) + [0.0, -step / H, 0.0]
+    a, b = view.project(shifted)
+    wall_u = math.hypot(wall_u_from_tolerance(H, 3.0), step / math.sqrt(3.0) / H)     # as contour_under widens it
+    contour = replace(_contour(view, u_pose=(1e-5,) * 5), wall_u=wall_u)
+    q = MarkedQuantity("BDD", "A", "Q1", "water_level", tuple(a), tuple(b), 0.7, 0.7)
+    r = measure_quantity(q, contour, cert, H=H, tolerance=3.0, model="perspective", seed=1, monte_carlo=False)
+    z = (r.value - 100 * level) / r.u
+    assert abs(z) < 2.0
+    assert r.value < 100 * level - 2.0                      # the shift is not corrected (its direction is not used)
+    assert next(line for line in r.budget if line.label == "wall_y").u == pytest.approx(step / math.sqrt(3.0) / H)

@@ -151,7 +151,7 @@ def test_a_water_line_on_the_pipe_after_a_displaced_joint_is_covered_by_the_pipe
     """Issue 30: a displaced joint shifts the next pipe as a whole (EN 13508-2 BAJ B, a radial displacement). Its
     water line's two ends move alike, by about the step over H in the level: 10 mm in DN300 is 3 % of H near
     mid-height. The former ``wall`` input scaled the profile about its axis, which moves a level near mid-height
-    hardly at all (z = -6 at 45 %); the shift (``wall_x``, ``wall_y``) covers it."""
+    hardly at all (z = -7.7 at 45 % on the old code); the shift (``wall_x``, ``wall_y``) covers it."""
     from dataclasses import replace
 
     from pipeline.maths.profiles import level_tables
@@ -169,5 +169,5 @@ def test_a_water_line_on_the_pipe_after_a_displaced_joint_is_covered_by_the_pipe
     r = measure_quantity(q, contour, cert, H=H, tolerance=3.0, model="perspective", seed=1, monte_carlo=False)
     z = (r.value - 100 * level) / r.u
     assert abs(z) < 2.0
-    assert r.value < 100 * level - 2.0                      # the shift is not corrected (its direction is not used)
+    assert r.value < 100 * level - 1.0                      # the shift is not corrected (its direction is not used)
     assert next(line for line in r.budget if line.label == "wall_y").u == pytest.approx(step / math.sqrt(3.0) / H)

@@ -146,7 +146,8 @@ def case_record(r, truth: float, *, height_mm: float, f_px: float, u_mark_px: fl
                 low=r.low, high=r.high, confident=bool(r.confident), height_mm=float(height_mm),
                 depth_mm=float(r.plane_depth_mm), ideal_U95=float(ideal), nu_eff=float(r.nu_eff),
                 below_resolution=bool(r.below_resolution), reasons="; ".join(r.reasons),
-                mc_trials=int(r.mc_trials), mc_converged=bool(r.mc_converged))
+                mc_trials=int(r.mc_trials), mc_converged=bool(r.mc_converged),
+                budget={line.label: float(line.contribution) for line in r.budget})
 
 
 def report(cases: list[dict], title: str) -> None:
@@ -173,11 +174,45 @@ def main() -> None:
     parser.add_argument("cases", type=Path, help="a JSON cache of benchmarks/verdicts.py --cache, "
                                                  "measurement_coverage.py --cache or mismatch_coverage.py --cache")
     parser.add_argument("--worst", type=int, default=0, help="also list the N largest |z| with what they were")
+    parser.add_argument("--budget", metavar="METHOD", help="also list which budget lines make u of METHOD "
+                                                           "(e.g. water_level), per model")
+    parser.add_argument("--without", metavar="TEXT", help="leave out the quantities whose warnings contain TEXT "
+                                                          "(e.g. \"that pose is used\": a pose borrowed from another window)")
     args = parser.parse_args()
     cases = json.loads(args.cases.read_text())
-    report(cases, args.cases.name)
+    title = args.cases.name
+    if args.without:
+        kept = [c for c in cases if args.without not in c.get("reasons", "")]
+        title = f"{title}, without the {len(cases) - len(kept)} whose warnings say {args.without!r}"
+        cases = kept
+    report(cases, title)
+    if args.budget:
+        budgets(cases, args.budget)
     if args.worst:
         worst(cases, args.worst)
+
+
+def budgets(cases: list[dict], method: str) -> None:
+    """Per model, which budget lines make u of ``method``: each line's median contribution |c_i| u(x_i) [unit],
+    and the cases where it is the largest, with their median |z| (a line that dominates where |z| stays small is
+    one to look at). Needs a cache written with the budgets (``case_record``)."""
+    for model in sorted({c.get("model", "perspective") for c in cases}):
+        mine = [c for c in cases if c["method"] == method and c.get("model", "perspective") == model and c.get("budget")]
+        if not mine:
+            continue
+        z = {id(c): abs(c["value"] - c["truth"]) / c["u"] for c in mine}
+        print(f"\n{method} ({model}), {len(mine)} cases: median u {np.median([c['u'] for c in mine]):.3g}, median "
+              f"|error| {np.median([abs(c['value'] - c['truth']) for c in mine]):.3g}, median |z| "
+              f"{np.median(list(z.values())):.2f}\n")
+        print("| budget line | median contribution | largest | largest in | their median \\|z\\| |")
+        print("|---|---|---|---|---|")
+        labels = sorted({k for c in mine for k in c["budget"] if k != "across" and not k.startswith("across@")},
+                        key=lambda k: -float(np.median([c["budget"].get(k, 0.0) for c in mine])))
+        for k in labels:
+            values = [c["budget"].get(k, 0.0) for c in mine]
+            lead = [c for c in mine if max(c["budget"], key=lambda j: c["budget"][j]) == k]
+            print(f"| {k} | {np.median(values):.3g} | {max(values):.3g} | {len(lead)} | "
+                  f"{np.median([z[id(c)] for c in lead]) if lead else math.nan:.2f} |")
 
 
 def worst(cases: list[dict], n: int) -> None:

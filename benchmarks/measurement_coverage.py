@@ -48,7 +48,7 @@ from pipeline.formats.observation_log import read_log
 from pipeline.formats.marks import read_marks
 from pipeline.measurement import MarkedQuantity, marked_quantity, measure_quantity
 from pipeline.measurement import ideal_point_and_u
-from pipeline.maths.profiles import level_tables
+from pipeline.maths.profiles import level_tables, wall_point
 from pipeline.synth.delivery import CODECS, delivered
 from pipeline.synth.package import _wall
 from pipeline.camera.pose import CameraPose, project_points
@@ -72,8 +72,18 @@ def _inward(p: np.ndarray) -> np.ndarray:
     return np.array([d[0], d[1], 0.0])
 
 
+def _pipe_offset(scene, z: float) -> np.ndarray:
+    """(dX, dY, 0) [mm]: how far the pipe at Z = z [mm] stands off the nominal axis (displaced joints before it)."""
+    x, y = wall_point(scene.pipe.shape, scene.pipe.height_mm, 0.0)
+    return _wall(scene, 0.0, z) - np.array([x, y, z])
+
+
 def generate(kind: str, scene, z: float, rng: np.random.Generator) -> tuple[str, str, np.ndarray, float]:
-    """(method, char1, world points (2, 3) [mm], true value) of one random quantity in the plane Z = z."""
+    """(method, char1, world points (2, 3) [mm], true value) of one random quantity in the plane Z = z.
+
+    Every point lies in the as-built pipe: the levels' and the deformation's too, which are placed in the
+    profile's own coordinates and moved with their pipe where a displaced joint shifted it (their truth, a share
+    of that pipe's height, does not change)."""
     H, shape = scene.pipe.height_mm, scene.pipe.shape
     theta = rng.uniform(-math.pi, math.pi)
     if kind == "chord":
@@ -103,12 +113,13 @@ def generate(kind: str, scene, z: float, rng: np.random.Generator) -> tuple[str,
         level = rng.uniform(0.05, 0.45) if kind == "water_level" else float(np.interp(rng.uniform(0.03, 0.3), area, h_grid))
         half = 0.5 * H * float(np.interp(level, h_grid, width))
         y = -H / 2 + level * H
-        pts = np.array([[-half, y, z], [half, y, z]])
+        pts = np.array([[-half, y, z], [half, y, z]]) + _pipe_offset(scene, z)
         truth = 100 * level if kind == "water_level" else 100 * float(np.interp(level, h_grid, area))
         return kind, "A", pts, truth
     if kind == "deformation":
         e = rng.uniform(0.02, 0.15)
-        return "deformation", "A", np.array([[0.0, H / 2 - e * H, z], [0.0, -H / 2, z]]), 100 * e
+        return ("deformation", "A", np.array([[0.0, H / 2 - e * H, z], [0.0, -H / 2, z]]) + _pipe_offset(scene, z),
+                100 * e)
     raise KeyError(kind)
 
 

@@ -68,7 +68,7 @@ def test_two_frames_of_one_extent_are_sharper_than_the_better_frame(setting):
     assert both.U95 < min(s.U95 for s in singles)
     # the frames' own inputs carry the frame, the shared ones appear once
     labels = [line.label for line in both.budget]
-    assert {"xa@f120", "xa@f131", "H", "certificate", "wall"} <= set(labels)
+    assert {"xa@f120", "xa@f131", "H", "certificate", "wall_x", "wall_y"} <= set(labels)
     assert labels.count("H") == 1 and "xa" not in labels
     assert _line(both, "xa@f131").description.endswith("frame 131")
     assert min(s.value for s in singles) - 1e-9 <= both.value <= max(s.value for s in singles) + 1e-9
@@ -85,7 +85,7 @@ def test_the_height_share_does_not_average_down_with_more_frames(setting):
     assert _line(many, "H").contribution == pytest.approx(_line(one, "H").contribution, rel=0.1)
     assert _line(many, "H").share > _line(one, "H").share
     # the interval tends to the shared part, not to 0
-    shared = math.sqrt(sum(_line(many, k).contribution ** 2 for k in ("H", "certificate", "wall")))
+    shared = math.sqrt(sum(_line(many, k).contribution ** 2 for k in ("H", "certificate", "wall_x", "wall_y")))
     assert many.U95 >= 0.95 * K95 * shared
     assert many.U95 < one.U95
 
@@ -129,10 +129,10 @@ def test_frames_of_one_pose_fit_count_the_pose_once(setting):
     own = [sum(_line(s, k).contribution ** 2 for k in ("xa", "ya", "xb", "yb")) for s in singles]
     w = frame_weights(own)
     expected_u2 = 0.0
-    for label in ("ox", "oy", "yaw", "pitch", "roll", "H", "certificate", "wall"):
+    for label in ("ox", "oy", "yaw", "pitch", "roll", "H", "certificate", "wall_x", "wall_y"):
         c = sum(wi * _line(s, label).sensitivity for wi, s in zip(w, singles))
         expected = abs(c) * _line(singles[0], label).u
-        if label not in ("certificate", "wall"):    # their u differ a little between frames (standardised draws)
+        if label not in ("certificate", "wall_x", "wall_y"):    # their u differ a little between frames (standardised draws)
             assert _line(both, label).contribution == pytest.approx(expected, rel=0.02, abs=1e-6), label
         expected_u2 += expected ** 2
     for k in ("xa", "ya", "xb", "yb"):
@@ -200,6 +200,6 @@ def test_the_orthographic_model_combines_frames_of_an_extent_in_the_section(sett
     singles = [measure_quantity(q, c, cert, H=H, tolerance=TOL, model="orthographic", seed=8) for q, c in views]
     both = measure_over_frames(views, cert, H=H, tolerance=TOL, model="orthographic", seed=8)
     labels = {line.label for line in both.budget}
-    assert {"p_X@f1", "p_H@f2", "H", "certificate"} <= labels and "p_X" not in labels
+    assert {"xa@f1", "yb@f2", "p_H@f2", "H", "certificate"} <= labels and "xa" not in labels
     assert both.U95 < min(s.U95 for s in singles)
     assert both.model == "orthographic" and both.low < 0.5 * H * 2 * math.sin(s) < both.high

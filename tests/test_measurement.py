@@ -147,7 +147,7 @@ def test_orthographic_linear_result_is_checked_by_monte_carlo():
     r = measure_quantity(marked, _contour(view), cert, H=400.0, tolerance=4.0, model="orthographic", seed=5)
     assert r.mc_trials >= 100_000 and r.delta > 0
     assert r.interval.startswith("linear") == r.linear_validated
-    assert {line.label for line in r.budget} == {"p_X", "p_H", "certificate", "approximation"}
+    assert {line.label for line in r.budget} == {"xa", "ya", "xb", "yb", "p_H", "certificate", "approximation"}
 
 
 def test_a_logged_displaced_joint_widens_the_wall_term_on_the_pipe_after_it():

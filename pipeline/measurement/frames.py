@@ -11,8 +11,8 @@ X_i. Shared, drawn once for all frames:
   the marks lie in the image); the draws are taken as fully correlated,
   frame i's factor being 1 + (c - 1) u_i / u_max (the pessimistic choice:
   it does not average down);
-* ``wall``, the wall's departure under the feature (a displaced joint
-  before it): one wall, handled as the certificate;
+* ``wall_x``, ``wall_y``, the pipe's shift under the feature (a displaced
+  joint before it): one pipe, handled as the certificate;
 * ``edge``, an image fit's definition of the feature's edges (where its
   edge level lies against the true end: the camera's response, the blur, the
   ends' shape), the same in every frame of one feature (``MarkedQuantity.u_edge``,
@@ -23,7 +23,7 @@ X_i. Shared, drawn once for all frames:
   ``PipeContour`` object, or the same pose and covariance); otherwise each
   frame has its own, labelled with its frames (``ox@f1234``).
 
-The marks (``xa``, ``ya``, ``xb``, ``yb``, the anchor; ``p_X``, ``p_H``,
+The marks (``xa``, ``ya``, ``xb``, ``yb``, the anchor; with ``p_H`` and
 ``approximation`` for the orthographic model) are each frame's own and carry
 its label: ``xa@f1234``.
 

@@ -3,9 +3,12 @@
 A displaced joint (EN 13508-2 BAJ B, radial step in mm) moves the next pipe
 sideways as a whole: on that pipe, a wall point stands off the nominal
 profile by up to the step, depending on its clock position. Points on it
-are placed on the wall with the nominal profile (the perspective model's
-``wall`` input, and the plane found through a marked wall point), so the
-step enters their uncertainty: rectangular, half-width the step.
+are placed on the wall with the nominal profile, so the step enters their
+uncertainty, u the step / sqrt(3) (rectangular, half-width the step): in
+the perspective model as the pipe's shift, each of its components
+(``wall_x``, ``wall_y``: a shift, not a change of scale, moves a water
+line's two ends alike), in the orthographic one in the plane found
+through a marked wall point (u(p_H)).
 
 The log gives each observation's distance, and a displaced joint's; both
 are read at the camera, which stops the same way before each, so an

@@ -266,7 +266,7 @@ def _observation_table(observations: list[dict], by_row: dict[int, list[dict]]) 
                       split_rows=True)
 
 
-_SCALES = ("wall", "certificate")   # relative factors, 1 at the nominal wall and at the certificate's own parameters
+_SCALES = ("certificate",)   # relative factors, 1 at the certificate's own parameters
 
 
 def _budget_table(m: dict, budget: list[dict]) -> Table:
@@ -475,9 +475,10 @@ def render_inspection_report(data: str | os.PathLike, inspection_id: str, path: 
                   Paragraph("Each budget lists its inputs with estimate and standard uncertainty u in the unit "
                             "column, the distribution (joint: jointly normal), the sensitivity c_i in the quantity's "
                             "unit per input unit, and the contribution |c_i| u in the quantity's unit. Inputs: "
-                            + _input_legend(measurements[:MAX_REPORT_QUANTITIES]) + ". <i>wall</i> and "
-                            "<i>certificate</i> are scale factors, 1 at the nominal wall and at the certificate's own "
-                            "parameters, their u relative (0.01 = 1 %); <i>across</i> is listed but no part of the "
+                            + _input_legend(measurements[:MAX_REPORT_QUANTITIES]) + ". <i>certificate</i> is a scale "
+                            "factor, 1 at the certificate's own parameters, its u relative (0.01 = 1 %); <i>wall_x</i>, "
+                            "<i>wall_y</i> are the pipe's shift after a displaced joint, 0 on the nominal axis, in H "
+                            "(the pipe's height); <i>across</i> is listed but no part of the "
                             "value (c_i = 0). Thumbnails: the frame measured, undistorted, with the pipe's contour "
                             "fitted in it in green (dashed where the fit is not trusted) and in red the two points "
                             "measured between (marked, or found in the image alone) and the line joining them; the "

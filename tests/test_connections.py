@@ -266,3 +266,32 @@ def test_rim_definition_term_is_the_weights_uncertainty_over_the_gap_not_a_recta
     # counted on each end as independent, the extent carries sqrt(2) of it: 2 RIM_WEIGHT_U gap in all
     assert math.isclose(math.sqrt(2) * rim_definition_u(gap), 2 * RIM_WEIGHT_U * gap)
     assert math.sqrt(2) * rim_definition_u(gap) < gap / math.sqrt(3)   # the old rectangular over the whole gap
+
+
+def _tube_end_profile(rim_px: float, *, step_px: float = 0.33, tip_px: float = 40.0, blur_px: float = 1.0,
+                      side: float = 95.0, rim: float = 80.0, bore: float = 17.0) -> np.ndarray:
+    """A profile along a tube's near side as ``find_intrusion`` samples it: the lit side up to the tip, its end's
+    rim ``rim_px`` wide, then the dark bore; blurred (Gaussian, ``blur_px``) and smoothed as there."""
+    x = np.arange(400) * step_px
+    fine = np.arange(-40.0, 40.0, 0.01)
+    kernel = np.exp(-0.5 * (fine / blur_px) ** 2)
+    kernel /= kernel.sum()
+
+    def level(p):
+        return np.where(p < tip_px, side, np.where(p < tip_px + rim_px, rim, bore))
+
+    prof = np.array([np.sum(level(xi - fine) * kernel) for xi in x])
+    return np.convolve(prof, np.ones(5) / 5, mode="same")
+
+
+@pytest.mark.parametrize(("rim_px", "rim"), [(0.0, 80.0), (0.6, 80.0), (1.2, 80.0), (1.2, 55.0), (6.0, 55.0)])
+def test_tip_on_profile_lies_within_its_definition_term(rim_px, rim):
+    """The tip is where the tube's side ends. A lit end rim narrower than the blur merges with it into one edge
+    whose middle lies beyond the tip (the first strong edge read the intrusion long); a wide one shows as a band
+    of its own, whose first edge is the tip. Either way the tip found lies within its rectangular half-width."""
+    from pipeline.vision.contour.intrusion import TIP_RIM_PX, tip_on_profile
+
+    step = 0.33
+    edge = tip_on_profile(_tube_end_profile(rim_px, step_px=step, rim=rim), step)
+    assert edge is not None
+    assert abs(edge * step - 40.0) <= 0.5 * TIP_RIM_PX + 0.1, (rim_px, edge * step - 40.0)

@@ -32,7 +32,7 @@ from pipeline.maths.profiles import clock_to_theta, wall_point
 from pipeline.vision.contour.lateral import _gray, _masked, _running_median, _sample, wall_map
 from pipeline.vision.contour.view import PipeView
 
-__all__ = ["Intrusion", "find_intrusion"]
+__all__ = ["Intrusion", "find_intrusion", "tip_on_profile"]
 
 THETA_STEPS = 720
 DEPTH_STEPS = 200
@@ -40,8 +40,9 @@ UNLIKE = 0.3                  # |log(grey / wall's level)| above this: not the w
 SEARCH_CLOCK_H = 1.5
 MIN_TUBE_CONTRAST = 10.0      # least grey step from the tube to what lies beyond its tip [8-bit levels]
 EDGE_FLOOR_PX = 0.3
-TIP_DEFINITION_PX = 1.5       # the tip's edge lies within this of the first strong edge (the end's rim, seen or not,
-                              # and the blur): rectangular half-width [px]
+TIP_RIM_PX = 1.2              # an unresolved rim puts the tube's edge 0 to this far beyond its tip [px] (below)
+EGG_CROWN_RAD = np.radians(20.0)  # an egg's crown arc, where the tube's axis is found right (seed 35: within 1.3 deg)
+RIM_REACH_PX = 8.0            # a resolved rim's second edge (rim to bore) lies within this of its first [px]
 
 
 @dataclass(frozen=True)
@@ -84,6 +85,73 @@ def _base_depth(m: np.ndarray, col: int, j: int, ts: np.ndarray) -> float | None
     return float(np.exp(np.log(ts[j0]) + f * (np.log(ts[j0 + 1]) - np.log(ts[j0]))))
 
 
+def _rim_resolved(grad: np.ndarray, i: int, *, strong_level: float, reach: int) -> bool:
+    """Whether the strong edge at ``grad[i]`` is followed, within ``reach`` samples, by a second strong edge with a
+    valley between them under half the lower of the two: the tube's end then shows its rim as a band of its own
+    and the first edge is the side's end itself (the tip)."""
+    after = grad[i + 1:i + 1 + reach]
+    if after.size < 3:
+        return False
+    for j in np.nonzero(after >= strong_level)[0]:
+        if j > 0 and after[:j].min() < 0.5 * min(grad[i], after[j]):
+            return True
+    return False
+
+
+def _axis_column(near: np.ndarray, thetas: np.ndarray, shape: str) -> float:
+    """The (sub-)column of the wall map's ``thetas`` whose wall point lies on the tube's axis, from the region's
+    nearest rows ``near`` (rows, thetas; True where the tube hides the wall).
+
+    Each row's two ends are the wall points where the tube's sides meet the wall, at the tube's radius either side
+    of its axis; the axis runs through the profile's centre, so the mid-point of the two ends lies on it. The mean
+    of the columns would be the same on a circle, but not on an egg's side, whose wall runs off the circle: there
+    it put the axis 3-4 degrees towards the invert and read the intrusion short along the wrong line (seed 35).
+    """
+    mids = []
+    for row in near:
+        on = np.nonzero(row)[0]
+        if on.size:
+            a, b = wall_point(shape, 1.0, float(thetas[on[0]])), wall_point(shape, 1.0, float(thetas[on[-1]]))
+            mids.append(np.add(a, b) / 2.0)
+    mx, my = np.mean(mids, axis=0)
+    step = float(thetas[1] - thetas[0])
+    return float((np.arctan2(my, mx) - thetas[0]) % (2 * np.pi) / step)
+
+
+def tip_on_profile(q: np.ndarray, step_px: float) -> float | None:
+    """The tube's tip on a grey-level profile ``q`` sampled every ``step_px`` [px] from the wall towards the axis
+    along the tube's near side, in samples from the profile's start (sub-sample); None without a strong edge.
+
+    The tip is the first strong edge after the base: the tube's side ends there, on its end's rim (lit, facing
+    the axis) or straight on its bore (dark); the edge after a resolved rim, rim to bore, is not the tip. An edge
+    that is not followed by a resolved rim is moved ``TIP_RIM_PX / 2`` towards the wall (below).
+    """
+    grad = np.abs(np.diff(q))
+    grad[:15] = 0.0                       # the wall-to-tube step at the base itself
+    grad[-4:] = 0.0
+    level = 0.4 * grad[:380].max()
+    strong = np.nonzero(grad > level)[0]
+    if strong.size == 0 or level <= 0:
+        return None
+    i = int(strong[0])
+    while i + 1 < len(grad) and grad[i + 1] >= grad[i]:
+        i += 1
+    y0, y1, y2 = grad[i - 1], grad[i], grad[i + 1]
+    denom = y0 - 2 * y1 + y2
+    frac = float(np.clip(0.5 * (y0 - y2) / denom, -0.5, 0.5)) if abs(denom) > 1e-9 else 0.0
+    # grad[i] is the step from sample i to i + 1: its place is half-way between them
+    edge = i + 0.5 + frac
+    if not _rim_resolved(grad, i, strong_level=level, reach=int(RIM_REACH_PX / step_px)):
+        # A lit rim narrower than the blur merges with the side's end into one blurred edge whose middle lies
+        # beyond the tip by up to about the rim's width (the rim lies in the end's plane but deeper: on this line
+        # it reads as more intrusion). The error is one-sided, so the tip is placed half of its range short of
+        # the edge, with the rectangular u of that half-width (GUM 4.3.7): a known bias corrected, not carried
+        # as a wider interval (the earlier +-1.5 px about the edge itself). On seed 34's 17 circular cases
+        # (benchmarks/intrusion_tip.py) the edge lay -0.4 to +1.2 px from the tip, median +0.45 px.
+        edge -= 0.5 * TIP_RIM_PX / step_px
+    return edge
+
+
 def find_intrusion(ideal_bgr: np.ndarray, view: PipeView, *, clock: float | None = None,
                    depths: tuple[float, float] = (1.0, 3.5), expected_depth: float | None = None,
                    mask: np.ndarray | None = None) -> Intrusion | None:
@@ -115,8 +183,7 @@ def find_intrusion(ideal_bgr: np.ndarray, view: PipeView, *, clock: float | None
             continue
         if clock is not None and not (x0 <= mid + window and x0 + w >= mid - window):
             continue
-        rows = np.nonzero(labels[y0:y0 + max(3, h // 5)] == k)
-        cx = float(np.mean(rows[1]))
+        cx = _axis_column(labels[y0:y0 + max(3, h // 5)] == k, thetas, view.shape)
         if clock is not None and abs(cx - mid) > window:
             continue
         score = abs(np.log(ts[y0] / want))
@@ -154,26 +221,18 @@ def find_intrusion(ideal_bgr: np.ndarray, view: PipeView, *, clock: float | None
     problems: list[str] = []
     if abs(tube - beyond) < MIN_TUBE_CONTRAST:
         return None
-    # the tip is the first strong edge from the wall: the tube's side ends there, on its end's rim (lit, facing the
-    # axis) or straight on its bore (dark); the edge after it, rim to bore, is not the tip
-    grad = np.abs(np.diff(q))
-    grad[:15] = 0.0                       # the wall-to-tube step at the base itself
-    grad[-4:] = 0.0
-    strong = np.nonzero(grad > 0.4 * grad[:380].max())[0]
-    if strong.size == 0:
-        return None
-    i = int(strong[0])
-    while i + 1 < len(grad) and grad[i + 1] >= grad[i]:
-        i += 1
-    y0, y1, y2 = grad[i - 1], grad[i], grad[i + 1]
-    denom = y0 - 2 * y1 + y2
-    frac = float(np.clip(0.5 * (y0 - y2) / denom, -0.5, 0.5)) if abs(denom) > 1e-9 else 0.0
-    # grad[i] is the step from sample i to i + 1: its place is half-way between them
-    share = float(np.interp(i + 0.5 + frac, np.arange(len(lam)), lam))
-    tip = view.project(np.array([[wx * (1 - share), wy * (1 - share), t_base]]))[0]
     step_px = float(np.linalg.norm(line[1] - line[0]))
-    u_tip = max(float(np.hypot(step_px, TIP_DEFINITION_PX / np.sqrt(3.0))), EDGE_FLOOR_PX)
+    edge = tip_on_profile(q, step_px)
+    if edge is None:
+        return None
+    share = float(np.interp(edge, np.arange(len(lam)), lam))
+    tip = view.project(np.array([[wx * (1 - share), wy * (1 - share), t_base]]))[0]
+    u_tip = max(float(np.hypot(step_px, 0.5 * TIP_RIM_PX / np.sqrt(3.0))), EDGE_FLOOR_PX)
     if share < 0.03:
         problems.append("the tip lies at the wall: an opening, not an intruding lateral")
+    if view.shape == "egg" and abs((theta - np.pi / 2 + np.pi) % (2 * np.pi) - np.pi) > EGG_CROWN_RAD:
+        # measured, not yet corrected (docs/measurement.md, "BAG's tip"): the value would be a known bias
+        problems.append("on an egg profile's side wall the tube's axis is found 3-4 degrees towards the invert, "
+                        "so the intrusion reads short: not trusted until that is corrected")
     return Intrusion(theta, t_base, (float(base[0]), float(base[1])), (float(tip[0]), float(tip[1])), u_base, u_tip,
                      share, tuple(problems))

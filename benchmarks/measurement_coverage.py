@@ -56,6 +56,7 @@ from pipeline.synth.samples import sample_specs
 from pipeline.synth.scene import Deformation, DisplacedJoint
 from pipeline.vision.video.ingest import ingest_chainage
 from pipeline.vision.video.overlay_ocr import OverlayReader
+from pipeline.measurement.wall import contour_under
 from pipeline.vision.video.pipe_contour import STEP_M, contours_at_frames, overlay_mask_of
 from pipeline.camera.undistort import Undistorter
 from pipeline.core.errors import MeasurementError
@@ -139,6 +140,15 @@ def on_displaced_pipe(scene, pts: np.ndarray) -> float:
                 if np.any((pts[:, 2] >= j.joint * unit) & (pts[:, 2] < (j.joint + 1) * unit))), default=0.0)
 
 
+def across_to_pose(scene, pts: np.ndarray, z_pose: float) -> float:
+    """The largest radial step [mm] of a displaced joint between the camera of a borrowed pose's window (at Z =
+    z_pose [mm]) and the points; 0 if none (``measurement.wall.displaced_wall_u``'s ``pose_at_m``, from the truth)."""
+    z = float(np.min(pts[:, 2]))
+    lo, hi = min(z_pose, z), max(z_pose, z)
+    unit = scene.pipe.unit_length_mm
+    return max((j.step_mm for j in scene.of_type(DisplacedJoint) if lo < j.joint * unit <= hi), default=0.0)
+
+
 def across_displaced_joint(scene, pts: np.ndarray) -> bool:
     """Whether the points' span along the pipe crosses a displaced joint: the far point then lies on the displaced
     pipe, behind the joint's lip or on the camera's ray through the near one (a width of 35 mm seen 0.4 px wide
@@ -205,8 +215,13 @@ def collect(per_frame: int = 17, seed: int = 7, codec: str | None = None, models
             q = marked_quantity(o, m, und, cert)
             method = q.method
             kind = "along" if (o.code, o.char2, m.quantity) in (("BAB", "B", "Q1"), ("BCA", "A", "Q2")) else method
+            # as the night does (pipeline.app.measure): the wall term after a displaced joint, and across one
+            # between a borrowed pose's window and the observation
+            c = contours[m.frame]
+            here = contour_under(o, obs, c, unit_length_m=header.pipe_unit_length_m, height_mm=header.height_mm,
+                                 pose_at_m=None if c.pose_frame is None else track.at_frame(c.pose_frame)[0])
             cases.append(("logged", folder.name, kind, method, true_of[(m.row, m.quantity)],
-                          measure_both(q, contours[m.frame], cert, header, seed=1000 + m.row, models=models),
+                          measure_both(q, here, cert, header, seed=1000 + m.row, models=models),
                           o.code, o.char1, header))
         for frame, contour in contours.items():
             f = frames[frame]
@@ -234,6 +249,8 @@ def collect(per_frame: int = 17, seed: int = 7, codec: str | None = None, models
                         "deposit_area": "BBC", "deformation": "BAA"}[method]
                 q = MarkedQuantity(code, char1, "Q1", method, a, b, ua, ub)
                 step = on_displaced_pipe(spec.scene, pts)
+                if contour.pose_frame is not None:     # a pose borrowed across a displaced joint (wall.py)
+                    step = max(step, across_to_pose(spec.scene, pts, float(frames[contour.pose_frame]["Z_mm"])))
                 here = contour if step == 0 else dataclasses.replace(
                     contour, wall_u=math.hypot(contour.wall_u, step / math.sqrt(3.0) / header.height_mm))
                 try:

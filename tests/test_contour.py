@@ -117,6 +117,7 @@ def test_windows_of_one_video_are_checked_against_one_another():
     # the wrong fit is replaced by the best overlapping one and is no longer confident
     assert np.allclose(out[50].view.pose, good) and not out[50].confident
     assert "disagrees grossly with the better fit around frame 398" in out[50].problems[0]
+    assert out[50].pose_frame == 398
     # the two that agree (the replaced one no longer counts) keep their poses and confidence
     assert out[224].confident and out[398].confident
     assert np.allclose(out[224].view.pose, contours[224].view.pose)
@@ -155,6 +156,7 @@ def test_an_untrusted_window_borrows_the_pose_of_a_trusted_overlapping_one():
     assert np.allclose(out[1002].view.pose, good) and not out[1002].confident
     assert "is not trusted (no ring is seen over more than 140 degrees" in out[1002].problems[-1]
     assert out[1002].deformed == [(0, 2.0)]          # what was seen from that frame stays with it
+    assert out[1002].pose_frame == 436 and out[436].pose_frame is None   # where the pose was fitted (wall.py)
     assert out[436].confident and out[436].deformed == []
     # a window that agrees with no trusted neighbour, or has none, is left as it was
     alone = reconcile_windows({1002: partial}, {1002: list(range(20, 60))})

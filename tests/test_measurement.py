@@ -163,6 +163,13 @@ def test_a_logged_displaced_joint_widens_the_wall_term_on_the_pipe_after_it():
     assert u[1] == 0.0 and u[5] == 0.0           # before the joint; on the pipe after the next joint
     assert u[2] == 0.0                            # the step itself models the displaced pipe
     assert u[3] == u[4] == pytest.approx(9.0 / np.sqrt(3.0) / 300.0)
+    # a pose borrowed from a window before the joint, used 2.7 m beyond it (S01's frame 1002, issue 30): the step
+    # enters though the observation lies on the pipe after the next joint; a pose from beyond the joint adds none
+    assert displaced_wall_u(log[4], log, unit_length_m=2.5, height_mm=300.0, pose_at_m=1.2) == pytest.approx(
+        9.0 / np.sqrt(3.0) / 300.0)
+    assert displaced_wall_u(log[4], log, unit_length_m=2.5, height_mm=300.0, pose_at_m=3.0) == 0.0
+    assert displaced_wall_u(log[0], log, unit_length_m=2.5, height_mm=300.0, pose_at_m=3.0) == pytest.approx(
+        9.0 / np.sqrt(3.0) / 300.0)                # before the joint, with a pose fitted beyond it
 
 
 def test_a_point_beyond_the_distortion_models_fold_has_no_ideal_position():

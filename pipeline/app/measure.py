@@ -153,8 +153,10 @@ def measure_package(folder: str | os.PathLike, *, certificates: str | os.PathLik
     t_contour = time.perf_counter() - t0
 
     def under(obs: Observation, contour):
+        # a pose borrowed from another window: the joints between that window and the observation count too
+        pose_at = None if contour.pose_frame is None else ingest.track.at_frame(contour.pose_frame)[0]
         return contour_under(obs, observations, contour, unit_length_m=header.pipe_unit_length_m,
-                             height_mm=header.height_mm)
+                             height_mm=header.height_mm, pose_at_m=pose_at)
 
     def edges(obs: Observation, quantity: str) -> tuple[float, ...]:
         return quantity_edges(obs, quantity, header)

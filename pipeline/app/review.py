@@ -499,8 +499,9 @@ class ReviewService:
         from pipeline.measurement.wall import contour_under
 
         def under(contour):
+            pose_at = None if contour.pose_frame is None else pkg.location.track.at_frame(contour.pose_frame)[0]
             return contour_under(obs, pkg.delivery.observations, contour, unit_length_m=header.pipe_unit_length_m,
-                                 height_mm=header.height_mm)
+                                 height_mm=header.height_mm, pose_at_m=pose_at)
 
         edges = quantity_edges(obs, quantity, header)
         common = dict(H=header.height_mm, tolerance=header.height_tolerance_mm, model=self.model,

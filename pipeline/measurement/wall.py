@@ -13,7 +13,13 @@ through a marked wall point (u(p_H)).
 The log gives each observation's distance, and a displaced joint's; both
 are read at the camera, which stops the same way before each, so an
 observation is on the displaced pipe when its distance is at or beyond the
-joint's and less than one pipe length beyond it.
+joint's and less than one pipe length beyond it. A camera pose fitted on
+one side of a displaced joint and used on the other (a window's pose
+borrowed from another, ``PipeContour.pose_frame``) is the camera against
+the other pipe: the joint's step then enters at any distance, the pose's
+own chainage given (``pose_at_m``). Found on the samples' benchmark: S01's
+frame 1002, 2.5 m beyond its joint, used the pose fitted around frame 436
+before it, and its quantities erred by the 10 mm step (|z| up to 5).
 """
 
 from __future__ import annotations
@@ -28,21 +34,30 @@ __all__ = ["displaced_wall_u", "contour_under"]
 
 
 def displaced_wall_u(obs: Observation, observations: list[Observation], *, unit_length_m: float,
-                     height_mm: float) -> float:
-    """Standard uncertainty [H] of the wall's radial position under ``obs`` from displaced joints logged before it.
+                     height_mm: float, pose_at_m: float | None = None) -> float:
+    """Standard uncertainty [H] of the pipe's shift under ``obs`` from displaced joints logged before it.
 
-    unit_length_m : pipe length between joints [m]; height_mm : H [mm]. 0 when no displaced joint precedes it.
+    unit_length_m : pipe length between joints [m]; height_mm : H [mm]; pose_at_m : the chainage [m] of the frame
+    whose window the pose was fitted around, when that is not the observation's own (None: its own). 0 when no
+    displaced joint precedes it within a pipe length, nor lies between the pose's frame and it.
     """
     if obs.code == "BAJ" and obs.char1 == "B":
         return 0.0          # the step itself: its model puts its second point on the displaced pipe already
+
+    def between(d: float) -> bool:
+        if 0.0 <= obs.distance_m - d < unit_length_m:
+            return True
+        return pose_at_m is not None and min(pose_at_m, obs.distance_m) < d <= max(pose_at_m, obs.distance_m)
+
     steps = [o.q1 for o in observations
              if o.code == "BAJ" and o.char1 == "B" and o.q1 is not None and not o.problems
-             and (o.q1_unit or "mm") == "mm" and 0.0 <= obs.distance_m - o.distance_m < unit_length_m]
+             and (o.q1_unit or "mm") == "mm" and between(o.distance_m)]
     return max(steps, default=0.0) / math.sqrt(3.0) / height_mm
 
 
 def contour_under(obs: Observation, observations: list[Observation], contour: PipeContour, *, unit_length_m: float,
-                  height_mm: float) -> PipeContour:
-    """The contour with the wall's departure under ``obs``: the tolerance's, and that of displaced joints before it."""
-    extra = displaced_wall_u(obs, observations, unit_length_m=unit_length_m, height_mm=height_mm)
+                  height_mm: float, pose_at_m: float | None = None) -> PipeContour:
+    """The contour with the wall's departure under ``obs``: the tolerance's, and that of displaced joints before it
+    (``displaced_wall_u``; pose_at_m : the chainage [m] of ``contour.pose_frame`` when the pose is borrowed)."""
+    extra = displaced_wall_u(obs, observations, unit_length_m=unit_length_m, height_mm=height_mm, pose_at_m=pose_at_m)
     return replace(contour, wall_u=math.hypot(contour.wall_u, extra)) if extra > 0 else contour

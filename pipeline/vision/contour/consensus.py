@@ -82,7 +82,7 @@ def reconcile_windows(contours: dict[int, PipeContour], windows: dict[int, list[
             reason = (f"the pose fitted around frame {f} (RMS {contours[f].rms_px:.2f} px) disagrees grossly with the "
                       f"better fit around frame {best} (RMS {contours[best].rms_px:.2f} px) from overlapping frames; "
                       "that pose is used")
-            out[f] = _borrow(contours[f], contours[best], reason)
+            out[f] = _borrow(contours[f], contours[best], reason, best)
             replaced.add(f)
     # A window whose own fit is not trusted takes the pose of a trusted overlapping window it disagrees with.
     for f in contours:
@@ -95,7 +95,7 @@ def reconcile_windows(contours: dict[int, PipeContour], windows: dict[int, list[
             best = min(trusted, key=lambda g: contours[g].rms_px)
             reason = (f"the pose fitted around frame {f} is not trusted ({'; '.join(contours[f].problems)}) and "
                       f"disagrees with the fit around frame {best} from overlapping frames; that pose is used")
-            out[f] = _borrow(contours[f], contours[best], reason)
+            out[f] = _borrow(contours[f], contours[best], reason, best)
     agreeing = [f for f in frames if f not in replaced]
     for f in agreeing:
         group = [f] + [g for g in overlapping(f) if g not in replaced]
@@ -134,7 +134,8 @@ def _positive_part(m: np.ndarray) -> np.ndarray:
     return (v * np.clip(w, 0.0, None)) @ v.T
 
 
-def _borrow(own: PipeContour, other: PipeContour, reason: str) -> PipeContour:
-    """``other``'s pose and rings for ``own``'s frame, flagged with ``reason``; ``own``'s deformed rings stay
-    (they were seen from this frame)."""
-    return dataclasses.replace(other, problems=list(other.problems) + [reason], deformed=list(own.deformed))
+def _borrow(own: PipeContour, other: PipeContour, reason: str, frame: int) -> PipeContour:
+    """``other``'s pose and rings (fitted around ``frame``) for ``own``'s frame, flagged with ``reason``; ``own``'s
+    deformed rings stay (they were seen from this frame)."""
+    return dataclasses.replace(other, problems=list(other.problems) + [reason], deformed=list(own.deformed),
+                               pose_frame=other.pose_frame if other.pose_frame is not None else frame)

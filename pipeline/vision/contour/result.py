@@ -74,6 +74,9 @@ class PipeContour:
     wall_u: float = 0.0            # standard uncertainty of the wall's radial position against the profile [H]
     deformed: list[tuple[int, float]] = field(default_factory=list)   # (frame, depth [H]) of rings off the profile's shape
     dof: float = float("inf")      # degrees of freedom of the covariance (a Type A estimate from the rings; detect.py)
+    # the frame around which the pose was fitted when it is another window's (consensus.reconcile_windows borrowed
+    # it); None: this frame's own window. A displaced joint between the two frames moves the pipe under the pose.
+    pose_frame: int | None = None
 
     @property
     def confident(self) -> bool:

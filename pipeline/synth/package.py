@@ -271,7 +271,10 @@ def render_frames(spec: PackageSpec, cert: Certificate, z_mm: np.ndarray, worker
         for job in jobs:
             yield renderer.render(job[1], job[2], job[0])
         return
-    method = "fork" if "fork" in multiprocessing.get_all_start_methods() else "spawn"
+    # not "fork": a process with threads (a test run's Prefect client, OpenCV's or the OCR's pools) forks its held
+    # locks into the child, which then waited on a futex for ever (a CI run hung 10 minutes here, 2026-12-02);
+    # the fork server starts clean, once, and forks the workers from there
+    method = "forkserver" if "forkserver" in multiprocessing.get_all_start_methods() else "spawn"
     with multiprocessing.get_context(method).Pool(workers, _worker_init, (spec, cert)) as pool:
         yield from pool.imap(_worker_render, jobs, chunksize=4)
 

@@ -28,7 +28,7 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from pipeline.maths.profiles import clock_to_theta, wall_point
+from pipeline.maths.profiles import clock_to_theta, wall_point, wall_points
 from pipeline.vision.contour.lateral import _gray, _masked, _running_median, _sample, wall_map
 from pipeline.vision.contour.view import PipeView
 
@@ -104,16 +104,11 @@ def _axis_column(near: np.ndarray, thetas: np.ndarray, shape: str) -> float:
 
     Each row's two ends are the wall points where the tube's sides meet the wall, at the tube's radius either side
     of its axis; the axis runs through the profile's centre, so the mid-point of the two ends lies on it. The mean
-    of the columns would be the same on a circle, but not on an egg's side, whose wall runs off the circle: there
-    it put the axis 3-4 degrees towards the invert and read the intrusion short along the wrong line (seed 35).
+    of the columns is the same on a circle, but not on an egg's side, whose wall runs off the circle: there it put
+    the axis 1-2 degrees further towards the invert (seed 35; a 3-4 degree error remains, docs/measurement.md).
     """
-    mids = []
-    for row in near:
-        on = np.nonzero(row)[0]
-        if on.size:
-            a, b = wall_point(shape, 1.0, float(thetas[on[0]])), wall_point(shape, 1.0, float(thetas[on[-1]]))
-            mids.append(np.add(a, b) / 2.0)
-    mx, my = np.mean(mids, axis=0)
+    ends = [np.nonzero(row)[0][[0, -1]] for row in near if row.any()]
+    mx, my = np.mean(wall_points(shape, 1.0, thetas[np.array(ends)]).mean(axis=1), axis=0)
     step = float(thetas[1] - thetas[0])
     return float((np.arctan2(my, mx) - thetas[0]) % (2 * np.pi) / step)
 

@@ -91,6 +91,15 @@ def case_sightings(video: Path, truth: dict, cert, cache: Path | None = None, ke
     return found
 
 
+def _budget(res) -> dict[str, float]:
+    """A result's budget as label -> contribution [quantity unit], a label's frames (``xa@f746``...) in quadrature."""
+    out: dict[str, float] = {}
+    for line in res.budget:
+        label = (line.label or "").split("@")[0]
+        out[label] = float(np.hypot(out.get(label, 0.0), line.contribution or 0.0))
+    return out
+
+
 def measure_case(video: Path, truth: dict, cert, cache: Path | None = None, kept: Path | None = None) -> list[dict]:
     """Both quantities of one encoding of a case: rows with the truth, the result or why none."""
     case = truth["case"]
@@ -112,7 +121,9 @@ def measure_case(video: Path, truth: dict, cert, cache: Path | None = None, kept
             own_values, own_u = frame_values([(q, contour) for q in points], cert, H=H, tolerance=0.0)
             row.update(status="measured" if res.confident else "found, not measured", value=res.value, u=res.u,
                        U95=res.U95, low=res.low, high=res.high, reasons="; ".join(res.reasons),
-                       frame_values=own_values.tolist(), frame_own_u=own_u.tolist())
+                       frame_values=own_values.tolist(), frame_own_u=own_u.tolist(),
+                       # each input's contribution |c_i| u(x_i) [mm], summed in quadrature over a label's frames
+                       budget=_budget(res))
         except PipegaugeError as exc:
             row.update(status="not found", reasons=str(exc))
         row["seconds"] = time.perf_counter() - t0

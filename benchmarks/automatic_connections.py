@@ -113,16 +113,16 @@ def frames_of(scene: Scene, z: float, cert, mount, depths, seed: int, codec: str
     return [und.frame(f) for f in raw], und.K
 
 
-def nearest_frames(kind: str, cases: int, seed: int):
-    """The clean-video cases of ``kind`` with the feature, as ``main`` draws them, in circular pipes where the pose
-    is fitted: (index, scene, clock, the nearest measured frame, its contour) each (``lateral_rim.py``,
+def nearest_frames(kind: str, cases: int, seed: int, shapes: tuple[str, ...] = ("circular",)):
+    """The clean-video cases of ``kind`` with the feature, as ``main`` draws them, in pipes of ``shapes`` where the
+    pose is fitted: (index, scene, clock, the nearest measured frame, its contour) each (``lateral_rim.py``,
     ``intrusion_tip.py``)."""
     cert = load_certificate(SAMPLES / "certificates" / "SYN-720x576.json")
     rng = np.random.default_rng([seed, KINDS.index(kind), 0])
     for i in range(cases):
         scene, z, _, clock, mount = case(kind, rng, True)
         H, shape = scene.pipe.height_mm, scene.pipe.shape
-        if shape != "circular":
+        if shape not in shapes:
             continue
         frames, K = frames_of(scene, z, cert, mount, VIEW_DEPTHS_H, i, "none", Path("."))
         contour = detect_contour([cv2.cvtColor(f, cv2.COLOR_BGR2GRAY) for f in frames], K, shape,

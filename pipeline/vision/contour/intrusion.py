@@ -9,7 +9,11 @@ camera, and reaches on beyond it. So:
 1. the region unlike the wall nearest the logged clock position and
    distance; its centre angle theta from its nearest rows, and the depth
    t_base where it starts at that angle (the base's near side);
-2. along the tube's near side, the line from the wall point (theta,
+2. the tube's axis again from its two sides in the image (their mid-line is
+   the axis's image; ``_axis_theta``), where they are seen: the map's
+   outline is lopsided where the wall is not symmetric about the tube (an
+   egg's side);
+3. along the tube's near side, the line from the wall point (theta,
    t_base) towards the pipe's axis in that cross-section, the sub-sample
    point where the tube's grey level falls half-way to what lies beyond
    its end (the tip).
@@ -41,7 +45,8 @@ SEARCH_CLOCK_H = 1.5
 MIN_TUBE_CONTRAST = 10.0      # least grey step from the tube to what lies beyond its tip [8-bit levels]
 EDGE_FLOOR_PX = 0.3
 TIP_RIM_PX = 1.2              # an unresolved rim puts the tube's edge 0 to this far beyond its tip [px] (below)
-EGG_CROWN_RAD = np.radians(20.0)  # an egg's crown arc, where the tube's axis is found right (seed 35: within 1.3 deg)
+EGG_CROWN_RAD = np.radians(20.0)  # an egg's crown arc, where the map's outline finds the axis right (seed 35: 1.3 deg)
+AXIS_REACH_DEG = 10.0       # the sides' axis is taken only within this of the map's [deg]
 RIM_REACH_PX = 8.0            # a resolved rim's second edge (rim to bore) lies within this of its first [px]
 
 
@@ -147,6 +152,123 @@ def tip_on_profile(q: np.ndarray, step_px: float) -> float | None:
     return edge
 
 
+def _column(theta: float, thetas: np.ndarray) -> float:
+    """The wall map's (sub-)column of angle ``theta`` [rad]."""
+    step = float(thetas[1] - thetas[0])
+    return float((theta - thetas[0]) % (2 * np.pi) / step)
+
+
+def _along_tube(ideal_bgr: np.ndarray, view: PipeView, m: np.ndarray, region: np.ndarray, cx: float,
+                thetas: np.ndarray, ts: np.ndarray, mask: np.ndarray | None):
+    """The base and the tip of the tube whose axis is at the wall map's column ``cx``: (theta [rad], t_base [H],
+    base [px], tip [px], u of the base [px], the tip's share of the way to the axis, the profile's step [px]), or
+    None where the map or the profile do not show them."""
+    col = int(round(cx)) % len(thetas)
+    theta = float(np.interp(cx, np.arange(len(thetas)), thetas))
+    columns = region[:, max(col - 2, 0):col + 3]
+    first = [int(np.argmax(c)) for c in columns.T if c.any()]
+    if not first:
+        return None
+    j = int(np.median(first))
+    # sub-sample: where the grey level, on the map's centre columns, crosses half-way from the wall's to the tube's.
+    # Not where the unlikeness |log(grey / wall)| crosses half its height: the log is not linear in the grey level,
+    # so on a lit tube (brighter than the wall) its half-height lies short of the blurred edge's middle, and the
+    # base was placed nearer the camera by about 0.005 H (the intrusion read 0.3 % of H high, median z +0.6)
+    t_base = _base_depth(m, col, j, ts)
+    if t_base is None:
+        return None
+    wx, wy = wall_point(view.shape, 1.0, theta)
+    base, ahead = view.project(np.array([[wx, wy, t_base], [wx, wy, t_base * np.exp(np.log(ts[1] / ts[0]))]]))
+    # the base's depth is known to a map step and the region's blurred edge: about one step, rectangular
+    u_base = max(float(np.linalg.norm(ahead - base)) / np.sqrt(3.0), EDGE_FLOOR_PX)
+    lam = np.linspace(0.0, 0.95, 400)
+    line = view.project(np.column_stack([wx * (1 - lam), wy * (1 - lam), np.full_like(lam, t_base)]))
+    prof = _masked(_sample(_gray(ideal_bgr), line), line, mask)
+    if not np.all(np.isfinite(prof[:200])):
+        return None
+    q = np.convolve(prof, np.ones(5) / 5, mode="same")
+    tube = float(np.median(q[5:15]))
+    beyond = float(np.median(q[300:380])) if np.isfinite(q[300:380]).all() else float(np.nanmedian(q[300:]))
+    if abs(tube - beyond) < MIN_TUBE_CONTRAST:
+        return None
+    step_px = float(np.linalg.norm(line[1] - line[0]))
+    edge = tip_on_profile(q, step_px)
+    if edge is None:
+        return None
+    share = float(np.interp(edge, np.arange(len(lam)), lam))
+    tip = view.project(np.array([[wx * (1 - share), wy * (1 - share), t_base]]))[0]
+    return (theta, t_base, (float(base[0]), float(base[1])), (float(tip[0]), float(tip[1])), u_base, share,
+            step_px)
+
+
+def _axis_theta(ideal_bgr: np.ndarray, view: PipeView, found, mask: np.ndarray | None) -> float | None:
+    """The angle [rad] of the tube's axis around the profile's centre from its two sides in the image, or None
+    where they are not seen.
+
+    A cylinder's outline is symmetric about the plane through its axis and the camera, so the mid-line between
+    its two sides in the image is the axis's image. The axis lies in one cross-section, deeper than the tube's
+    near side (``t_base``) by the tube's radius (half the sides' distance), and runs radially: any mid-line point
+    taken back to that depth has the axis's angle. The region's outline on the wall map gives the same angle only
+    where the wall is symmetric about the tube (a circle, an egg's crown and invert): on an egg's side the tube
+    meets the wall lopsidedly, and the map's outline put the axis 3-4 degrees towards the invert
+    (docs/measurement.md, "BAG's tip").
+    """
+    theta, t_base, base, tip, _, share, _ = found
+    gray = _gray(ideal_bgr)
+    px_per_h = float(view.p_H(t_base)[0])
+    b, e = np.asarray(base), np.asarray(tip)
+    length = float(np.linalg.norm(e - b))
+    if length < 6.0:
+        return None
+    along = (e - b) / length
+    normal = np.array([-along[1], along[0]])
+    r = int(np.clip(0.3 * px_per_h, 8, 200))
+    cx, cy = 0.5 * (b + e)
+    x0, y0 = int(round(cx)) - r - int(length / 2), int(round(cy)) - r - int(length / 2)
+    size = 2 * r + int(length) + 1
+    rows, cols = gray.shape
+    if x0 < 0 or y0 < 0 or x0 + size > cols or y0 + size > rows:
+        return None
+    win = gray[y0:y0 + size, x0:x0 + size]
+    side = 0.5 * (b + e)
+    lit = float(_sample(gray, side[None, :])[0])
+    border = np.concatenate([win[0], win[-1], win[:, 0], win[:, -1]])
+    bg = float(np.median(border))
+    if not np.isfinite(lit) or abs(lit - bg) < MIN_TUBE_CONTRAST:
+        return None
+    level = 0.5 * (lit + bg)
+    tube = ((win > level) if lit > bg else (win < level)).astype(np.uint8)
+    if mask is not None:
+        tube &= (mask[y0:y0 + size, x0:x0 + size] > 0).astype(np.uint8)
+    n, labels = cv2.connectedComponents(tube, connectivity=8)
+    k = labels[int(round(side[1])) - y0, int(round(side[0])) - x0]
+    if k == 0:
+        return None
+    ys, xs = np.nonzero(labels == k)
+    if xs.min() == 0 or ys.min() == 0 or xs.max() == size - 1 or ys.max() == size - 1:
+        return None                          # the tube's blob runs out of the window: not the tube alone
+    rel = np.column_stack([xs + x0, ys + y0]) - b
+    u, v = rel @ along, rel @ normal
+    mids, halves = [], []
+    for lo in np.arange(0.2 * length, 0.8 * length, 1.0):
+        sel = (u >= lo) & (u < lo + 1.0)
+        if sel.sum() >= 3:
+            mids.append(0.5 * (v[sel].min() + v[sel].max()))
+            halves.append(0.5 * (v[sel].max() - v[sel].min()))
+    if len(mids) < 3:
+        return None
+    mid = b + along * 0.5 * length + normal * float(np.median(mids))
+    t_axis = t_base + float(np.median(halves)) / px_per_h
+    d = view.rays(mid[None, :])[0]
+    if d[2] <= 0:
+        return None
+    x, y = view.ox + d[0] * t_axis / d[2], view.oy + d[1] * t_axis / d[2]
+    phi = float(np.arctan2(y, x))
+    if abs((phi - theta + np.pi) % (2 * np.pi) - np.pi) > np.radians(AXIS_REACH_DEG):
+        return None
+    return phi
+
+
 def find_intrusion(ideal_bgr: np.ndarray, view: PipeView, *, clock: float | None = None,
                    depths: tuple[float, float] = (1.0, 3.5), expected_depth: float | None = None,
                    mask: np.ndarray | None = None) -> Intrusion | None:
@@ -187,47 +309,23 @@ def find_intrusion(ideal_bgr: np.ndarray, view: PipeView, *, clock: float | None
     if best is None:
         return None
     _, k, cx = best
-    col = int(round(cx))
-    theta = float(np.interp(cx, np.arange(THETA_STEPS), thetas))
-    columns = labels[:, max(col - 2, 0):col + 3] == k
-    first = [int(np.argmax(c)) for c in columns.T if c.any()]
-    if not first:
+    first_pass = _along_tube(ideal_bgr, view, m, labels == k, cx, thetas, ts, mask)
+    if first_pass is None:
         return None
-    j = int(np.median(first))
-    # sub-sample: where the grey level, on the map's centre columns, crosses half-way from the wall's to the tube's.
-    # Not where the unlikeness |log(grey / wall)| crosses half its height: the log is not linear in the grey level,
-    # so on a lit tube (brighter than the wall) its half-height lies short of the blurred edge's middle, and the
-    # base was placed nearer the camera by about 0.005 H (the intrusion read 0.3 % of H high, median z +0.6)
-    t_base = _base_depth(m, col, j, ts)
-    if t_base is None:
-        return None
-    wx, wy = wall_point(view.shape, 1.0, theta)
-    base, ahead = view.project(np.array([[wx, wy, t_base], [wx, wy, t_base * np.exp(np.log(ts[1] / ts[0]))]]))
-    # the base's depth is known to a map step and the region's blurred edge: about one step, rectangular
-    u_base = max(float(np.linalg.norm(ahead - base)) / np.sqrt(3.0), EDGE_FLOOR_PX)
-    lam = np.linspace(0.0, 0.95, 400)
-    line = view.project(np.column_stack([wx * (1 - lam), wy * (1 - lam), np.full_like(lam, t_base)]))
-    prof = _masked(_sample(_gray(ideal_bgr), line), line, mask)
-    if not np.all(np.isfinite(prof[:200])):
-        return None
-    q = np.convolve(prof, np.ones(5) / 5, mode="same")
-    tube = float(np.median(q[5:15]))
-    beyond = float(np.median(q[300:380])) if np.isfinite(q[300:380]).all() else float(np.nanmedian(q[300:]))
+    # the tube's axis from its sides in the image (below); the region's outline on the map gives it only on a circle
+    theta_axis = _axis_theta(ideal_bgr, view, first_pass, mask)
+    again = None if theta_axis is None else _along_tube(ideal_bgr, view, m, labels == k,
+                                                        _column(theta_axis, thetas), thetas, ts, mask)
+    found = again if again is not None else first_pass
+    theta, t_base, base, tip, u_base, share, step_px = found
     problems: list[str] = []
-    if abs(tube - beyond) < MIN_TUBE_CONTRAST:
-        return None
-    step_px = float(np.linalg.norm(line[1] - line[0]))
-    edge = tip_on_profile(q, step_px)
-    if edge is None:
-        return None
-    share = float(np.interp(edge, np.arange(len(lam)), lam))
-    tip = view.project(np.array([[wx * (1 - share), wy * (1 - share), t_base]]))[0]
     u_tip = max(float(np.hypot(step_px, 0.5 * TIP_RIM_PX / np.sqrt(3.0))), EDGE_FLOOR_PX)
     if share < 0.03:
         problems.append("the tip lies at the wall: an opening, not an intruding lateral")
-    if view.shape == "egg" and abs((theta - np.pi / 2 + np.pi) % (2 * np.pi) - np.pi) > EGG_CROWN_RAD:
-        # measured, not yet corrected (docs/measurement.md, "BAG's tip"): the value would be a known bias
-        problems.append("on an egg profile's side wall the tube's axis is found 3-4 degrees towards the invert, "
-                        "so the intrusion reads short: not trusted until that is corrected")
+    if again is None and view.shape == "egg" and abs((theta - np.pi / 2 + np.pi) % (2 * np.pi) - np.pi) > EGG_CROWN_RAD:
+        # the map's outline alone: a known bias there (docs/measurement.md, "BAG's tip"), not a value to trust
+        problems.append("on an egg profile's side wall the tube's sides were not found in the image, and the wall "
+                        "map's outline puts its axis 3-4 degrees towards the invert, so the intrusion would read "
+                        "short")
     return Intrusion(theta, t_base, (float(base[0]), float(base[1])), (float(tip[0]), float(tip[1])), u_base, u_tip,
                      share, tuple(problems))

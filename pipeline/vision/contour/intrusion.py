@@ -211,6 +211,10 @@ def _axis_theta(ideal_bgr: np.ndarray, view: PipeView, found, mask: np.ndarray |
     where the wall is symmetric about the tube (a circle, an egg's crown and invert): on an egg's side the tube
     meets the wall lopsidedly, and the map's outline put the axis 3-4 degrees towards the invert
     (docs/measurement.md, "BAG's tip").
+
+    ``found`` is ``_along_tube``'s result at the map's angle; the sides are those of the blob of the tube's grey
+    level (half-way to the surroundings') grown from just inside its base, which must lie whole in a window of
+    half a pipe height about the base.
     """
     theta, t_base, base, _, _, _, _ = found
     gray = _gray(ideal_bgr)

@@ -183,6 +183,41 @@ def test_night_stores_found_not_measured_without_a_value(lateral):
     assert row.value is None and row.frame == 0
 
 
+def test_codec_doubt_names_the_codecs_a_code_was_validated_in():
+    from pipeline.measurement.connections import codec_doubt
+
+    assert codec_doubt("BAG", "avc1") is not None and "'avc1'" in codec_doubt("BAG", "avc1")
+    assert codec_doubt("BBC", "H264") is not None
+    assert codec_doubt("BAG", "mp4v") is None and codec_doubt("BAG", "FMP4") is None
+    assert codec_doubt("BCA", "avc1") is None        # no codec rule for the opening's rim
+    assert codec_doubt("BAG", "") is None and codec_doubt("BAG", None) is None      # not known: nothing to say
+
+
+@pytest.mark.slow
+def test_an_intrusion_in_h264_video_is_found_not_measured_for_its_codec():
+    """The night's row of a BAG from the image alone: "found, not measured" with the codec's reason in H.264, where
+    its edges miss their U95 in a quarter of cases; no such reason in MPEG-4 Part 2, the codec it was validated in."""
+    from types import SimpleNamespace
+
+    from pipeline.app.measure import _measure_feature
+    from pipeline.domain.records import Observation
+
+    scene = Scene(Pipe("circular", H, "concrete", 1000.0), water_percent=5.0,
+                  features=(Connection("g", Z, 10, 100.0, intrusion_mm=60.0),))
+    cert, contour, frames = _views(scene, VIEW_DEPTHS_H)
+    obs = Observation(4, 1.8, "BAG", "", "", 20.0, "%", None, "", 10, None, False, "", None, "", "", {})
+    header = SimpleNamespace(height_mm=H, height_tolerance_mm=0.0)
+    rows = {codec: _measure_feature(obs, [(0, 1.6), (1, 2.3)], _Track(), "perspective",
+                                    contours={0: contour, 1: contour}, under=lambda o, c: c,
+                                    ideal=lambda f: frames[f], cert=cert, header=header, mask=None, seed=1, edges=(),
+                                    thumbnails=[], codec=codec) for codec in ("mp4v", "avc1")}
+    # (here the search, which may look beyond the logged distance, takes the farther frame's region too: its own
+    # reasons keep it unmeasured in both codecs; the codec's reason is added only in H.264)
+    assert "validated in MPEG-4 Part 2 video only" not in (rows["mp4v"].error or "")
+    assert rows["avc1"].status == "unmeasured" and rows["avc1"].value is None
+    assert "validated in MPEG-4 Part 2 video only" in rows["avc1"].error
+
+
 def _bca(q2: float | None = 150.0, code: str = "BCA"):
     from pipeline.domain.records import Observation
 

@@ -16,7 +16,7 @@ import time
 import zlib
 from collections import defaultdict
 from concurrent.futures import Future, ThreadPoolExecutor
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 from typing import Callable
 
@@ -36,7 +36,7 @@ from pipeline.vision.video.reader import read_frame
 from pipeline.measurement.automatic import measurable_automatically, measure_automatic
 from pipeline.measurement.frames import measure_over_frames
 from pipeline.measurement.connections import (CONNECTION_CODES, DEPOSIT_SPAN_H, DEPOSIT_VIEW_H, FEATURE_CODES, VIEW_DEPTHS_H,
-                                              find_connection, measure_connection, measure_deposit)
+                                              codec_doubt, find_connection, measure_connection, measure_deposit)
 from pipeline.measurement.joints import (ANGULAR_NOT_MEASURED, found_not_measured, measurable_joint, measure_joint,
                                          step_clock)
 from pipeline.measurement.marked import marked_quantity
@@ -305,7 +305,7 @@ def measure_package(folder: str | os.PathLike, *, certificates: str | os.PathLik
                 by_row[r], feature_frames, ingest.track, model, contours=contours, under=under, ideal=ideal, cert=cert,
                 header=header, mask=mask, seed=quantity_seed(manifest.package_id, r, f"{quantity} feature"),
                 edges=edges(by_row[r], quantity), thumbnails=result.thumbnails, thumbnail=thumbnail, quantity=quantity,
-                found=search))
+                found=search, codec=info.codec))
     result.measurements += unmarked_quantities(by_row.values(), result.measurements, model)
     add_verdicts(result, header, observations, ingest.track)
     # what the image alone could not give is reported on its row, but the logged quantities decide the status
@@ -472,11 +472,11 @@ def feature_quantities(obs: Observation) -> tuple[str, ...]:
 
 def _measure_feature(obs: Observation, views: list[tuple[int, float]], track, model: str, *, contours, under, ideal,
                      cert, header, mask, seed: int, edges: tuple[float, ...], thumbnails: list, thumbnail=None,
-                     quantity: str = "Q1", found: dict | None = None) -> MeasurementRecord:
+                     quantity: str = "Q1", found: dict | None = None, codec: str | None = None) -> MeasurementRecord:
     """A connection's height around the pipe (BCA Q1) or width along it (Q2), an intrusion (BAG) or a deposit's
     loss (BBC, BBB) from the image alone; one not confident is stored "found, not measured" with its reasons
     (status error: no grade, no log check). found : where the connection's search is kept for its next quantity
-    (the search's result, or the error it raised)."""
+    (the search's result, or the error it raised); codec : the video's FourCC (``codec_doubt``)."""
     row = _automatic_base(obs, views[0][0] if views else None, track, model, quantity)
     try:
         if not views:
@@ -503,6 +503,9 @@ def _measure_feature(obs: Observation, views: list[tuple[int, float]], track, mo
     except PipegaugeError as exc:          # "not found: ...", "found, not measured: ..." or a pose not fitted
         row.update(status="error", error=str(exc))
         return row
+    doubt = codec_doubt(obs.code, codec)
+    if doubt is not None:
+        auto = replace(auto, result=replace(auto.result, confident=False, reasons=(*auto.result.reasons, doubt)))
     frame = views[auto.view][0]
     chainage, u_chainage = _chainage_at(track, frame)
     q, res = auto.quantity, auto.result

@@ -59,6 +59,24 @@ LATERAL_SEARCH_H = 0.9         # an opening is looked for this far either side o
 ORIGIN = {"BCA": "lateral rim fit", "BAG": "intruding lateral's base and tip", "deposit": "deposit surface edge fit"}
 
 
+# The video codecs in which each code's measurement from the image alone was validated against generated truth
+# (benchmarks/automatic_connections.py, docs/measurement.md): MPEG-4 Part 2 under its FourCCs. Under H.264 a
+# BAG's base and tip, and a deposit's surface, miss their stated U95 far more often than 5 % (BAG, 150 cases:
+# coverage 76 %), so a result from video in another codec is "found, not measured" until a codec term is in its u.
+MPEG4_PART2 = frozenset({"mp4v", "fmp4", "xvid", "divx", "dx50"})
+VALIDATED_CODECS: dict[str, frozenset[str]] = {"BAG": MPEG4_PART2, "BBC": MPEG4_PART2, "BBB": MPEG4_PART2}
+
+
+def codec_doubt(code: str, codec: str | None) -> str | None:
+    """Why a ``code`` measured from the image alone in video of ``codec`` (its FourCC) is not to be trusted at its
+    U95, or None: the code has no codec rule, the codec is one it was validated in, or the codec is not known."""
+    allowed = VALIDATED_CODECS.get(code)
+    if allowed is None or not codec or codec.strip().lower() in allowed:
+        return None
+    return (f"{code} from the image alone is validated in MPEG-4 Part 2 video only; this video's codec is "
+            f"{codec.strip()!r}, in which its edges miss their stated U95 more often (docs/measurement.md)")
+
+
 @dataclass
 class Automatic:
     """An automatic result: the points found, the measured quantity, and whether it may be used."""

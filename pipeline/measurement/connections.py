@@ -60,11 +60,12 @@ ORIGIN = {"BCA": "lateral rim fit", "BAG": "intruding lateral's base and tip", "
 
 
 # The video codecs in which each code's measurement from the image alone was validated against generated truth
-# (benchmarks/automatic_connections.py, docs/measurement.md): MPEG-4 Part 2 under its FourCCs. Under H.264 a
-# BAG's base and tip, and a deposit's surface, miss their stated U95 far more often than 5 % (BAG, 150 cases:
-# coverage 76 %), so a result from video in another codec is "found, not measured" until a codec term is in its u.
+# (benchmarks/automatic_connections.py, docs/measurement.md): MPEG-4 Part 2 under its FourCCs. Under H.264 an
+# opening's rim, a BAG's base and tip and a deposit's surface miss their stated U95 far more often than 5 % (150
+# cases each, seed 37: BCA coverage 66 %, BAG 76 %), so a result from video in another codec is "found, not
+# measured" until a codec term is in its u.
 MPEG4_PART2 = frozenset({"mp4v", "fmp4", "xvid", "divx", "dx50"})
-VALIDATED_CODECS: dict[str, frozenset[str]] = {"BAG": MPEG4_PART2, "BBC": MPEG4_PART2, "BBB": MPEG4_PART2}
+VALIDATED_CODECS: dict[str, frozenset[str]] = {code: MPEG4_PART2 for code in ("BCA", "BAG", "BBC", "BBB")}
 
 
 def codec_doubt(code: str, codec: str | None) -> str | None:

@@ -39,9 +39,9 @@ def main() -> None:
     seen: dict = {}
     sides = intrusion._axis_theta
 
-    def recorded(image, view, found, mask):      # the first pass's angle (the map's), beside the sides' one
+    def recorded(gray, view, found, mask):       # the first pass's angle (the map's), beside the sides' one
         seen["map"] = found[0]
-        seen["sides"] = sides(image, view, found, mask)
+        seen["sides"] = sides(gray, view, found, mask)
         return seen["sides"]
 
     intrusion._axis_theta = recorded

@@ -113,8 +113,7 @@ def _axis_column(near: np.ndarray, thetas: np.ndarray, shape: str) -> float:
     """
     ends = [np.nonzero(row)[0][[0, -1]] for row in near if row.any()]
     mx, my = np.mean(wall_points(shape, 1.0, thetas[np.array(ends)]).mean(axis=1), axis=0)
-    step = float(thetas[1] - thetas[0])
-    return float((np.arctan2(my, mx) - thetas[0]) % (2 * np.pi) / step)
+    return _column(float(np.arctan2(my, mx)), thetas)
 
 
 def tip_on_profile(q: np.ndarray, step_px: float) -> float | None:
@@ -157,7 +156,7 @@ def _column(theta: float, thetas: np.ndarray) -> float:
     return float((theta - thetas[0]) % (2 * np.pi) / step)
 
 
-def _along_tube(ideal_bgr: np.ndarray, view: PipeView, m: np.ndarray, region: np.ndarray, cx: float,
+def _along_tube(gray: np.ndarray, view: PipeView, m: np.ndarray, region: np.ndarray, cx: float,
                 thetas: np.ndarray, ts: np.ndarray, mask: np.ndarray | None):
     """The base and the tip of the tube whose axis is at the wall map's column ``cx``: (theta [rad], t_base [H],
     base [px], tip [px], u of the base [px], the tip's share of the way to the axis, the profile's step [px]), or
@@ -182,7 +181,7 @@ def _along_tube(ideal_bgr: np.ndarray, view: PipeView, m: np.ndarray, region: np
     u_base = max(float(np.linalg.norm(ahead - base)) / np.sqrt(3.0), EDGE_FLOOR_PX)
     lam = np.linspace(0.0, 0.95, 400)
     line = view.project(np.column_stack([wx * (1 - lam), wy * (1 - lam), np.full_like(lam, t_base)]))
-    prof = _masked(_sample(_gray(ideal_bgr), line), line, mask)
+    prof = _masked(_sample(gray, line), line, mask)
     if not np.all(np.isfinite(prof[:200])):
         return None
     q = np.convolve(prof, np.ones(5) / 5, mode="same")
@@ -200,7 +199,7 @@ def _along_tube(ideal_bgr: np.ndarray, view: PipeView, m: np.ndarray, region: np
             step_px)
 
 
-def _axis_theta(ideal_bgr: np.ndarray, view: PipeView, found, mask: np.ndarray | None) -> float | None:
+def _axis_theta(gray: np.ndarray, view: PipeView, found, mask: np.ndarray | None) -> float | None:
     """The angle [rad] of the tube's axis around the profile's centre from its two sides in the image, or None
     where they are not seen.
 
@@ -217,7 +216,6 @@ def _axis_theta(ideal_bgr: np.ndarray, view: PipeView, found, mask: np.ndarray |
     half a pipe height about the base.
     """
     theta, t_base, base, _, _, _, _ = found
-    gray = _gray(ideal_bgr)
     px_per_h = float(view.p_H(t_base)[0])
     wx, wy = wall_point(view.shape, 1.0, theta)
     b, inward = view.project(np.array([[wx, wy, t_base], [0.9 * wx, 0.9 * wy, t_base]]))
@@ -317,17 +315,18 @@ def find_intrusion(ideal_bgr: np.ndarray, view: PipeView, *, clock: float | None
     if best is None:
         return None
     _, k, cx = best
-    first_pass = _along_tube(ideal_bgr, view, m, labels == k, cx, thetas, ts, mask)
+    gray = _gray(ideal_bgr)           # once for the frame: both passes and the sides read it
+    first_pass = _along_tube(gray, view, m, labels == k, cx, thetas, ts, mask)
     if first_pass is None:
         return None
     # the tube's axis from its sides in the image (below); the region's outline on the map gives it only on a
     # circle. A region whose two sides are not seen is not taken for a tube: on 50 generated pipes without a
     # lateral (seed 37) the wall's own stains made 5 such regions, 2 of them seen alike in both frames and
     # measured, and none of them showed a tube's sides
-    theta_axis = _axis_theta(ideal_bgr, view, first_pass, mask)
+    theta_axis = _axis_theta(gray, view, first_pass, mask)
     if theta_axis is None:
         return None
-    found = _along_tube(ideal_bgr, view, m, labels == k, _column(theta_axis, thetas), thetas, ts, mask)
+    found = _along_tube(gray, view, m, labels == k, _column(theta_axis, thetas), thetas, ts, mask)
     if found is None:
         return None
     theta, t_base, base, tip, u_base, share, step_px = found

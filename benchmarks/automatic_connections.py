@@ -210,7 +210,11 @@ def main() -> None:
     ap.add_argument("--kind", choices=KINDS, action="append")
     ap.add_argument("--codec", choices=("none", "mp4v", "h264"), action="append")
     ap.add_argument("--json", type=Path, help="write the per-case rows (value, truth, u, budget lines) to this file")
+    ap.add_argument("--table", type=Path, help="only print the summary again from rows kept by --json")
     args = ap.parse_args()
+    if args.table:
+        report(json.loads(args.table.read_text()))
+        return
     cert = load_certificate(SAMPLES / "certificates" / "SYN-720x576.json")
     kinds, codecs = args.kind or KINDS, args.codec or ["none"]
     empty = args.cases // 3 if args.empty is None else args.empty
@@ -229,13 +233,21 @@ def main() -> None:
     print(f"{len(rows)} cases in {time.perf_counter() - t0:.0f} s")
     if args.json:
         args.json.write_text(json.dumps(rows, indent=1))
-    for kind in kinds:
-        for codec in codecs:
+    report(rows)
+
+
+def report(rows: list[dict]) -> None:
+    """The summary lines per kind and codec (all DN, DN >= 200 for BCA, and per shape) and each miss."""
+    for kind in dict.fromkeys(r["kind"] for r in rows):
+        for codec in dict.fromkeys(r["codec"] for r in rows if r["kind"] == kind):
             sel = [r for r in rows if r["codec"] == codec]
             for line in summary(sel, kind, f"{codec} all DN"):
                 print(line)
+            subsets = [(f"{codec} {shape}", [r for r in sel if r["shape"] == shape]) for shape in ("circular", "egg")]
             if kind == "bca":
-                for line in summary([r for r in sel if r["dn"] >= 200], kind, f"{codec} DN >= 200"):
+                subsets.insert(0, (f"{codec} DN >= 200", [r for r in sel if r["dn"] >= 200]))
+            for label, subset in subsets:
+                for line in summary(subset, kind, label):
                     if "false" not in line:
                         print(line)
     for r in rows:

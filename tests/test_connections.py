@@ -191,7 +191,8 @@ def test_codec_doubt_names_the_codecs_a_code_was_validated_in():
     assert codec_doubt("BAG", "mp4v") is None and codec_doubt("BAG", "FMP4") is None
     assert codec_doubt("BCA", "avc1") is not None    # the opening's rim too (coverage 66 % of 80 under H.264)
     assert codec_doubt("BAJ", "avc1") is None        # the joint's ends were validated in both codecs
-    assert codec_doubt("BAG", "") is None and codec_doubt("BAG", None) is None      # not known: nothing to say
+    assert codec_doubt("BAG", "") is None and codec_doubt("BAG", None) is None      # no video: nothing to say
+    assert codec_doubt("BAG", "unknown") is not None     # the reader's word for a FourCC it could not tell
 
 
 @pytest.mark.slow

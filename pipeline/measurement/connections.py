@@ -70,7 +70,9 @@ VALIDATED_CODECS: dict[str, frozenset[str]] = {code: MPEG4_PART2 for code in ("B
 
 def codec_doubt(code: str, codec: str | None) -> str | None:
     """Why a ``code`` measured from the image alone in video of ``codec`` (its FourCC) is not to be trusted at its
-    U95, or None: the code has no codec rule, the codec is one it was validated in, or the codec is not known."""
+    U95, or None: the code has no codec rule, the codec is one it was validated in, or no codec was given (a
+    caller measuring frames, not a video). A FourCC the reader could not tell (``"unknown"``) is not one it was
+    validated in, so it has the doubt."""
     allowed = VALIDATED_CODECS.get(code)
     if allowed is None or not codec or codec.strip().lower() in allowed:
         return None

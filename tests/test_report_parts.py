@@ -58,6 +58,16 @@ def test_warnings_in_plain_words_with_the_action_once_per_row():
                                                           "check the marks and the outline on the thumbnail")]
 
 
+def test_a_code_not_validated_from_the_image_alone_is_said_with_what_to_do():
+    from pipeline.measurement.connections import validation_doubt
+
+    for doubt, words in ((validation_doubt("BAG", "avc1"), "not validated in this video's codec"),
+                         (validation_doubt("BBC", "mp4v"), "not validated yet")):
+        [(sentence, action)] = plain_warnings(doubt)
+        assert words in sentence and "not used" in sentence
+        assert "pipegauge review" in action
+
+
 @pytest.mark.parametrize("x, text", [(0.0001721, "1.72e-04"), (1.0797e-05, "1.08e-05"), (405.52, "406"),
                                      (-0.03336, "-0.0334"), (123456.0, "1.23e+05"), (0.0, "0")])
 def test_budget_numbers_stay_short(x, text):

@@ -36,7 +36,7 @@ from pipeline.vision.video.reader import read_frame
 from pipeline.measurement.automatic import measurable_automatically, measure_automatic
 from pipeline.measurement.frames import measure_over_frames
 from pipeline.measurement.connections import (CONNECTION_CODES, DEPOSIT_SPAN_H, DEPOSIT_VIEW_H, FEATURE_CODES, VIEW_DEPTHS_H,
-                                              codec_doubt, find_connection, measure_connection, measure_deposit)
+                                              validation_doubt, find_connection, measure_connection, measure_deposit)
 from pipeline.measurement.joints import (ANGULAR_NOT_MEASURED, found_not_measured, measurable_joint, measure_joint,
                                          step_clock)
 from pipeline.measurement.marked import marked_quantity
@@ -476,7 +476,7 @@ def _measure_feature(obs: Observation, views: list[tuple[int, float]], track, mo
     """A connection's height around the pipe (BCA Q1) or width along it (Q2), an intrusion (BAG) or a deposit's
     loss (BBC, BBB) from the image alone; one not confident is stored "found, not measured" with its reasons
     (status error: no grade, no log check). found : where the connection's search is kept for its next quantity
-    (the search's result, or the error it raised); codec : the video's FourCC (``codec_doubt``)."""
+    (the search's result, or the error it raised); codec : the video's FourCC (``validation_doubt``)."""
     row = _automatic_base(obs, views[0][0] if views else None, track, model, quantity)
     try:
         if not views:
@@ -503,7 +503,7 @@ def _measure_feature(obs: Observation, views: list[tuple[int, float]], track, mo
     except PipegaugeError as exc:          # "not found: ...", "found, not measured: ..." or a pose not fitted
         row.update(status="error", error=str(exc))
         return row
-    doubt = codec_doubt(obs.code, codec)
+    doubt = validation_doubt(obs.code, codec)
     if doubt is not None:
         auto = replace(auto, result=replace(auto.result, confident=False, reasons=(*auto.result.reasons, doubt)))
     frame = views[auto.view][0]

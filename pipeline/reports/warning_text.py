@@ -42,6 +42,12 @@ _RULES = [
     (re.compile(r"Monte Carlo not converged"),
      "the Monte Carlo run stopped at its trial cap before the interval's ends settled to the digits printed "
      "(JCGM 101 7.9), so their last digit is uncertain", "read the interval to one digit less"),
+    (re.compile(r"from the image alone is validated in .* only"),
+     "measuring this code from the image alone is not validated in this video's codec, so the value was not used",
+     "measure it with marks (pipegauge review), or ask for the video in MPEG-4 Part 2"),
+    (re.compile(r"from the image alone is not validated yet"),
+     "measuring this code from the image alone is not validated yet (its intervals missed generated truth too "
+     "often), so the value was not used", "measure it with marks (pipegauge review)"),
     (re.compile(r"may be an undeformed joint|off the wall"),
      "the ring used for the deformation may be an undeformed joint", "check the deformation on the video"),
 ]

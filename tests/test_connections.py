@@ -223,6 +223,26 @@ def test_an_intrusion_in_h264_video_is_found_not_measured_for_its_codec():
     assert "validated in MPEG-4 Part 2 video only" in rows["avc1"].error
 
 
+@pytest.mark.slow
+def test_a_deposit_from_the_image_alone_is_kept_found_not_measured_until_validated():
+    """BBC is validated in no codec yet (its U95 missed in 12 of 100 generated deposits): the night's row keeps the
+    surface found (its points and frame) but no value, with the reason, even in MPEG-4 Part 2."""
+    from types import SimpleNamespace
+
+    from pipeline.app.measure import _measure_feature
+    from pipeline.domain.records import Observation
+
+    scene = Scene(Pipe("circular", H, "vitrified clay", 1000.0), features=(Deposit("d", Z, Z + 3 * H, 20.0),))
+    cert, contour, frames = _views(scene, DEPOSIT_VIEW_H)
+    obs = Observation(4, 1.8, "BBC", "A", "", 20.0, "%", None, "", None, None, False, "", None, "", "", {})
+    header = SimpleNamespace(height_mm=H, height_tolerance_mm=0.0)
+    row = _measure_feature(obs, [(0, DEPOSIT_VIEW_H[0]), (1, DEPOSIT_VIEW_H[1])], _Track(), "perspective",
+                           contours={0: contour, 1: contour}, under=lambda o, c: c, ideal=lambda f: frames[f],
+                           cert=cert, header=header, mask=None, seed=1, edges=(), thumbnails=[], codec="mp4v")
+    assert row.status == "unmeasured" and row.value is None and row.frame == 0
+    assert "not validated yet" in row.error and row.a_x_px is not None
+
+
 def _bca(q2: float | None = 150.0, code: str = "BCA"):
     from pipeline.domain.records import Observation
 

@@ -250,10 +250,27 @@ def report(rows: list[dict]) -> None:
                 for line in summary(subset, kind, label):
                     if "false" not in line:
                         print(line)
+    held_back(rows)
     for r in rows:
         if r["feature"] and r["measured"] and not r["low"] <= r["truth"] <= r["high"]:
             print(f"  miss {r['kind']} {r['codec']} DN {r['dn']:.0f} {r['shape']}: truth {r['truth']:.2f}, value "
                   f"{r['value']:.2f} [{r['low']:.2f}, {r['high']:.2f}]")
+
+
+def held_back(rows: list[dict]) -> None:
+    """For each single doubt that kept results "found, not measured" (with their value kept), how many of them
+    held the truth: whether the doubt stands between the night and wrong values, or only costs results."""
+    groups: dict[tuple[str, str, str], list[bool]] = {}
+    for r in rows:
+        if not (r["feature"] and r["found"] and not r["measured"] and r["value"] is not None):
+            continue
+        doubts = [d.strip() for d in r["reason"].split(";") if d.strip() and not d.strip().startswith("Monte Carlo")]
+        if len(doubts) == 1:
+            words = " ".join(doubts[0].split()[:5])
+            groups.setdefault((r["kind"], r["codec"], words), []).append(r["low"] <= r["truth"] <= r["high"])
+    for (kind, codec, words), inside in sorted(groups.items()):
+        print(f"  held back {kind} {codec} for '{words} ...' alone: {len(inside)}, {sum(inside)} of them inside their "
+              "interval")
 
 
 if __name__ == "__main__":

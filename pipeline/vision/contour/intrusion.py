@@ -177,8 +177,10 @@ def _along_tube(gray: np.ndarray, view: PipeView, m: np.ndarray, region: np.ndar
         return None
     wx, wy = wall_point(view.shape, 1.0, theta)
     base, ahead = view.project(np.array([[wx, wy, t_base], [wx, wy, t_base * np.exp(np.log(ts[1] / ts[0]))]]))
-    # the base's depth is known to a map step and the region's blurred edge: about one step, rectangular
-    u_base = max(float(np.linalg.norm(ahead - base)) / np.sqrt(3.0), EDGE_FLOOR_PX)
+    # the crossing is bracketed by two map rows one step apart: rectangular over that step, half-width half a step
+    # (GUM 4.3.7; it was a whole step's half-width, twice that, while the base's error against the truth was 0.32 px
+    # robust SD for 0.44 px stated, seed 35); the floor holds where the half-way level stands on the blurred edge
+    u_base = max(float(np.linalg.norm(ahead - base)) / np.sqrt(12.0), EDGE_FLOOR_PX)
     lam = np.linspace(0.0, 0.95, 400)
     line = view.project(np.column_stack([wx * (1 - lam), wy * (1 - lam), np.full_like(lam, t_base)]))
     prof = _masked(_sample(gray, line), line, mask)
@@ -331,7 +333,10 @@ def find_intrusion(ideal_bgr: np.ndarray, view: PipeView, *, clock: float | None
         return None
     theta, t_base, base, tip, u_base, share, step_px = found
     problems: list[str] = []
-    u_tip = max(float(np.hypot(step_px, 0.5 * TIP_RIM_PX / np.sqrt(3.0))), EDGE_FLOOR_PX)
+    # the edge's sub-sample place lies within half a sample of the strongest step (``tip_on_profile`` clips it
+    # there): rectangular over one sample, step / sqrt(12), not a whole sample as a standard uncertainty; and the
+    # unresolved rim's one-sided offset, rectangular over its half-width
+    u_tip = max(float(np.hypot(step_px / np.sqrt(12.0), 0.5 * TIP_RIM_PX / np.sqrt(3.0))), EDGE_FLOOR_PX)
     if share < 0.03:
         problems.append("the tip lies at the wall: an opening, not an intruding lateral")
     return Intrusion(theta, t_base, (float(base[0]), float(base[1])), (float(tip[0]), float(tip[1])), u_base, u_tip,

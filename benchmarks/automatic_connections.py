@@ -42,6 +42,7 @@ from pipeline.core.errors import PipegaugeError
 from pipeline.formats.certificate import load_certificate
 from pipeline.maths.profiles import clock_to_theta, wall_point
 from pipeline.measurement.connections import DEPOSIT_SPAN_H, DEPOSIT_VIEW_H, VIEW_DEPTHS_H, measure_connection, measure_deposit
+from pipeline.measurement.quantity import MC_NOT_CONVERGED
 from pipeline.synth.render import Renderer
 from pipeline.synth.scene import Connection, Deposit, Pipe, Scene
 from pipeline.vision.contour import detect_contour
@@ -264,7 +265,7 @@ def held_back(rows: list[dict]) -> None:
     for r in rows:
         if not (r["feature"] and r["found"] and not r["measured"] and r["value"] is not None):
             continue
-        doubts = [d.strip() for d in r["reason"].split(";") if d.strip() and not d.strip().startswith("Monte Carlo")]
+        doubts = [d.strip() for d in r["reason"].split(";") if d.strip() and not d.strip().startswith(MC_NOT_CONVERGED)]
         if len(doubts) == 1:
             words = " ".join(doubts[0].split()[:5])
             groups.setdefault((r["kind"], r["codec"], words), []).append(r["low"] <= r["truth"] <= r["high"])

@@ -64,7 +64,7 @@ ORIGIN = {"BCA": "lateral rim fit", "BAG": "intruding lateral's base and tip", "
 # Wilson interval lies wholly under 95 %, i.e. the stated U95 is shown to miss the truth too often. MPEG-4 Part 2
 # under its FourCCs for BCA and BAG; under H.264 an opening's rim and a BAG's base and tip miss (150 cases each,
 # seed 37: BCA coverage 66 %, BAG 76 %). BBC and BBB in no codec: their surface missed in 12 of 100 deposits
-# measured in clean video (seed 37, coverage 88 %, Wilson 80-93 %; most read low by 0.6-1.3 points: a wrong
+# measured in clean video (seed 37, coverage 88 %, Wilson 80-93 %; 10 read low by 0.3-1.3 points: a wrong
 # edge, not a narrow u), and under H.264 it is rarely found. Until a code is validated, its result is kept
 # "found, not measured" with the reason: never graded nor checked against the log.
 MPEG4_PART2 = frozenset({"mp4v", "fmp4", "xvid", "divx", "dx50"})

@@ -266,9 +266,6 @@ def _observation_table(observations: list[dict], by_row: dict[int, list[dict]]) 
                       split_rows=True)
 
 
-_SCALES = ("certificate",)   # relative factors, 1 at the certificate's own parameters
-
-
 def _budget_table(m: dict, budget: list[dict]) -> Table:
     """The budget with units and fixed-width numbers (the inputs' descriptions: :func:`_input_legend`)."""
     head = ["Input", "Estimate", "u", "Unit", "Dist.", "c_i", f"|c_i| u [{safe_text(m['unit'])}]"]

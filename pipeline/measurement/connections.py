@@ -68,10 +68,11 @@ ORIGIN = {"BCA": "lateral rim fit", "BAG": "intruding lateral's base and tip", "
 # (benchmarks/automatic_connections.py, docs/measurement.md): a code and codec stay out where the coverage's
 # Wilson interval lies wholly under 95 %, i.e. the stated U95 is shown to miss the truth too often. MPEG-4 Part 2
 # under its FourCCs for BCA and BAG; under H.264 an opening's rim and a BAG's base and tip miss (150 cases each,
-# seed 37: BCA coverage 66 %, BAG 76 %). BBC and BBB in no codec: their surface missed in 12 of 100 deposits
-# measured in clean video (seed 37, coverage 88 %, Wilson 80-93 %; 10 read low by 0.3-1.3 points: a wrong
-# edge, not a narrow u), and under H.264 it is rarely found. Until a code is validated, its result is kept
-# "found, not measured" with the reason: never graded nor checked against the log.
+# seed 37: BCA coverage 66 %, BAG 76 %). BBC and BBB in no codec: in rendered frames, with a weak surface held
+# back (DEPOSIT_TRUST_CONTRAST), 61 of 62 deposits measured held the truth (seed 39), but through MPEG-4 Part 2
+# the surface was not found in 39 % and the 4 measured all missed (seed 40), and under H.264 it is rarely found:
+# the codecs quantise and blur the chroma that alone tells the surface. Until a code is validated, its result is
+# kept "found, not measured" with the reason: never graded nor checked against the log.
 MPEG4_PART2 = frozenset({"mp4v", "fmp4", "xvid", "divx", "dx50"})
 VALIDATED_CODECS: dict[str, frozenset[str]] = {"BCA": MPEG4_PART2, "BAG": MPEG4_PART2,
                                                "BBC": frozenset(), "BBB": frozenset()}

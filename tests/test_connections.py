@@ -105,6 +105,27 @@ def test_untrusted_contour_is_found_not_measured(lateral):
 
 
 @pytest.mark.slow
+def test_frames_that_disagree_on_the_opening_leave_it_found_not_measured(lateral):
+    # the farther frame's rim taken 4 px wider on each side (a block's edge under MPEG-4 Part 2, say): the two
+    # frames' own values then stand apart by far more than their own u allow, and nothing confirms the nearer
+    cert, contour, frames = lateral
+    views = [(contour, frames[k], t) for k, t in enumerate(VIEW_DEPTHS_H)]
+    found = find_connection("BCA", 2, views)
+    assert len(found.found) == 2
+    agreed = measure_connection("BCA", "A", 2, views, cert, H=H, tolerance=0.0, seed=1, found=found)
+    assert agreed.frames_chi2 is not None and not any("disagree on the opening" in r for r in agreed.result.reasons)
+    far_contour, far = found.found[1]
+    (ax, ay), (bx, by) = far.around
+    dx, dy = (bx - ax, by - ay) / np.hypot(bx - ax, by - ay) * 4.0
+    wide = replace(far, around=((ax - dx, ay - dy), (bx + dx, by + dy)))
+    shifted = replace(found, found=[found.found[0], (far_contour, wide)])
+    auto = measure_connection("BCA", "A", 2, views, cert, H=H, tolerance=0.0, seed=1, found=shifted)
+    assert auto.frames_chi2 > agreed.frames_chi2 and not auto.measured
+    assert any("the frames disagree on the opening" in r for r in auto.result.reasons), auto.result.reasons
+    assert auto.result.value == agreed.result.value       # the nearer frame's value, kept as found
+
+
+@pytest.mark.slow
 def test_found_in_one_frame_only_is_not_measured(lateral):
     cert, contour, frames = lateral
     auto = measure_connection("BCA", "A", 2, [(contour, frames[0], VIEW_DEPTHS_H[0])], cert, H=H, tolerance=0.0,

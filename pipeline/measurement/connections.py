@@ -35,6 +35,7 @@ import numpy as np
 
 from pipeline.camera import Certificate
 from pipeline.core.errors import MeasurementError, PipegaugeError
+from pipeline.measurement.frames import chi_square_about_mean, disagreement, frame_values
 from pipeline.measurement.quantity import MarkedQuantity, QuantityResult, measure_quantity
 from pipeline.vision.contour import PipeContour
 from pipeline.vision.contour.intrusion import Intrusion, find_intrusion
@@ -60,6 +61,7 @@ DEPOSIT_AGREEMENT_H = 0.01     # the frames must place the deposit's surface wit
 # change off the line (set on seed 37, checked on a fresh seed: docs/measurement.md)
 DEPOSIT_TRUST_CONTRAST = 15.0
 CLOCK_AGREEMENT_DEG = 25.0     # the frames must place the lateral within this of one another around the pipe
+FRAMES_AGREE_P = 0.01          # the frames' values disagree beyond the chi-square's 99 % point (``_frames_agree``)
 LATERAL_SEARCH_H = 0.9         # an opening is looked for this far either side of its expected depth [H]
 ORIGIN = {"BCA": "lateral rim fit", "BAG": "intruding lateral's base and tip", "deposit": "deposit surface edge fit"}
 
@@ -107,6 +109,9 @@ class Automatic:
     # how strongly the feature stood out where it was decided (deposits: the least hue contrast across the surface
     # in the frame measured and the one confirming it [8-bit levels]); None where no such figure applies
     strength: float | None = None
+    # the chi-square of the frames' own values about their mean, 1 degree of freedom per frame beyond the first
+    # (connections: ``frames.frame_values``, the measured frame and those confirming it); None with one frame
+    frames_chi2: float | None = None
 
     @property
     def measured(self) -> bool:
@@ -205,6 +210,7 @@ def measure_connection(code: str, char1: str, clock: float | None, views: Sequen
         # is not a covariance (seen once on an H.264 case: not symmetric)
         raise MeasurementError(f"found, not measured: {exc}") from exc
     reasons = [f"lateral: {p}" for p in lat.problems]
+    chi2 = None
     if len(found.found) < 2:
         reasons.append(f"found in only one of {found.frames_tried} frame(s): nothing confirms it")
     else:
@@ -212,8 +218,36 @@ def measure_connection(code: str, char1: str, clock: float | None, views: Sequen
         spread = abs((found.found[1][1].theta - lat.theta + math.pi) % (2 * math.pi) - math.pi)
         if spread > math.radians(CLOCK_AGREEMENT_DEG):
             reasons.append(f"the frames disagree on the opening's clock position by {math.degrees(spread):.0f} deg")
+        chi2, why = _frames_agree(found, q, res, cert, code, quantity, char1, H=H, tolerance=tolerance, model=model,
+                                  seed=seed)
+        reasons += [why] if why else []
     _add(res, reasons)
-    return Automatic(q, res, len(found.found), found.frames_tried, found.used)
+    return Automatic(q, res, len(found.found), found.frames_tried, found.used, frames_chi2=chi2)
+
+
+def _frames_agree(found: FoundConnection, q: MarkedQuantity, res: QuantityResult, cert: Certificate, code: str,
+                  quantity: str, char1: str, **model) -> tuple[float | None, str | None]:
+    """The chi-square of the frames' own values of the quantity (``frames.frame_values``: what the frames share,
+    the pose, H and the certificate, moves them alike) and why they disagree, or None. Under MPEG-4 Part 2 an
+    opening's rim was now and then taken at a block's edge in one frame: its value then stands off the other
+    frame's by several of their own u."""
+    views = [(q, found.found[0][0])]
+    for contour, lat in found.found[1:]:
+        views.append((intrusion_points(lat, cert, code, char1) if code == "BAG"
+                      else lateral_points(lat, cert, quantity, code, char1), contour))
+    try:
+        values, own_u = frame_values(views, cert, **model)
+    except (PipegaugeError, ValueError):
+        return None, None      # a farther frame's points leave the model: it confirms nothing, the clock still does
+    chi2 = chi_square_about_mean(values, own_u)
+    if not math.isfinite(chi2):
+        return None, None
+    if disagreement(values, own_u, FRAMES_AGREE_P) is None:
+        return chi2, None
+    listed = " and ".join(f"{v:.3g}" for v in values)
+    return chi2, (f"the frames disagree on the {'intrusion' if code == 'BAG' else 'opening'}: {listed} {res.unit} "
+                  f"from the nearest and the farther frame, further apart than their own uncertainties allow "
+                  f"(chi-square {chi2:.0f}): one of them took something else for its edge")
 
 
 def deposit_points(contour: PipeContour, ideal: np.ndarray, cert: Certificate, code: str, char1: str,

@@ -55,9 +55,11 @@ perspective model, whose pose is shared explicitly).
 
 from __future__ import annotations
 
+import math
 from typing import Sequence
 
 import numpy as np
+import scipy.stats
 
 from pipeline.camera import Certificate
 from pipeline.maths.metrology import InputSet, JointNormal, Normal, propagate_linear
@@ -65,7 +67,7 @@ from pipeline.measurement.quantity import (POSE_LABELS, SHARED_LABELS, MarkedQua
                                            _frame_model, _FrameModel, _measure_frame, _result)
 from pipeline.vision.contour import PipeContour
 
-__all__ = ["measure_over_frames", "frame_weights", "frame_values"]
+__all__ = ["measure_over_frames", "frame_weights", "frame_values", "disagreement", "chi_square_about_mean"]
 
 
 def _same_pose(a: PipeContour, b: PipeContour) -> bool:
@@ -238,3 +240,25 @@ def frame_values(views: Sequence[tuple[MarkedQuantity, PipeContour]], cert: Cert
         common |= set(POSE_LABELS)
     own = [_own_variance(f, common) for f in built]
     return np.array([f.value for f in built], float), np.sqrt(np.maximum(own, 0.0))
+
+
+def chi_square_about_mean(values: Sequence[float], own_u: Sequence[float]) -> float:
+    """The chi-square of the views' ``values`` about their inverse-variance mean, each with its ``own_u`` (the
+    standard uncertainty of its own inputs, ``frame_values``); n - 1 degrees of freedom. nan for fewer than two
+    values or a value not finite."""
+    v, u = np.asarray(values, float), np.asarray(own_u, float)
+    if len(v) < 2 or not np.all(np.isfinite(v)):
+        return float("nan")
+    u = np.maximum(u, 1e-9)
+    w = 1.0 / u ** 2
+    mean = float(np.sum(w * v) / np.sum(w))
+    return float(np.sum(((v - mean) / u) ** 2))
+
+
+def disagreement(values: Sequence[float], own_u: Sequence[float], p_min: float = 0.01) -> float | None:
+    """The views' ``chi_square_about_mean`` when it lies beyond its 1 - ``p_min`` point (they disagree); None when
+    they agree or fewer than two finite values are given."""
+    chi2 = chi_square_about_mean(values, own_u)
+    if not math.isfinite(chi2) or chi2 <= scipy.stats.chi2.ppf(1.0 - p_min, len(values) - 1):
+        return None
+    return chi2

@@ -26,12 +26,11 @@ import re
 from typing import Sequence
 
 import numpy as np
-import scipy.stats
 
 from pipeline.camera import Certificate
 from pipeline.core.errors import MeasurementError
 from pipeline.domain.records import Observation
-from pipeline.measurement.frames import frame_values, measure_over_frames
+from pipeline.measurement.frames import disagreement, frame_values, measure_over_frames
 from pipeline.measurement.quantity import MarkedQuantity, QuantityResult, doubts
 from pipeline.vision.contour import PipeContour
 from pipeline.vision.contour.joint_ends import JointEnds, JointSighting, _wall
@@ -169,14 +168,9 @@ def frames_disagree(values: Sequence[float], own_u: Sequence[float], frames: Seq
     values about their inverse-variance mean, with n - 1 degrees of freedom, is beyond its 1 - ``p_min`` point
     when they disagree.
     """
-    v, u = np.asarray(values, float), np.asarray(own_u, float)
-    if len(v) < 2 or not np.all(np.isfinite(v)):
-        return None
-    u = np.maximum(u, 1e-9)
-    w = 1.0 / u ** 2
-    mean = float(np.sum(w * v) / np.sum(w))
-    chi2 = float(np.sum(((v - mean) / u) ** 2))
-    if chi2 <= scipy.stats.chi2.ppf(1.0 - p_min, len(v) - 1):
+    v = np.asarray(values, float)
+    chi2 = disagreement(v, own_u, p_min)
+    if chi2 is None:
         return None
     listed = ", ".join(f"{x:.1f}" for x in v[:-1]) + f" and {v[-1]:.1f}"
     return (f"the frames disagree on the joint's {what}: {listed} mm from frames {_and(frames)}, further apart "

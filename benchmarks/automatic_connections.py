@@ -95,6 +95,9 @@ def case(kind: str, rng: np.random.Generator, with_feature: bool):
     return Scene(pipe, features=features), z, area, None, mount
 
 
+FOURCC = {"none": None, "mp4v": "mp4v", "h264": "avc1"}   # what the night reads from each video (``codec_edge_u``)
+
+
 def _r_eq(shape: str, H: float) -> float:
     from pipeline.maths.profiles import perimeter
     return perimeter(shape, H) / (2 * math.pi)
@@ -161,7 +164,7 @@ def run_case(kind: str, i: int, rng, cert, codec: str, with_feature: bool, tmp: 
         if kind in ("bca", "bag"):
             views = [(contour, frames[k], t) for k, t in enumerate(depths)]
             auto = measure_connection(kind.upper(), "A" if kind == "bca" else "", clock, views, cert, H=H,
-                                      tolerance=0.0, seed=i)
+                                      tolerance=0.0, seed=i, codec=FOURCC[codec])
         else:
             views = [(contour, frames[k], (t, t + DEPOSIT_SPAN_H)) for k, t in enumerate(depths)]
             auto = measure_deposit("BBC", "A", views, cert, H=H, tolerance=0.0, seed=i)

@@ -495,7 +495,7 @@ def _measure_feature(obs: Observation, views: list[tuple[int, float]], track, mo
             if isinstance(found["search"], PipegaugeError):
                 raise found["search"]
             auto = measure_connection(obs.code, obs.char1, obs.clock_from, frames, cert, ahead=ahead,
-                                      quantity=quantity, found=found["search"], **common)
+                                      quantity=quantity, found=found["search"], codec=codec, **common)
         else:
             auto = measure_deposit(obs.code, obs.char1,
                                    [(under(obs, contours[f]), ideal(f), (max(t, 0.9), t + ahead + DEPOSIT_SPAN_H))

@@ -43,7 +43,7 @@ from pipeline.vision.contour.lateral import Lateral, find_lateral
 from pipeline.vision.contour.deposit import find_deposit_surface
 
 __all__ = ["CONNECTION_CODES", "DEPOSIT_CODES", "FEATURE_CODES", "Automatic", "lateral_points", "intrusion_points", "deposit_points",
-           "measure_connection", "measure_deposit", "find_connection", "validation_doubt", "FoundConnection", "VIEW_DEPTHS_H",
+           "measure_connection", "measure_deposit", "find_connection", "validation_doubt", "codec_edge_u", "FoundConnection", "VIEW_DEPTHS_H",
            "DEPOSIT_VIEW_H", "DEPOSIT_SPAN_H", "DEPOSIT_AGREEMENT_H", "DEPOSIT_TRUST_CONTRAST"]
 
 CONNECTION_CODES = frozenset({"BCA", "BAG"})
@@ -76,6 +76,11 @@ ORIGIN = {"BCA": "lateral rim fit", "BAG": "intruding lateral's base and tip", "
 # the codecs quantise and blur the chroma that alone tells the surface. Until a code is validated, its result is
 # kept "found, not measured" with the reason: never graded nor checked against the log.
 MPEG4_PART2 = frozenset({"mp4v", "fmp4", "xvid", "divx", "dx50"})
+# The u [px] MPEG-4 Part 2's 8x8 blocks give an edge coordinate of an opening's rim or an intruding lateral's base
+# and tip: through OpenCV's mp4v (the samples' codec) 17 of 105 BCA and 9 of 68 BAG missed their U95 with the
+# clean frames' u alone (seed 40; median z -0.02 and +0.08: no bias, heavy tails); 0.5 px per coordinate brought
+# them to 92-95 % there, and a fresh seed checks it (docs/measurement.md). H.264 has no figure: not validated.
+CODEC_EDGE_U_PX: dict[str, float] = {fourcc: 0.5 for fourcc in MPEG4_PART2}
 VALIDATED_CODECS: dict[str, frozenset[str]] = {"BCA": MPEG4_PART2, "BAG": MPEG4_PART2,
                                                "BBC": frozenset(), "BBB": frozenset()}
 
@@ -125,12 +130,25 @@ def _pose_reason(contour: PipeContour, code: str) -> None:
 
 
 def lateral_points(lateral: Lateral, cert: Certificate, quantity: str, code: str = "BCA",
-                   char1: str = "") -> MarkedQuantity:
-    """The two points of a lateral's extent: Q1 around the pipe, Q2 along it."""
-    u = math.hypot(lateral.u_around_px if quantity == "Q1" else lateral.u_along_px, cert.image_coordinate_u_px)
+                   char1: str = "", codec_u_px: float = 0.0) -> MarkedQuantity:
+    """The two points of a lateral's extent: Q1 around the pipe, Q2 along it. codec_u_px : the u a codec's blocks
+    give each edge coordinate [px] (``codec_edge_u``)."""
+    u = float(np.hypot.reduce([lateral.u_around_px if quantity == "Q1" else lateral.u_along_px,
+                               cert.image_coordinate_u_px, codec_u_px]))
     a, b = lateral.around if quantity == "Q1" else lateral.along
     return MarkedQuantity(code, char1, quantity, "around" if quantity == "Q1" else "axial", a, b, u, u,
-                          origin=ORIGIN["BCA"])
+                          origin=_origin("BCA", codec_u_px))
+
+
+def _origin(code: str, codec_u_px: float) -> str:
+    return ORIGIN[code] + (", codec blocks" if codec_u_px > 0 else "")
+
+
+def codec_edge_u(codec: str | None) -> float:
+    """The standard uncertainty [px] a video codec's blocks give an edge coordinate of an opening's rim or an
+    intruding lateral's base and tip, by the video's FourCC (``CODEC_EDGE_U_PX``); 0 for frames not through a
+    codec (None) or a codec without a figure (those are not validated: ``validation_doubt``)."""
+    return CODEC_EDGE_U_PX.get(codec.strip().lower(), 0.0) if codec else 0.0
 
 
 def _find_lateral(view, ideal, clock, depths, expected, mask) -> Lateral | None:
@@ -141,10 +159,14 @@ def _find_intrusion(view, ideal, clock, depths, expected, mask) -> Intrusion | N
     return find_intrusion(ideal, view, clock=clock, depths=depths, expected_depth=expected, mask=mask)
 
 
-def intrusion_points(found: Intrusion, cert: Certificate, code: str = "BAG", char1: str = "") -> MarkedQuantity:
-    """The two points of an intrusion: the wall at the lateral's base, and its tip in the base's cross-section."""
-    u_a, u_b = (math.hypot(u, cert.image_coordinate_u_px) for u in (found.u_base_px, found.u_tip_px))
-    return MarkedQuantity(code, char1, "Q1", "intrusion", found.base, found.tip, u_a, u_b, origin=ORIGIN["BAG"])
+def intrusion_points(found: Intrusion, cert: Certificate, code: str = "BAG", char1: str = "",
+                     codec_u_px: float = 0.0) -> MarkedQuantity:
+    """The two points of an intrusion: the wall at the lateral's base, and its tip in the base's cross-section.
+    codec_u_px : as ``lateral_points``."""
+    u_a, u_b = (float(np.hypot.reduce([u, cert.image_coordinate_u_px, codec_u_px]))
+                for u in (found.u_base_px, found.u_tip_px))
+    return MarkedQuantity(code, char1, "Q1", "intrusion", found.base, found.tip, u_a, u_b,
+                          origin=_origin("BAG", codec_u_px))
 
 
 @dataclass
@@ -186,14 +208,15 @@ def measure_connection(code: str, char1: str, clock: float | None, views: Sequen
                        cert: Certificate, *, H: float, tolerance: float, quantity: str = "Q1",
                        model: str = "perspective", seed: int = 1, mask: np.ndarray | None = None,
                        edges: tuple[float, ...] = (), ahead: float = 0.0,
-                       found: FoundConnection | None = None) -> Automatic:
+                       found: FoundConnection | None = None, codec: str | None = None) -> Automatic:
     """A connection's opening (BCA Q1 around the pipe, Q2 along it) or intrusion (BAG) measured from the frames
     before it.
 
     views : (contour, ideal BGR frame, depth [H] at which the log puts the opening in that frame) per frame;
     clock : the logged clock position (None: anywhere around); ahead : how far beyond its logged distance the
     feature may lie [H] (a log may state the camera's chainage when it was recorded, not the feature's);
-    found : ``find_connection``'s result on these views, when another quantity of it was measured already.
+    found : ``find_connection``'s result on these views, when another quantity of it was measured already;
+    codec : the video's FourCC, for its edges' u (``codec_edge_u``).
     The quantity is measured on the frame where the opening is found nearest ``VIEW_DEPTHS_H[0]`` (wholly in
     view, and as near as that allows); the other frames confirm it.
     Raises MeasurementError when no frame shows an opening (the feature not found).
@@ -202,7 +225,9 @@ def measure_connection(code: str, char1: str, clock: float | None, views: Sequen
     if found is None:
         found = find_connection(code, clock, views, ahead=ahead, mask=mask)
     contour, lat = found.found[0]
-    q = intrusion_points(lat, cert, code, char1) if intruding else lateral_points(lat, cert, quantity, code, char1)
+    codec_u = codec_edge_u(codec)
+    q = (intrusion_points(lat, cert, code, char1, codec_u) if intruding
+         else lateral_points(lat, cert, quantity, code, char1, codec_u))
     try:
         res = measure_quantity(q, contour, cert, H=H, tolerance=tolerance, model=model, seed=seed, edges=edges)
     except (PipegaugeError, ValueError) as exc:
@@ -218,23 +243,23 @@ def measure_connection(code: str, char1: str, clock: float | None, views: Sequen
         spread = abs((found.found[1][1].theta - lat.theta + math.pi) % (2 * math.pi) - math.pi)
         if spread > math.radians(CLOCK_AGREEMENT_DEG):
             reasons.append(f"the frames disagree on the opening's clock position by {math.degrees(spread):.0f} deg")
-        chi2, why = _frames_agree(found, q, res, cert, code, quantity, char1, H=H, tolerance=tolerance, model=model,
-                                  seed=seed)
+        chi2, why = _frames_agree(found, q, res, cert, code, quantity, char1, codec_u, H=H, tolerance=tolerance,
+                                  model=model, seed=seed)
         reasons += [why] if why else []
     _add(res, reasons)
     return Automatic(q, res, len(found.found), found.frames_tried, found.used, frames_chi2=chi2)
 
 
 def _frames_agree(found: FoundConnection, q: MarkedQuantity, res: QuantityResult, cert: Certificate, code: str,
-                  quantity: str, char1: str, **model) -> tuple[float | None, str | None]:
+                  quantity: str, char1: str, codec_u: float, **model) -> tuple[float | None, str | None]:
     """The chi-square of the frames' own values of the quantity (``frames.frame_values``: what the frames share,
     the pose, H and the certificate, moves them alike) and why they disagree, or None. Under MPEG-4 Part 2 an
     opening's rim was now and then taken at a block's edge in one frame: its value then stands off the other
     frame's by several of their own u."""
     views = [(q, found.found[0][0])]
     for contour, lat in found.found[1:]:
-        views.append((intrusion_points(lat, cert, code, char1) if code == "BAG"
-                      else lateral_points(lat, cert, quantity, code, char1), contour))
+        views.append((intrusion_points(lat, cert, code, char1, codec_u) if code == "BAG"
+                      else lateral_points(lat, cert, quantity, code, char1, codec_u), contour))
     try:
         values, own_u = frame_values(views, cert, **model)
     except (PipegaugeError, ValueError):

@@ -228,6 +228,25 @@ def test_night_stores_found_not_measured_without_a_value(lateral):
     assert row.value is None and row.frame == 0
 
 
+def test_an_edge_through_mpeg4_part2_takes_the_codec_term_in_its_u():
+    from pipeline.measurement.connections import CODEC_EDGE_U_PX, codec_edge_u, intrusion_points, lateral_points
+    from pipeline.vision.contour.intrusion import Intrusion
+    from pipeline.vision.contour.lateral import Lateral
+
+    assert codec_edge_u("XVID ") == codec_edge_u("mp4v") == CODEC_EDGE_U_PX["mp4v"] > 0
+    assert codec_edge_u(None) == codec_edge_u("") == 0.0
+    assert codec_edge_u("avc1") == 0.0         # H.264 has no figure: it is not validated (validation_doubt)
+    cert = load_certificate(CERT)
+    lat = Lateral(1.0, 1.6, ((100.0, 200.0), (140.0, 190.0)), ((120.0, 180.0), (121.0, 210.0)), 0.3, 0.2, 0.2, 0.2,
+                  50, 30.0, ())
+    clean, coded = lateral_points(lat, cert, "Q1"), lateral_points(lat, cert, "Q1", codec_u_px=0.5)
+    assert coded.u_a == pytest.approx(math.sqrt(clean.u_a ** 2 + 0.25))
+    assert "codec blocks" in coded.origin and "codec" not in clean.origin
+    tube = Intrusion(1.0, 1.6, (100.0, 200.0), (110.0, 180.0), 0.3, 0.4, 0.2, ())
+    a, b = intrusion_points(tube, cert), intrusion_points(tube, cert, codec_u_px=0.5)
+    assert b.u_a > a.u_a and b.u_b > a.u_b
+
+
 def test_validation_doubt_names_the_codecs_a_code_was_validated_in():
     from pipeline.measurement.connections import validation_doubt
 

@@ -62,7 +62,8 @@ def test_a_code_not_validated_from_the_image_alone_is_said_with_what_to_do():
     from pipeline.measurement.connections import validation_doubt
 
     for doubt, words in ((validation_doubt("BAG", "avc1"), "not validated in this video's codec"),
-                         (validation_doubt("BBC", "mp4v"), "not validated yet")):
+                         (validation_doubt("BBC", "mp4v"), "not validated yet"),
+                         (validation_doubt("BAG", "mp4v", "egg"), "not validated in pipes of this shape")):
         [(sentence, action)] = plain_warnings(doubt)
         assert words in sentence and "not used" in sentence
         assert "pipegauge review" in action

@@ -503,7 +503,7 @@ def _measure_feature(obs: Observation, views: list[tuple[int, float]], track, mo
     except PipegaugeError as exc:          # "not found: ...", "found, not measured: ..." or a pose not fitted
         row.update(status="error", error=str(exc))
         return row
-    doubt = validation_doubt(obs.code, codec)
+    doubt = validation_doubt(obs.code, codec, header.shape)
     if doubt is not None:
         auto = replace(auto, result=replace(auto.result, confident=False, reasons=(*auto.result.reasons, doubt)))
     frame = views[auto.view][0]

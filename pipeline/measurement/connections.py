@@ -43,7 +43,8 @@ from pipeline.vision.contour.lateral import Lateral, find_lateral
 from pipeline.vision.contour.deposit import find_deposit_surface
 
 __all__ = ["CONNECTION_CODES", "DEPOSIT_CODES", "FEATURE_CODES", "Automatic", "lateral_points", "intrusion_points", "deposit_points",
-           "measure_connection", "measure_deposit", "find_connection", "validation_doubt", "codec_edge_u", "FoundConnection", "VIEW_DEPTHS_H",
+           "measure_connection", "measure_deposit", "find_connection", "validation_doubt", "codec_edge_u",
+           "VALIDATED_SHAPES", "FoundConnection", "VIEW_DEPTHS_H",
            "DEPOSIT_VIEW_H", "DEPOSIT_SPAN_H", "DEPOSIT_AGREEMENT_H", "DEPOSIT_TRUST_CONTRAST"]
 
 CONNECTION_CODES = frozenset({"BCA", "BAG"})
@@ -79,17 +80,27 @@ MPEG4_PART2 = frozenset({"mp4v", "fmp4", "xvid", "divx", "dx50"})
 # The u [px] MPEG-4 Part 2's 8x8 blocks give an edge coordinate of an opening's rim or an intruding lateral's base
 # and tip: through OpenCV's mp4v (the samples' codec) 17 of 105 BCA and 9 of 68 BAG missed their U95 with the
 # clean frames' u alone (seed 40; median z -0.02 and +0.08: no bias, heavy tails); 0.5 px per coordinate brought
-# them to 92-95 % there, and a fresh seed checks it (docs/measurement.md). H.264 has no figure: not validated.
+# them to 92-96 % there; on a fresh seed (41) BCA held 98.1 % (Wilson 93.5-99.5 %), BAG 94.0 % (85.6-97.7 %)
+# (docs/measurement.md). H.264 has no figure: not validated.
 CODEC_EDGE_U_PX: dict[str, float] = {fourcc: 0.5 for fourcc in MPEG4_PART2}
 VALIDATED_CODECS: dict[str, frozenset[str]] = {"BCA": MPEG4_PART2, "BAG": MPEG4_PART2,
                                                "BBC": frozenset(), "BBB": frozenset()}
+# The pipe shapes in which a code held its U95, for a code that failed in some shape (the same rule as the codecs):
+# an intruding lateral in an egg-shaped pipe missed in 6 of 14 measured through MPEG-4 Part 2 (seeds 40 and 41;
+# Wilson 33-79 % inside), where circular pipes held 98 % (seed 41)
+VALIDATED_SHAPES: dict[str, frozenset[str]] = {"BAG": frozenset({"circular"})}
 
 
-def validation_doubt(code: str, codec: str | None) -> str | None:
+def validation_doubt(code: str, codec: str | None, shape: str | None = None) -> str | None:
     """Why a ``code`` measured from the image alone in video of ``codec`` (its FourCC) is not to be trusted at its
     U95, or None: the code has no validation rule, the codec is one it was validated in, or no codec was given (a
     caller measuring frames, not a video) for a code validated in some codec. A FourCC the reader could not tell
-    (``"unknown"``) is not one it was validated in, so it has the doubt; a code validated in none always has it."""
+    (``"unknown"``) is not one it was validated in, so it has the doubt; a code validated in none always has it.
+    shape : the pipe's profile; a code validated in some shapes only (``VALIDATED_SHAPES``) has the doubt in others."""
+    shapes = VALIDATED_SHAPES.get(code)
+    if shape and shapes is not None and shape not in shapes:
+        return (f"{code} from the image alone is not validated in {shape} pipes: its stated U95 missed the generated "
+                f"truth too often there (docs/measurement.md)")
     allowed = VALIDATED_CODECS.get(code)
     if allowed is None:
         return None

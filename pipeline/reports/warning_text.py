@@ -45,6 +45,9 @@ _RULES = [
     (re.compile(r"from the image alone is validated in .* only"),
      "measuring this code from the image alone is not validated in this video's codec, so the value was not used",
      "measure it with marks (pipegauge review), or ask for the video in MPEG-4 Part 2"),
+    (re.compile(r"from the image alone is not validated in \S+ pipes"),
+     "measuring this code from the image alone is not validated in pipes of this shape, so the value was not used",
+     "measure it with marks (pipegauge review)"),
     (re.compile(r"from the image alone is not validated yet"),
      "measuring this code from the image alone is not validated yet (its intervals missed generated truth too "
      "often), so the value was not used", "measure it with marks (pipegauge review)"),

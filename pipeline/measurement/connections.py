@@ -35,7 +35,7 @@ import numpy as np
 
 from pipeline.camera import Certificate
 from pipeline.core.errors import MeasurementError, PipegaugeError
-from pipeline.measurement.frames import chi_square_about_mean, disagreement, frame_values
+from pipeline.measurement.frames import beyond_agreement, chi_square_about_mean, frame_values
 from pipeline.measurement.quantity import MarkedQuantity, QuantityResult, measure_quantity
 from pipeline.vision.contour import PipeContour
 from pipeline.vision.contour.intrusion import Intrusion, find_intrusion
@@ -78,7 +78,7 @@ ORIGIN = {"BCA": "lateral rim fit", "BAG": "intruding lateral's base and tip", "
 # kept "found, not measured" with the reason: never graded nor checked against the log.
 MPEG4_PART2 = frozenset({"mp4v", "fmp4", "xvid", "divx", "dx50"})
 # The u [px] MPEG-4 Part 2's 8x8 blocks give an edge coordinate of an opening's rim or an intruding lateral's base
-# and tip: through OpenCV's mp4v (the samples' codec) 17 of 105 BCA and 9 of 68 BAG missed their U95 with the
+# and tip: through OpenCV's mp4v (the samples' codec) 17 of 105 BCA and 10 of 68 BAG missed their U95 with the
 # clean frames' u alone (seed 40; median z -0.02 and +0.08: no bias, heavy tails); 0.5 px per coordinate brought
 # them to 92-96 % there; on a fresh seed (41) BCA held 98.1 % (Wilson 93.5-99.5 %), BAG 94.0 % (85.6-97.7 %)
 # (docs/measurement.md). H.264 has no figure: not validated.
@@ -282,7 +282,7 @@ def _frames_agree(found: FoundConnection, q: MarkedQuantity, res: QuantityResult
     chi2 = chi_square_about_mean(values, own_u)
     if not math.isfinite(chi2):
         return None, None
-    if disagreement(values, own_u, FRAMES_AGREE_P) is None:
+    if not beyond_agreement(chi2, len(values), FRAMES_AGREE_P):
         return chi2, None
     listed = " and ".join(f"{v:.3g}" for v in values)
     return chi2, (f"the frames disagree on the {'intrusion' if code == 'BAG' else 'opening'}: {listed} {res.unit} "

@@ -67,7 +67,8 @@ from pipeline.measurement.quantity import (POSE_LABELS, SHARED_LABELS, MarkedQua
                                            _frame_model, _FrameModel, _measure_frame, _result)
 from pipeline.vision.contour import PipeContour
 
-__all__ = ["measure_over_frames", "frame_weights", "frame_values", "disagreement", "chi_square_about_mean"]
+__all__ = ["measure_over_frames", "frame_weights", "frame_values", "disagreement", "chi_square_about_mean",
+           "beyond_agreement"]
 
 
 def _same_pose(a: PipeContour, b: PipeContour) -> bool:
@@ -255,11 +256,15 @@ def chi_square_about_mean(values: Sequence[float], own_u: Sequence[float]) -> fl
     return float(np.sum(((v - mean) / u) ** 2))
 
 
+def beyond_agreement(chi2: float, n: int, p_min: float = 0.01) -> bool:
+    """Whether ``chi2`` of n views (``chi_square_about_mean``) lies beyond its 1 - ``p_min`` point for n - 1
+    degrees of freedom: the views disagree. False for a chi-square not finite (fewer than two values)."""
+    # the point from scipy.special, not scipy.stats: the latter costs a second at start-up
+    return math.isfinite(chi2) and chi2 > scipy.special.chdtri(n - 1, p_min)
+
+
 def disagreement(values: Sequence[float], own_u: Sequence[float], p_min: float = 0.01) -> float | None:
     """The views' ``chi_square_about_mean`` when it lies beyond its 1 - ``p_min`` point (they disagree); None when
     they agree or fewer than two finite values are given."""
     chi2 = chi_square_about_mean(values, own_u)
-    # the chi-square's 1 - p_min point (scipy.special, not scipy.stats: the latter costs a second at start-up)
-    if not math.isfinite(chi2) or chi2 <= scipy.special.chdtri(len(values) - 1, p_min):
-        return None
-    return chi2
+    return chi2 if beyond_agreement(chi2, len(values), p_min) else None

@@ -257,9 +257,12 @@ def test_validation_doubt_names_the_codecs_a_code_was_validated_in():
     assert validation_doubt("BAJ", "avc1") is None        # the joint's ends were validated in both codecs
     assert validation_doubt("BAG", "") is None and validation_doubt("BAG", None) is None      # no video: nothing to say
     assert validation_doubt("BAG", "unknown") is not None     # the reader's word for a FourCC it could not tell
-    # an intruding lateral in an egg-shaped pipe missed too often, whatever the codec; a circular one is validated
+    # an intruding lateral or an opening in an egg-shaped pipe missed too often, whatever the codec; circular ones
+    # are validated, and the joints in both shapes
     assert "not validated in egg pipes" in validation_doubt("BAG", "mp4v", "egg")
-    assert validation_doubt("BAG", "mp4v", "circular") is None and validation_doubt("BCA", "mp4v", "egg") is None
+    assert "not validated in egg pipes" in validation_doubt("BCA", "mp4v", "egg")
+    assert validation_doubt("BAG", "mp4v", "circular") is None and validation_doubt("BCA", "mp4v", "circular") is None
+    assert validation_doubt("BAJ", "mp4v", "egg") is None
     # a deposit's surface is validated in no codec yet (4 of 150 measured through MPEG-4 Part 2, all missing): always
     for code, codec in (("BBC", "mp4v"), ("BBB", "XVID"), ("BBC", None)):
         assert "not validated yet" in validation_doubt(code, codec)

@@ -107,3 +107,8 @@ def test_trials_outside_the_model_s_domain_are_drawn_again_only_when_asked_and_o
     assert np.all(np.isfinite(mc.samples)) and mc.samples.size == 20_000
     with pytest.raises(ModelError, match="outside the model's domain"):
         propagate_monte_carlo(root, {"x": Normal(0.0, 1.0)}, trials=20_000, seed=5, redraw_outside=True)
+    # the cap, MAX_REDRAWN_SHARE = 1 %: P(x < 0) about 0.8 % is drawn again, about 2.9 % is refused
+    near_edge = propagate_monte_carlo(root, {"x": StudentT(5.0, 1.0, 3)}, trials=20_000, seed=5, redraw_outside=True)
+    assert 1.2 < near_edge.interval.low < 1.6 and 2.7 < near_edge.interval.high < 3.0     # sqrt(5 -+ 3.18), about
+    with pytest.raises(ModelError, match="more than can be drawn again"):
+        propagate_monte_carlo(root, {"x": StudentT(3.0, 1.0, 3)}, trials=20_000, seed=5, redraw_outside=True)

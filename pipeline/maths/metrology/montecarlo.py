@@ -159,8 +159,12 @@ class _BlockStats:
         )
 
 
-MAX_REDRAWN_SHARE = 0.001
-"""Largest share of a block's trials that may fall outside the model's domain and be drawn again."""
+MAX_REDRAWN_SHARE = 0.01
+"""Largest share s of a block's trials that may fall outside the model's domain and be drawn again. The interval
+reported is the truncated distribution's; under the untruncated one it still holds at least p (1 - s), 94.05 % of a
+95 % interval at s = 1 %, so the statement stands even for a reader who doubts the domain. At 0.1 % (before
+2026-12-03) a pose fitted to few rings (a Student-t of 1-3 degrees of freedom, DN 800-1000 with one or two joints
+in the window) failed 8 of 132 BCA through MPEG-4 Part 2 for 11-16 trials of 10000 each (seed 43)."""
 
 
 def _block(model: Model, inputs: InputSet, rng: np.random.Generator, n: int, name: str,

@@ -80,8 +80,8 @@ ORIGIN = {"BCA": "lateral rim fit", "BAG": "intruding lateral's base and tip", "
 MPEG4_PART2 = frozenset({"mp4v", "fmp4", "xvid", "divx", "dx50"})
 # The u [px] MPEG-4 Part 2's 8x8 blocks give an edge coordinate of an opening's rim or an intruding lateral's base
 # and tip: through OpenCV's mp4v (the samples' codec) 17 of 105 BCA and 10 of 68 BAG missed their U95 with the
-# clean frames' u alone (seed 40; median z -0.02 and +0.08: no bias, heavy tails). 0.5 px, set there, was set on a
-# benchmark whose pose rested on too few rings (docs/measurement.md); with the night's 4 m window of ring frames and
+# clean frames' u alone (seed 40; median z -0.02 and +0.08: no bias, heavy tails). 0.5 px was set there, on a benchmark
+# whose pose rested on too few rings (docs/measurement.md); with the night's 4 m window of ring frames and
 # the frames' value check, 0.5 px made the intervals twice the errors (robust SD of z 0.48 BCA, 0.53 BAG, seed 43)
 # and 0.2 px brings both to about 95 % with SD 0.8 there (0 px: 90-92 %); checked on seed 44. H.264 has no
 # figure: not validated.
@@ -91,8 +91,8 @@ VALIDATED_CODECS: dict[str, frozenset[str]] = {"BCA": MPEG4_PART2, "BAG": MPEG4_
 # The pipe shapes in which a code held its U95, for a code that failed in some shape (the same rule as the codecs):
 # an intruding lateral in an egg-shaped pipe missed in 6 of 14 measured through MPEG-4 Part 2 (seeds 40 and 41;
 # Wilson 33-79 % inside), where circular pipes held 98 % (seed 41); an opening in an egg's wall held 35 of 42
-# (seeds 43 and 44 at 0.2 px; Wilson 69-92 %), low by 0.6 % of its diameter (median), where circular pipes held
-# 96.7 % (seed 44): the rim on a wall whose curvature changes, not investigated further
+# (seed 44, and seed 43's rows re-scaled to 0.2 px; Wilson 69-92 %), low by 0.6 % of its diameter (median),
+# where circular pipes held 96.7 % (seed 44): the rim on a wall whose curvature changes, not investigated further
 VALIDATED_SHAPES: dict[str, frozenset[str]] = {"BCA": frozenset({"circular"}), "BAG": frozenset({"circular"})}
 
 

@@ -198,9 +198,10 @@ def summary(rows: list[dict], kind: str, label: str) -> list[str]:
             lo, hi = wilson(inside, len(measured))
             z = np.array([(r["value"] - r["truth"]) / r["u"] for r in measured if r["u"] > 0])
             U = np.array([r["U95"] for r in measured])
+            (m_lo, m_hi), (s_lo, s_hi) = median_interval(z), robust_sd_interval(z)
             line += (f"; coverage {100 * inside / len(measured):.1f} % (Wilson {100 * lo:.1f}-{100 * hi:.1f} %), "
-                     f"median z {np.median(z):+.2f} ({median_interval(z)[0]:+.2f}, {median_interval(z)[1]:+.2f}), "
-                     f"robust SD z {robust_sd(z):.2f} ({robust_sd_interval(z)[0]:.2f}, {robust_sd_interval(z)[1]:.2f}), "
+                     f"median z {np.median(z):+.2f} ({m_lo:+.2f}, {m_hi:+.2f}), "
+                     f"robust SD z {robust_sd(z):.2f} ({s_lo:.2f}, {s_hi:.2f}), "
                      f"median U95 {np.median(U):.2f} "
                      f"{'mm' if kind == 'bca' else '%'}")
             if kind == "bca":

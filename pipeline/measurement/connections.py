@@ -72,10 +72,10 @@ ORIGIN = {"BCA": "lateral rim fit", "BAG": "intruding lateral's base and tip", "
 # Wilson interval lies wholly under 95 %, i.e. the stated U95 is shown to miss the truth too often. MPEG-4 Part 2
 # under its FourCCs for BCA and BAG; under H.264 an opening's rim and a BAG's base and tip miss (150 cases each,
 # seed 37: BCA coverage 66 %, BAG 76 %; BCA again with the night's window of ring frames, seed 43: 84 % at DN >= 200
-# in circular pipes, low by 0.23 % of the diameter). BBC and BBB in no codec: in rendered frames, with a weak surface held
-# back (DEPOSIT_TRUST_CONTRAST), 61 of 62 deposits measured held the truth (seed 39), but through MPEG-4 Part 2
-# the surface was not found in 39 % and the 4 measured all missed (seed 40), and under H.264 it is rarely found:
-# the codecs quantise and blur the chroma that alone tells the surface. Until a code is validated, its result is
+# in circular pipes, low by 0.23 % of the diameter). BBC and BBB in no codec: in rendered frames, with a weak
+# surface held back (DEPOSIT_TRUST_CONTRAST), 61 of 62 deposits measured held the truth (seed 39), but through
+# MPEG-4 Part 2 the surface was not found in 39 % and the 4 measured all missed (seed 40), and under H.264 it is
+# rarely found: the codecs quantise and blur the chroma that alone tells the surface. Until a code is validated, its result is
 # kept "found, not measured" with the reason: never graded nor checked against the log.
 MPEG4_PART2 = frozenset({"mp4v", "fmp4", "xvid", "divx", "dx50"})
 # The u [px] MPEG-4 Part 2's 8x8 blocks give an edge coordinate of an opening's rim or an intruding lateral's base

@@ -221,9 +221,13 @@ def main() -> None:
     ap.add_argument("--codec", choices=("none", "mp4v", "h264"), action="append")
     ap.add_argument("--json", type=Path, help="write the per-case rows (value, truth, u, budget lines) to this file")
     ap.add_argument("--table", type=Path, help="only print the summary again from rows kept by --json")
+    ap.add_argument("--codec-u", type=float, nargs=2, metavar=("WAS", "NOW"),
+                    help="with --table: the rows' codec term in each edge coordinate's u [px] as run, and a trial value "
+                         "(the points' u widened or narrowed after the fact, ``rescaled``)")
     args = ap.parse_args()
     if args.table:
-        report(json.loads(args.table.read_text()))
+        rows = json.loads(args.table.read_text())
+        report(rescaled(rows, *args.codec_u) if args.codec_u else rows)
         return
     cert = load_certificate(SAMPLES / "certificates" / "SYN-720x576.json")
     kinds, codecs = args.kind or KINDS, args.codec or ["none"]
@@ -244,6 +248,26 @@ def main() -> None:
     if args.json:
         args.json.write_text(json.dumps(rows, indent=1))
     report(rows)
+
+
+def rescaled(rows: list[dict], was: float, now: float) -> list[dict]:
+    """BCA and BAG rows as if their edge coordinates' codec term had been ``now`` instead of ``was`` [px]: the budget's
+    edge lines (xa, ya, xb, yb) scaled by the points' u with the new term over theirs, u scaled as the linear budget's
+    root sum of squares, and the interval taken as value -+ 1.96 u (a trial, not a rerun: how ``CODEC_EDGE_U_PX``
+    was chosen, then checked on a fresh seed)."""
+    edges = ("xa", "ya", "xb", "yb")
+    out = []
+    for r in rows:
+        if not (r["measured"] and r.get("u_a_px") and r.get("budget")):
+            out.append(r)
+            continue
+        f2 = (r["u_a_px"] ** 2 - was ** 2 + now ** 2) / r["u_a_px"] ** 2
+        b = r["budget"]
+        old = math.sqrt(sum(v ** 2 for v in b.values()))
+        new = math.sqrt(sum(v ** 2 * (f2 if k in edges else 1.0) for k, v in b.items()))
+        u = r["u"] * new / old
+        out.append(dict(r, u=u, U95=1.96 * u, low=r["value"] - 1.96 * u, high=r["value"] + 1.96 * u))
+    return out
 
 
 def report(rows: list[dict]) -> None:

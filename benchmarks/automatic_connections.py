@@ -179,7 +179,8 @@ def run_case(kind: str, i: int, rng, cert, codec: str, with_feature: bool, tmp: 
                reason="; ".join(res.reasons),
                # the budget's lines (label: contribution [the quantity's unit]) and the points' u, for ``--json``
                budget={b.label: b.contribution for b in res.budget}, u_a_px=auto.quantity.u_a,
-               u_b_px=auto.quantity.u_b, strength=auto.strength, frames_chi2=auto.frames_chi2)
+               u_b_px=auto.quantity.u_b, strength=auto.strength, frames_chi2=auto.frames_chi2,
+               frames_values=list(auto.frames_values))
     return row
 
 

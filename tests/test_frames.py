@@ -11,7 +11,8 @@ import pytest
 from pipeline.maths.metrology import K95
 from pipeline.measurement import MarkedQuantity, measure_quantity
 from pipeline.measurement import quantity as quantity_module
-from pipeline.measurement.frames import frame_values, frame_weights, measure_over_frames
+from pipeline.measurement.frames import (chi_square_with_covariance, frame_covariance, frame_values, frame_weights,
+                                         measure_over_frames)
 from pipeline.vision.contour import PipeView
 from tests.test_measurement import _contour, _truth
 
@@ -203,3 +204,46 @@ def test_the_orthographic_model_combines_frames_of_an_extent_in_the_section(sett
     assert {"xa@f1", "yb@f2", "p_H@f2", "H", "certificate"} <= labels and "xa" not in labels
     assert both.U95 < min(s.U95 for s in singles)
     assert both.model == "orthographic" and both.low < 0.5 * H * 2 * math.sin(s) < both.high
+
+
+def _own_chi2(values, own_u):
+    """The chi-square from the views' own u alone (the pose and the other shared inputs left out)."""
+    return chi_square_with_covariance(values, np.diag(np.asarray(own_u) ** 2))
+
+
+def test_the_frames_agreement_counts_a_shared_pose_by_each_frame_s_sensitivity(setting):
+    """Two frames of one gap at different depths from one pose fit: the pose moves the nearer frame's value more,
+    so it spreads them apart, and their covariance (``frame_covariance``) says so; the variance of their difference
+    is then the pose's differing sensitivities, not the own u alone (which left the pose out and flagged 5.8 %
+    of BCA at its 1 % point). Where both frames are equally sensitive (one depth), the chi-square is the own-u
+    one exactly."""
+    cert, view = setting
+    contour = _contour(view, u_pose=(2e-2, 2e-2, 1e-2, 1e-2, 1e-2))      # a loose pose fit: it dominates
+    views = [(_gap(view, z, u=0.05), contour) for z in (500.0, 900.0)]
+    values, cov = frame_covariance(views, cert, H=H, tolerance=TOL)
+    singles = [measure_quantity(q, contour, cert, H=H, tolerance=TOL, seed=1, monte_carlo=False) for q, _ in views]
+    _, own_u = frame_values(views, cert, H=H, tolerance=TOL)
+    # the diagonal is each frame's whole variance; the pose makes the difference's variance exceed the own parts
+    assert np.allclose(np.sqrt(np.diag(cov)), [s.u for s in singles], rtol=0.02)
+    assert np.allclose(cov, cov.T) and np.all(np.linalg.eigvalsh(cov) > 0)
+    var_difference = cov[0, 0] + cov[1, 1] - 2 * cov[0, 1]
+    assert var_difference > 1.5 * float(np.sum(own_u ** 2))
+    # a spread of the own u's size is no disagreement once the pose is counted, and is by the own u alone
+    spread = values + np.array([0.0, 3 * math.hypot(*own_u)])
+    assert _own_chi2(spread, own_u) > 8.0
+    assert chi_square_with_covariance(spread, cov) < _own_chi2(spread, own_u)
+
+    # one depth, two sets of marks: the shared terms move both alike, and the two chi-squares are the same
+    same = [(_gap(view, 600.0, u=0.05), contour), (_gap(view, 600.0, u=0.1), contour)]
+    values, cov = frame_covariance(same, cert, H=H, tolerance=TOL)
+    _, own_u = frame_values(same, cert, H=H, tolerance=TOL)
+    apart = values + np.array([0.0, 0.2])
+    assert chi_square_with_covariance(apart, cov) == pytest.approx(_own_chi2(apart, own_u), rel=1e-3)
+
+
+def test_the_chi_square_with_a_covariance_is_nan_where_it_cannot_be_told():
+    assert math.isnan(chi_square_with_covariance([1.0], np.eye(1)))
+    assert math.isnan(chi_square_with_covariance([1.0, float("nan")], np.eye(2)))
+    assert math.isnan(chi_square_with_covariance([1.0, 2.0], np.ones((2, 2))))      # singular: no own part
+    # independent values of unit variance: the chi-square about the mean of 0 and 2 is 2
+    assert chi_square_with_covariance([0.0, 2.0], np.eye(2)) == pytest.approx(2.0)

@@ -8,6 +8,7 @@ import re
 from pathlib import Path
 
 import cv2
+import numpy as np
 import pytest
 
 from pipeline.camera.undistort import Undistorter
@@ -139,11 +140,16 @@ def test_frames_that_disagree_on_the_joint_give_found_not_measured(joint, cert):
     assert f" and {bad[-1].frame}" in why                    # the frames named
 
 
-def test_frames_disagree_reads_the_chi_square_of_the_frames_own_u():
-    assert frames_disagree([20.0, 20.4, 19.8], [0.3, 0.3, 0.3], [1, 2, 3], "gap") is None
-    why = frames_disagree([20.0, 24.0, 19.8], [0.3, 0.3, 0.3], [1, 2, 3], "gap")
+def test_frames_disagree_reads_the_chi_square_of_the_frames_covariance():
+    own = np.diag([0.3 ** 2] * 3)
+    assert frames_disagree([20.0, 20.4, 19.8], own, [1, 2, 3], "gap") is None
+    why = frames_disagree([20.0, 24.0, 19.8], own, [1, 2, 3], "gap")
     assert why is not None and "20.0, 24.0 and 19.8 mm from frames 1, 2 and 3" in why
-    assert frames_disagree([20.0, 24.0], [3.0, 3.0], [1, 2], "gap") is None       # within their own u
+    assert frames_disagree([20.0, 24.0], np.diag([9.0, 9.0]), [1, 2], "gap") is None       # within their own u
+    # what the frames share moves them alike: the same spread, no longer explained by their own u, disagrees
+    shared = np.full((2, 2), 4.0) + np.diag([0.1, 0.1])
+    assert frames_disagree([20.0, 22.0], shared, [1, 2], "gap") is not None
+    assert frames_disagree([20.0, 22.0], np.diag([4.1, 4.1]), [1, 2], "gap") is None
 
 
 def test_a_point_s_u_is_its_ring_s_edge_scatter_in_that_frame(joint, cert):

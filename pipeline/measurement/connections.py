@@ -35,7 +35,7 @@ import numpy as np
 
 from pipeline.camera import Certificate
 from pipeline.core.errors import MeasurementError, PipegaugeError
-from pipeline.measurement.frames import beyond_agreement, chi_square_about_mean, frame_values
+from pipeline.measurement.frames import beyond_agreement, chi_square_with_covariance, frame_covariance
 from pipeline.measurement.quantity import MarkedQuantity, QuantityResult, measure_quantity
 from pipeline.vision.contour import PipeContour
 from pipeline.vision.contour.intrusion import Intrusion, find_intrusion
@@ -131,8 +131,9 @@ class Automatic:
     # in the frame measured and the one confirming it [8-bit levels]); None where no such figure applies
     strength: float | None = None
     # the chi-square of the frames' own values about their mean, 1 degree of freedom per frame beyond the first
-    # (connections: ``frames.frame_values``, the measured frame and those confirming it); None with one frame
+    # (connections: ``frames.frame_covariance``, the measured frame and those confirming it); None with one frame
     frames_chi2: float | None = None
+    frames_values: tuple[float, ...] = ()      # those frames' values [the quantity's unit], the measured one first
 
     @property
     def measured(self) -> bool:
@@ -259,17 +260,21 @@ def measure_connection(code: str, char1: str, clock: float | None, views: Sequen
         spread = abs((found.found[1][1].theta - lat.theta + math.pi) % (2 * math.pi) - math.pi)
         if spread > math.radians(CLOCK_AGREEMENT_DEG):
             reasons.append(f"the frames disagree on the opening's clock position by {math.degrees(spread):.0f} deg")
-        chi2, why = _frames_agree(found, q, res, cert, code, quantity, char1, codec_u, H=H, tolerance=tolerance,
-                                  model=model, seed=seed)
+        chi2, values, why = _frames_agree(found, q, res, cert, code, quantity, char1, codec_u, H=H,
+                                          tolerance=tolerance, model=model, seed=seed)
         reasons += [why] if why else []
     _add(res, reasons)
-    return Automatic(q, res, len(found.found), found.frames_tried, found.used, frames_chi2=chi2)
+    return Automatic(q, res, len(found.found), found.frames_tried, found.used, frames_chi2=chi2,
+                     frames_values=tuple(values) if chi2 is not None else ())
 
 
 def _frames_agree(found: FoundConnection, q: MarkedQuantity, res: QuantityResult, cert: Certificate, code: str,
-                  quantity: str, char1: str, codec_u: float, **model) -> tuple[float | None, str | None]:
-    """The chi-square of the frames' own values of the quantity (``frames.frame_values``: what the frames share,
-    the pose, H and the certificate, moves them alike) and why they disagree, or None. Under MPEG-4 Part 2 an
+                  quantity: str, char1: str, codec_u: float,
+                  **model) -> tuple[float | None, list[float], str | None]:
+    """The chi-square of the frames' values of the quantity about their mean, the values, and why they disagree,
+    or None. What the frames share (H, the certificate) moves them alike, but the pose fit they share does not:
+    the nearer frame is the more sensitive to the camera's offset and tilt, so the pose spreads them apart, and
+    the chi-square takes their whole covariance (``frames.frame_covariance``). Under MPEG-4 Part 2 an
     opening's rim was now and then taken at a block's edge in one frame: its value then stands off the other
     frame's by several of their own u. A farther frame whose own find is in doubt (``Lateral.problems``,
     ``Intrusion.problems``: S02's intruding lateral seen from 2.3 H had its tip found at the wall, 1.5 % of H
@@ -281,16 +286,16 @@ def _frames_agree(found: FoundConnection, q: MarkedQuantity, res: QuantityResult
         views.append((intrusion_points(lat, cert, code, char1, codec_u) if code == "BAG"
                       else lateral_points(lat, cert, quantity, code, char1, codec_u), contour))
     try:
-        values, own_u = frame_values(views, cert, **model)
+        values, cov = frame_covariance(views, cert, **model)
     except (PipegaugeError, ValueError):
-        return None, None      # a farther frame's points leave the model: it confirms nothing, the clock still does
-    chi2 = chi_square_about_mean(values, own_u)
+        return None, [], None  # a farther frame's points leave the model: it confirms nothing, the clock still does
+    chi2 = chi_square_with_covariance(values, cov)
     if not math.isfinite(chi2):
-        return None, None
+        return None, [], None
     if not beyond_agreement(chi2, len(values), FRAMES_AGREE_P):
-        return chi2, None
+        return chi2, values.tolist(), None
     listed = " and ".join(f"{v:.3g}" for v in values)
-    return chi2, (f"the frames disagree on the {'intrusion' if code == 'BAG' else 'opening'}: {listed} {res.unit} "
+    return chi2, values.tolist(), (f"the frames disagree on the {'intrusion' if code == 'BAG' else 'opening'}: {listed} {res.unit} "
                   f"from the nearest and the farther frame, further apart than their own uncertainties allow "
                   f"(chi-square {chi2:.0f}): one of them took something else for its edge")
 

@@ -67,7 +67,7 @@ from pipeline.measurement.quantity import (POSE_LABELS, SHARED_LABELS, MarkedQua
                                            _frame_model, _FrameModel, _measure_frame, _result)
 from pipeline.vision.contour import PipeContour
 
-__all__ = ["measure_over_frames", "frame_weights", "frame_values", "disagreement", "chi_square_about_mean",
+__all__ = ["measure_over_frames", "frame_weights", "frame_values", "frame_covariance", "chi_square_with_covariance",
            "beyond_agreement"]
 
 
@@ -231,8 +231,8 @@ def measure_over_frames(views: Sequence[tuple[MarkedQuantity, PipeContour]], cer
 def frame_values(views: Sequence[tuple[MarkedQuantity, PipeContour]], cert: Certificate, *, H: float,
                  tolerance: float, model: str = "perspective", seed: int = 1) -> tuple[np.ndarray, np.ndarray]:
     """Each view's own value [unit] and its standard uncertainty [unit] from the inputs not common to every view,
-    the inputs ``measure_over_frames`` weights the views by. Whether the views agree is a chi-square of these
-    about their weighted mean: what the views share moves them alike and cannot tell them apart.
+    the inputs ``measure_over_frames`` weights the views by. (Whether the views agree: ``frame_covariance``, as
+    what the views share moves them alike only where they are equally sensitive to it.)
     """
     views = list(views)
     built = [_frame_model(q, c, cert, H=H, tolerance=tolerance, model=model, seed=seed) for q, c in views]
@@ -243,28 +243,67 @@ def frame_values(views: Sequence[tuple[MarkedQuantity, PipeContour]], cert: Cert
     return np.array([f.value for f in built], float), np.sqrt(np.maximum(own, 0.0))
 
 
-def chi_square_about_mean(values: Sequence[float], own_u: Sequence[float]) -> float:
-    """The chi-square of the views' ``values`` about their inverse-variance mean, each with its ``own_u`` (the
-    standard uncertainty of its own inputs, ``frame_values``); n - 1 degrees of freedom. nan for fewer than two
-    values or a value not finite."""
-    v, u = np.asarray(values, float), np.asarray(own_u, float)
-    if len(v) < 2 or not np.all(np.isfinite(v)):
+def frame_covariance(views: Sequence[tuple[MarkedQuantity, PipeContour]], cert: Certificate, *, H: float,
+                     tolerance: float, model: str = "perspective", seed: int = 1) -> tuple[np.ndarray, np.ndarray]:
+    """Each view's own value [unit] and the covariance of the views' values [unit^2], linearised at the estimates.
+
+    What the views share moves them alike only where each view is equally sensitive to it. A pose fit shared by
+    frames at different depths is not: an error in the camera's offset or tilt moves a near frame's value more than
+    a far one's, so it spreads the views apart. Diagonal: each view's whole variance; off the diagonal, the
+    inputs the views share: the pose of one fit (its covariance), and ``SHARED_LABELS`` drawn fully correlated as
+    ``measure_over_frames`` draws them (frame i's draw scaled to its own u). Where every view is equally sensitive
+    to the shared inputs, the chi-square about the mean (``chi_square_with_covariance``) is the one from the
+    views' own u alone (``frame_values``): their common part drops out of it.
+    """
+    views = list(views)
+    built = [_frame_model(q, c, cert, H=H, tolerance=tolerance, model=model, seed=seed) for q, c in views]
+    common = {label for label in SHARED_LABELS if all(label in f.independent for f in built)}
+    shared_pose = max(_pose_groups([c for _, c in views])) == 0
+    n = len(built)
+    cov = np.zeros((n, n))
+    standardised = []    # per view: label -> sensitivity x u of each shared input drawn fully correlated
+    pose = []            # per view: the sensitivities to the pose's labels, and their covariance
+    for i, f in enumerate(built):
+        inputs = f.inputs
+        labels = inputs.labels
+        c = np.array([line.sensitivity for line in propagate_linear(f.fn, inputs, name="y").budget])
+        full = inputs.covariance()
+        cov[i, i] = float(c @ full @ c)
+        u = np.sqrt(np.diag(full))
+        standardised.append({lab: c[k] * u[k] for k, lab in enumerate(labels) if lab in common})
+        at = [k for k, lab in enumerate(labels) if lab in POSE_LABELS] if shared_pose else []
+        pose.append((c[at], full[np.ix_(at, at)]))
+    for i in range(n):
+        for j in range(i + 1, n):
+            s = sum(standardised[i][lab] * standardised[j].get(lab, 0.0) for lab in standardised[i])
+            (ci, sigma), (cj, _) = pose[i], pose[j]
+            if len(ci) and len(ci) == len(cj):
+                s += float(ci @ sigma @ cj)
+            cov[i, j] = cov[j, i] = s
+    return np.array([f.value for f in built], float), cov
+
+
+def chi_square_with_covariance(values: Sequence[float], cov: np.ndarray) -> float:
+    """The chi-square of ``values`` about their generalised least-squares mean, with their covariance ``cov``
+    (``frame_covariance``): r' V^-1 r, r = y - m 1, m = 1' V^-1 y / 1' V^-1 1; n - 1 degrees of freedom.
+    nan for fewer than two values, a value not finite or a covariance not positive definite."""
+    y = np.asarray(values, float)
+    V = np.asarray(cov, float)
+    if len(y) < 2 or not np.all(np.isfinite(y)) or not np.all(np.isfinite(V)):
         return float("nan")
-    u = np.maximum(u, 1e-9)
-    w = 1.0 / u ** 2
-    mean = float(np.sum(w * v) / np.sum(w))
-    return float(np.sum(((v - mean) / u) ** 2))
+    try:
+        L = np.linalg.cholesky(V)
+    except np.linalg.LinAlgError:
+        return float("nan")
+    ones = np.ones_like(y)
+    wy, w1 = np.linalg.solve(L, y), np.linalg.solve(L, ones)
+    m = float(w1 @ wy / (w1 @ w1))
+    r = wy - m * w1
+    return float(r @ r)
 
 
 def beyond_agreement(chi2: float, n: int, p_min: float = 0.01) -> bool:
-    """Whether ``chi2`` of n views (``chi_square_about_mean``) lies beyond its 1 - ``p_min`` point for n - 1
+    """Whether ``chi2`` of n views (``chi_square_with_covariance``) lies beyond its 1 - ``p_min`` point for n - 1
     degrees of freedom: the views disagree. False for a chi-square not finite (fewer than two values)."""
     # the point from scipy.special, not scipy.stats: the latter costs a second at start-up
     return math.isfinite(chi2) and chi2 > scipy.special.chdtri(n - 1, p_min)
-
-
-def disagreement(values: Sequence[float], own_u: Sequence[float], p_min: float = 0.01) -> float | None:
-    """The views' ``chi_square_about_mean`` when it lies beyond its 1 - ``p_min`` point (they disagree); None when
-    they agree or fewer than two finite values are given."""
-    chi2 = chi_square_about_mean(values, own_u)
-    return chi2 if beyond_agreement(chi2, len(values), p_min) else None

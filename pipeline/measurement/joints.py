@@ -30,7 +30,7 @@ import numpy as np
 from pipeline.camera import Certificate
 from pipeline.core.errors import MeasurementError
 from pipeline.domain.records import Observation
-from pipeline.measurement.frames import disagreement, frame_values, measure_over_frames
+from pipeline.measurement.frames import beyond_agreement, chi_square_with_covariance, frame_covariance, measure_over_frames
 from pipeline.measurement.quantity import MarkedQuantity, QuantityResult, doubts
 from pipeline.vision.contour import PipeContour
 from pipeline.vision.contour.joint_ends import JointEnds, JointSighting, _wall
@@ -148,8 +148,8 @@ def measure_joint(obs: Observation, sightings: Sequence[JointSighting], contour:
     if len(sightings) == 1:
         reasons.append("the joint was found in only one frame")
     else:
-        values, own_u = frame_values(views, cert, H=H, tolerance=tolerance, model=model, seed=seed)
-        why = frames_disagree(values, own_u, frames, "gap" if obs.char1 == "A" else "step")
+        values, cov = frame_covariance(views, cert, H=H, tolerance=tolerance, model=model, seed=seed)
+        why = frames_disagree(values, cov, frames, "gap" if obs.char1 == "A" else "step")
         if why is not None:
             reasons.append(why)
     for s in sightings:
@@ -160,17 +160,17 @@ def measure_joint(obs: Observation, sightings: Sequence[JointSighting], contour:
     return points, res
 
 
-def frames_disagree(values: Sequence[float], own_u: Sequence[float], frames: Sequence[int], what: str,
+def frames_disagree(values: Sequence[float], cov: np.ndarray, frames: Sequence[int], what: str,
                     p_min: float = AGREE_P) -> str | None:
     """Why the frames' values [mm] of one joint disagree, or None when they agree.
 
-    own_u : each frame's standard uncertainty from its own inputs [mm] (``frame_values``). The chi-square of the
-    values about their inverse-variance mean, with n - 1 degrees of freedom, is beyond its 1 - ``p_min`` point
-    when they disagree.
+    cov : the values' covariance [mm^2] (``frames.frame_covariance``: the pose and the edge the frames share move
+    them by each frame's own sensitivity). The chi-square of the values about their mean, with n - 1 degrees of
+    freedom, is beyond its 1 - ``p_min`` point when they disagree.
     """
     v = np.asarray(values, float)
-    chi2 = disagreement(v, own_u, p_min)
-    if chi2 is None:
+    chi2 = chi_square_with_covariance(v, cov)
+    if not beyond_agreement(chi2, len(v), p_min):
         return None
     listed = ", ".join(f"{x:.1f}" for x in v[:-1]) + f" and {v[-1]:.1f}"
     return (f"the frames disagree on the joint's {what}: {listed} mm from frames {_and(frames)}, further apart "

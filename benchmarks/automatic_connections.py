@@ -48,6 +48,7 @@ from pipeline.synth.render import Renderer
 from pipeline.synth.scene import Connection, Deposit, Pipe, Scene
 from pipeline.vision.contour import detect_contour
 from pipeline.vision.contour.detect import wall_u_from_tolerance
+from pipeline.vision.video.pipe_contour import window_span_m
 from pipeline.vision.video.reader import iter_frames
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
@@ -56,13 +57,20 @@ from coverage_stats import false_finds, median_interval, robust_sd, robust_sd_in
 SAMPLES = Path(__file__).resolve().parent.parent / "sample_videos"
 KINDS = ("bca", "bbc", "bag")
 DNS = (150, 200, 300, 400, 600, 800, 1000)
-# frames about the nearest measured one for the contour's rings: every 0.1 m within 2 m of it, the night's window
-# (``pipeline.vision.video.pipe_contour``). A smaller set is not the night: with 4 ring frames the pose's fit had 1-4
-# degrees of freedom, whose Student-t draws put the camera outside the pipe in more Monte Carlo trials than may be
-# drawn again; with the 11 of 2026-12-03 (every 0.2 m, 1.6 m before to 0.6 m after) still 1-3 at DN >= 600, and 19 of
-# 131 BCA at DN >= 200 were "found, not measured" for that alone through mp4v (seed 41); 12 of 132 with these (seed 43),
-# 11 of them at DN 800-1000, whose 2.5 m pipes put one or two joints in the window
-RING_OFFSETS_MM = tuple(float(dz) for dz in range(-2000, 2001, 100) if dz != 0)
+# frames about the nearest measured one for the contour's rings: every 0.1 m within 2 m of it (3 H from DN 667 on),
+# the night's window (``pipeline.vision.video.pipe_contour.window_span_m``). A smaller set is not the night: with 4
+# ring frames the pose's fit had 1-4 degrees of freedom, whose Student-t draws put the camera outside the pipe in
+# more Monte Carlo trials than may be drawn again; with the 11 of 2026-12-03 (every 0.2 m, 1.6 m before to 0.6 m
+# after) still 1-3 at DN >= 600, and 19 of 131 BCA at DN >= 200 were "found, not measured" for that alone through
+# mp4v (seed 41); 12 of 132 with these (seed 43), 11 of them at DN 800-1000, whose 2.5 m pipes put one or two joints
+# in the window
+RING_STEP_MM = 100
+
+
+def ring_offsets_mm(H: float) -> tuple[float, ...]:
+    """The ring frames' offsets from the nearest measured frame [mm] in a pipe of height H [mm]."""
+    n = int(round(window_span_m(H) * 1000.0 / RING_STEP_MM))
+    return tuple(float(k * RING_STEP_MM) for k in range(-n, n + 1) if k != 0)
 
 
 def case(kind: str, rng: np.random.Generator, with_feature: bool):
@@ -107,12 +115,12 @@ def _r_eq(shape: str, H: float) -> float:
 
 
 def frames_of(scene: Scene, z: float, cert, mount, depths, seed: int, codec: str, tmp: Path):
-    """Ideal BGR frames: one at each of ``depths`` [H] before z, then those of RING_OFFSETS_MM about the first (the
-    night fits the pose to the frames within 2 m either side)."""
+    """Ideal BGR frames: one at each of ``depths`` [H] before z, then those of ``ring_offsets_mm`` about the first
+    (the night fits the pose to the frames within 2 m, or 3 H, either side)."""
     H = scene.pipe.height_mm
     r = Renderer(scene, cert, offset_mm=mount["offset_mm"], yaw=mount["yaw"], pitch=mount["pitch"], roll=mount["roll"],
                  seed=seed)
-    zs = [z - t * H for t in depths] + [z - depths[0] * H + dz for dz in RING_OFFSETS_MM]
+    zs = [z - t * H for t in depths] + [z - depths[0] * H + dz for dz in ring_offsets_mm(H)]
     raw = [r.render(float(zc), 0.0, i) for i, zc in enumerate(zs)]
     if codec != "none":
         raw = _through_codec(raw, codec, tmp, cert)

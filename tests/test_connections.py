@@ -35,7 +35,8 @@ def _views(scene: Scene, depths):
     cert = load_certificate(CERT)
     h, z = scene.pipe.height_mm, 6 * scene.pipe.height_mm
     r = Renderer(scene, cert, offset_mm=(6.0, -15.0), yaw=math.radians(1.0), pitch=math.radians(-0.5), seed=3)
-    zs = [z - t * h for t in depths] + [z - (depths[-1] + 0.35 * (k + 1)) * h for k in range(4)]
+    # four more frames farther back for the pose's rings (the night fits it to its 4 m window of frames)
+    zs = [z - t * h for t in depths] + [z - t * h for t in (2.65, 3.0, 3.35, 3.7)]
     und = Undistorter(cert, cert.image_width_px, cert.image_height_px)
     frames = [und.frame(r.render(float(zz), 0.0, i)) for i, zz in enumerate(zs)]
     contour = detect_contour([cv2.cvtColor(f, cv2.COLOR_BGR2GRAY) for f in frames], und.K, scene.pipe.shape,
@@ -220,7 +221,7 @@ def test_night_stores_found_not_measured_without_a_value(lateral):
     doubtful = replace(contour, problems=["only 2 ring(s) follow the profile: too few to fix the pose"])
     obs = Observation(4, 1.8, "BCA", "A", "A", 150.0, "mm", None, "", 2, None, False, "", None, "", "", {})
     header = SimpleNamespace(height_mm=H, height_tolerance_mm=0.0, shape="circular")
-    row = _measure_feature(obs, [(0, 1.6), (1, 2.3)], _Track(), "perspective", contours={0: doubtful, 1: doubtful},
+    row = _measure_feature(obs, [(0, VIEW_DEPTHS_H[0]), (1, VIEW_DEPTHS_H[1])], _Track(), "perspective", contours={0: doubtful, 1: doubtful},
                            under=lambda o, c: c, ideal=lambda f: frames[f], cert=cert, header=header, mask=None,
                            seed=1, edges=(), thumbnails=[])
     assert row.status == "unmeasured" and row.source == "contour"
@@ -282,7 +283,7 @@ def test_an_intrusion_in_h264_video_is_found_not_measured_for_its_codec():
     cert, contour, frames = _views(scene, VIEW_DEPTHS_H)
     obs = Observation(4, 1.8, "BAG", "", "", 20.0, "%", None, "", 10, None, False, "", None, "", "", {})
     header = SimpleNamespace(height_mm=H, height_tolerance_mm=0.0, shape="circular")
-    rows = {codec: _measure_feature(obs, [(0, 1.6), (1, 2.3)], _Track(), "perspective",
+    rows = {codec: _measure_feature(obs, [(0, VIEW_DEPTHS_H[0]), (1, VIEW_DEPTHS_H[1])], _Track(), "perspective",
                                     contours={0: contour, 1: contour}, under=lambda o, c: c,
                                     ideal=lambda f: frames[f], cert=cert, header=header, mask=None, seed=1, edges=(),
                                     thumbnails=[], codec=codec) for codec in ("mp4v", "avc1")}
@@ -347,7 +348,7 @@ def test_night_measures_bca_width_from_the_same_search(lateral, monkeypatch):
     obs = _bca(q2=160.0)
     header = SimpleNamespace(height_mm=H, height_tolerance_mm=0.0, shape="circular")
     search: dict = {}
-    rows = [night._measure_feature(obs, [(0, 1.6), (1, 2.3)], _Track(), "perspective", contours={0: contour, 1: contour},
+    rows = [night._measure_feature(obs, [(0, VIEW_DEPTHS_H[0]), (1, VIEW_DEPTHS_H[1])], _Track(), "perspective", contours={0: contour, 1: contour},
                                    under=lambda o, c: c, ideal=lambda f: frames[f], cert=cert, header=header, mask=None,
                                    seed=1, edges=(), thumbnails=[], quantity=q, found=search)
             for q in night.feature_quantities(obs)]
@@ -375,7 +376,7 @@ def test_a_connection_logged_at_the_cameras_chainage_is_looked_for_from_the_reco
     info = SimpleNamespace(frame_count=len(values), fps=fps)
     base = Observation(2, 2.0, "BAG", "", "", 10.0, "%", None, "", 2, None, False, "", None, "", "", {})
     planned = _feature_frames(base, track, info, H)
-    assert [d for _, d in planned[:2]] == pytest.approx([1.6, 2.3], abs=0.15 / fps / (H / 1000))   # to a frame
+    assert [d for _, d in planned[:2]] == pytest.approx(list(VIEW_DEPTHS_H), abs=0.15 / fps / (H / 1000))   # to a frame
     logged = dataclasses.replace(base, video_time_s=400 / fps)        # the operator recorded frame 400
     frames = dict(_feature_frames(logged, track, info, H))
     assert 400 in frames or any(abs(values[f] - values[400]) < 1e-9 for f in frames)

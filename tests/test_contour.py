@@ -411,3 +411,19 @@ def test_ring_peaks_on_the_sparse_histogram_equal_the_dense_ones(width):
     counts, bins = sparse_counts(np.array([3, 3, 9, 40]), 2)
     assert bins.tolist() == [1, 2, 3, 4, 5, 7, 8, 9, 10, 11, 38, 39, 40, 41, 42]
     assert counts.tolist() == [0, 0, 2, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0]
+
+
+def test_a_large_pipe_s_pose_window_spans_three_pipe_heights_a_small_one_s_two_metres():
+    """The rings that fit a frame's pose come from the frames within 2 m either side of it, or 3 H in a pipe over
+    DN 667: there a joint's ring is seen only while near, and its 2.5 m pipes put one joint or none within 2 m."""
+    from pipeline.vision.video.chainage_track import ChainageTrack, CounterModel
+    from pipeline.vision.video.pipe_contour import window_frames, window_span_m
+
+    fps = 25.0
+    values = 10.0 + np.arange(4000) * 0.1 / fps                       # 0.1 m/s from 10 m
+    track = ChainageTrack(values=values, fps=fps, counter=CounterModel())
+    for height_mm, span in ((300.0, 2.0), (600.0, 2.0), (1000.0, 3.0)):
+        assert window_span_m(height_mm) == pytest.approx(span)
+        chosen = window_frames(track, 2000, span_m=window_span_m(height_mm))
+        reach = np.abs(values[chosen] - values[2000])
+        assert reach.max() == pytest.approx(span, abs=0.01) and len(chosen) == 2 * round(span / 0.1) + 1

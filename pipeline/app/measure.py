@@ -275,7 +275,8 @@ def measure_package(folder: str | os.PathLike, *, certificates: str | os.PathLik
             if found is None or found not in contours:
                 raise MeasurementError(f"row {r}: no frame for its video time or chainage")
             t0 = time.perf_counter()
-            # the camera's approach: the frames of the contour's window, decoded once with it; the logged frame first
+            # the camera's approach: the frames within 2 m of it (``window_frames``' default; in a large pipe the
+            # contour's window is wider), decoded once with the contour's window; the logged frame first
             approach = [(i, cv2.cvtColor(ideal_frames[i], cv2.COLOR_BGR2GRAY), _chainage_at(ingest.track, i)[0])
                         for i in window_frames(ingest.track, found) if i in ideal_frames]
             contour = under(obs, contours[found])

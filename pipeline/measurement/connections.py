@@ -51,8 +51,13 @@ CONNECTION_CODES = frozenset({"BCA", "BAG"})
 DEPOSIT_CODES = frozenset({"BBC", "BBB"})
 FEATURE_CODES = CONNECTION_CODES | DEPOSIT_CODES
 # where the camera stands before the feature's logged distance, in pipe heights: the nearest frame in which
-# an opening of up to 0.9 H is wholly in view of a wide-angle CCTV lens, then a second, farther one to confirm
-VIEW_DEPTHS_H = (1.6, 2.3)
+# an opening of up to 0.9 H is wholly in view of a wide-angle CCTV lens, then a second, farther one to confirm.
+# Not farther than 2.0 H: the rim fit reads an opening short by more the farther it is (seen more obliquely), and
+# from 2.3 H the confirming frame was low by 0.9 % of the diameter (median; 1.6 H: 0.14 %), so the frames' value
+# check flagged 5.8 % of the openings at its 1 % point (chi-square median 0.67, 95th percentile 7.25); from 2.0 H
+# 1.5 % (0.41 and 3.84, a chi-square of 1 degree of freedom's 0.45 and 3.84; BCA seed 44 through mp4v,
+# docs/measurement.md)
+VIEW_DEPTHS_H = (1.6, 2.0)
 DEPOSIT_VIEW_H = (1.2, 1.7)    # a deposit's surface is looked for from these distances before its logged start [H]
 DEPOSIT_SPAN_H = 2.6           # and along this much of the pipe beyond its start [H]
 DEPOSIT_AGREEMENT_H = 0.01     # the frames must place the deposit's surface within this of one another [H]

@@ -25,9 +25,15 @@ from pipeline.vision.video.chainage_track import ChainageTrack
 from pipeline.vision.video.reader import FrameScan, iter_frames, probe_video
 from pipeline.camera.undistort import Undistorter
 
-__all__ = ["overlay_mask", "overlay_mask_of", "recorded_overlay_mask", "window_frames", "read_ideal_grays", "contours_at_frames"]
+__all__ = ["overlay_mask", "overlay_mask_of", "recorded_overlay_mask", "window_frames", "window_span_m", "read_ideal_grays",
+           "contours_at_frames"]
 
-SPAN_M = 2.0       # travel either side of the frame whose rings are used [m]
+SPAN_M = 2.0       # travel either side of the frame whose rings are used, at least [m]
+# and at least this many pipe heights: a joint's ring is seen only while it is near in a large pipe (at DN 1000
+# from 0.6-0.9 H: its gap is a few px farther on), and 2.5 m pipes put one joint or none within 2 m there, so 6 of
+# 106 openings at DN >= 200 had no pose, all at DN 1000 (benchmarks/automatic_connections.py, seed 44, MPEG-4 Part 2;
+# docs/measurement.md). From DN 667 on the window grows with the pipe.
+SPAN_H = 3.0
 STEP_M = 0.1       # chainage step between those frames [m]
 THREADS = min(4, os.cpu_count() or 1)   # frames whose ridge points are found at once (OpenCV and NumPy release the GIL)
 
@@ -52,6 +58,12 @@ def recorded_overlay_mask(frames: Iterable[np.ndarray]) -> np.ndarray:
     """The burned-in overlay in the recorded frames' own pixels (0 on it, 255 elsewhere), from BGR frames spread over
     one video: where a thumbnail shows the overlay whole, as recorded (the ideal image shifts and cuts it)."""
     return static_overlay_mask([_gray(f) for f in frames])
+
+
+def window_span_m(height_mm: float) -> float:
+    """The travel either side of a frame whose rings fit its pose [m]: ``SPAN_M``, or ``SPAN_H`` pipe heights in a
+    pipe of height ``height_mm`` [mm] where that is more."""
+    return max(SPAN_M, SPAN_H * height_mm / 1000.0)
 
 
 def window_frames(track: ChainageTrack, frame: int, span_m: float = SPAN_M, step_m: float = STEP_M) -> list[int]:
@@ -91,7 +103,7 @@ def contours_at_frames(path: str | os.PathLike, frames: Iterable[int], track: Ch
     (``pipeline.vision.contour.consensus.reconcile_windows``: the mount does not move, so the fits must agree).
 
     Each frame's contour is fitted to the rings of the frames around it along
-    the chainage (``window_frames``). The video is read once, forward, for
+    the chainage (``window_frames`` within ``window_span_m``). The video is read once, forward, for
     all windows, and each frame's ridge points are found once however many
     windows share it (in THREADS threads while the next frames decode). A
     window's pose is fitted, in one more thread, as soon as the ridge points
@@ -108,7 +120,8 @@ def contours_at_frames(path: str | os.PathLike, frames: Iterable[int], track: Ch
     keep_windows : frames of ``frames`` whose whole window's ideal images ``ideal_frames`` also receives (a
     displaced joint followed over the camera's approach: from this one decoding, no second one).
     """
-    windows = {frame: window_frames(track, frame, step_m=step_m) for frame in sorted(set(frames))}
+    span_m = window_span_m(height_mm)
+    windows = {frame: window_frames(track, frame, span_m=span_m, step_m=step_m) for frame in sorted(set(frames))}
     wall_u = wall_u_from_tolerance(height_mm, tolerance_mm)
     users: dict[int, list[int]] = defaultdict(list)       # frame -> the windows it belongs to
     for frame, order in windows.items():

@@ -348,7 +348,8 @@ def test_night_measures_bca_width_from_the_same_search(lateral, monkeypatch):
     obs = _bca(q2=160.0)
     header = SimpleNamespace(height_mm=H, height_tolerance_mm=0.0, shape="circular")
     search: dict = {}
-    rows = [night._measure_feature(obs, [(0, VIEW_DEPTHS_H[0]), (1, VIEW_DEPTHS_H[1])], _Track(), "perspective", contours={0: contour, 1: contour},
+    planned = [(0, VIEW_DEPTHS_H[0]), (1, VIEW_DEPTHS_H[1])]
+    rows = [night._measure_feature(obs, planned, _Track(), "perspective", contours={0: contour, 1: contour},
                                    under=lambda o, c: c, ideal=lambda f: frames[f], cert=cert, header=header, mask=None,
                                    seed=1, edges=(), thumbnails=[], quantity=q, found=search)
             for q in night.feature_quantities(obs)]

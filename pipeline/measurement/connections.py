@@ -257,7 +257,7 @@ def measure_connection(code: str, char1: str, clock: float | None, views: Sequen
         # is not a covariance (seen once on an H.264 case: not symmetric)
         raise MeasurementError(f"found, not measured: {exc}") from exc
     reasons = [f"lateral: {p}" for p in lat.problems]
-    chi2 = None
+    chi2, values = None, []
     if len(found.found) < 2:
         reasons.append(f"found in only one of {found.frames_tried} frame(s): nothing confirms it")
     else:
@@ -270,7 +270,7 @@ def measure_connection(code: str, char1: str, clock: float | None, views: Sequen
         reasons += [why] if why else []
     _add(res, reasons)
     return Automatic(q, res, len(found.found), found.frames_tried, found.used, frames_chi2=chi2,
-                     frames_values=tuple(values) if chi2 is not None else ())
+                     frames_values=tuple(values))
 
 
 def _frames_agree(found: FoundConnection, q: MarkedQuantity, res: QuantityResult, cert: Certificate, code: str,

@@ -104,13 +104,17 @@ def _common(frames: list[_FrameModel], label: str):
     return widest, maps
 
 
-def _own_variance(frame: _FrameModel, common: set[str]) -> float:
-    """Frame's variance [unit^2] from its inputs not common to every frame, linearised at the estimates."""
+def _linearised(frame: _FrameModel) -> tuple[np.ndarray, np.ndarray]:
+    """The frame's sensitivities to its uncertain inputs and their covariance, in the order of its inputs' labels."""
     inputs = frame.inputs
     lin = propagate_linear(frame.fn, inputs, name="y")
-    c = np.array([line.sensitivity for line in lin.budget])
-    own = np.array([label not in common for label in inputs.labels])
-    cov = inputs.covariance()
+    return np.array([line.sensitivity for line in lin.budget]), inputs.covariance()
+
+
+def _own_variance(frame: _FrameModel, common: set[str]) -> float:
+    """Frame's variance [unit^2] from its inputs not common to every frame, linearised at the estimates."""
+    c, cov = _linearised(frame)
+    own = np.array([label not in common for label in frame.inputs.labels])
     c = np.where(own, c, 0.0)
     return float(c @ cov @ c)
 
@@ -264,10 +268,8 @@ def frame_covariance(views: Sequence[tuple[MarkedQuantity, PipeContour]], cert: 
     standardised = []    # per view: label -> sensitivity x u of each shared input drawn fully correlated
     pose = []            # per view: the sensitivities to the pose's labels, and their covariance
     for i, f in enumerate(built):
-        inputs = f.inputs
-        labels = inputs.labels
-        c = np.array([line.sensitivity for line in propagate_linear(f.fn, inputs, name="y").budget])
-        full = inputs.covariance()
+        labels = f.inputs.labels
+        c, full = _linearised(f)
         cov[i, i] = float(c @ full @ c)
         u = np.sqrt(np.diag(full))
         standardised.append({lab: c[k] * u[k] for k, lab in enumerate(labels) if lab in common})

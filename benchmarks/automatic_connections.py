@@ -295,11 +295,29 @@ def report(rows: list[dict]) -> None:
                 for line in summary(subset, kind, label):
                     if "false" not in line:
                         print(line)
+    frames_check(rows)
     held_back(rows)
     for r in rows:
         if r["feature"] and r["measured"] and not r["low"] <= r["truth"] <= r["high"]:
             print(f"  miss {r['kind']} {r['codec']} DN {r['dn']:.0f} {r['shape']}: truth {r['truth']:.2f}, value "
                   f"{r['value']:.2f} [{r['low']:.2f}, {r['high']:.2f}]")
+
+
+def frames_check(rows: list[dict]) -> None:
+    """The frames' value check against its distribution (cases seen in two frames: a chi-square of 1 degree of
+    freedom has median 0.45 and 95th percentile 3.84, 1 % beyond 6.63), and each frame's median error [% of the
+    truth], the measured (nearest) frame first: how the rim's reading moves with the depth."""
+    for kind in dict.fromkeys(r["kind"] for r in rows):
+        two = [r for r in rows if r["kind"] == kind and r["feature"] and len(r.get("frames_values") or []) == 2
+               and r.get("frames_chi2") is not None]
+        if not two:
+            continue
+        chi2 = np.array([r["frames_chi2"] for r in two])
+        err = np.array([[100 * (v - r["truth"]) / r["truth"] for v in r["frames_values"]] for r in two])
+        print(f"{kind} frames' check over {len(two)} cases seen in two frames: chi-square median {np.median(chi2):.2f}, "
+              f"95th percentile {np.percentile(chi2, 95):.2f}, {100 * np.mean(chi2 > 6.635):.1f} % beyond the 1 % "
+              f"point; median error of the nearer frame {np.median(err[:, 0]):+.2f} %, of the farther "
+              f"{np.median(err[:, 1]):+.2f} % of the truth")
 
 
 def held_back(rows: list[dict]) -> None:

@@ -132,6 +132,15 @@ def nearest_frames(kind: str, cases: int, seed: int, shapes: tuple[str, ...] = (
     """The clean-video cases of ``kind`` with the feature, as ``main`` draws them, in pipes of ``shapes`` where the
     pose is fitted: (index, scene, clock, the nearest measured frame, its contour) each (``lateral_rim.py``,
     ``intrusion_tip.py``)."""
+    for i, scene, clock, frames, contour in frames_at_depths(kind, cases, seed, shapes, VIEW_DEPTHS_H):
+        yield i, scene, clock, frames[0], contour
+
+
+def frames_at_depths(kind: str, cases: int, seed: int, shapes: tuple[str, ...], depths: tuple[float, ...],
+                     codec: str = "none"):
+    """As ``nearest_frames``, with the frames at each of ``depths`` [H] before the feature (the pose fitted to them
+    and the ring frames about the first), through ``codec`` (``FOURCC``'s keys): (index, scene, clock, those
+    frames, their contour) each."""
     cert = load_certificate(SAMPLES / "certificates" / "SYN-720x576.json")
     rng = np.random.default_rng([seed, KINDS.index(kind), 0])
     for i in range(cases):
@@ -139,11 +148,12 @@ def nearest_frames(kind: str, cases: int, seed: int, shapes: tuple[str, ...] = (
         H, shape = scene.pipe.height_mm, scene.pipe.shape
         if shape not in shapes:
             continue
-        frames, K = frames_of(scene, z, cert, mount, VIEW_DEPTHS_H, i, "none", Path("."))
+        with tempfile.TemporaryDirectory() as tmp:
+            frames, K = frames_of(scene, z, cert, mount, depths, i, codec, Path(tmp))
         contour = detect_contour([cv2.cvtColor(f, cv2.COLOR_BGR2GRAY) for f in frames], K, shape,
                                  wall_u=wall_u_from_tolerance(H, 0.0))
         if np.all(np.isfinite(contour.covariance)):
-            yield i, scene, clock, frames[0], contour
+            yield i, scene, clock, frames[:len(depths)], contour
 
 
 def _through_codec(raw, codec: str, tmp: Path, cert):

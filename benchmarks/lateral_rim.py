@@ -8,6 +8,10 @@ between the crossings over the extent [px], and an end's u parts without the flo
 the rim's definition. Prints per case and the medians, and the extent's error at the weights 0, 0.15, 1/3:
 
     nice -n 10 python benchmarks/lateral_rim.py --cases 30 [--seed 34]
+
+With ``--depths 1.6 2.0 2.3 [--codec mp4v]`` it prints instead the extent's error around and along at each depth
+[H] (the frames of one case share their fitted pose), in % of the diameter: how the rim fit's error grows with
+depth, and what a codec adds.
 """
 
 from __future__ import annotations
@@ -38,11 +42,44 @@ def _found(frame, view, clock, weight: float, weight_u: float, floor: float):
         lateral_module.RIM_WEIGHT, lateral_module.RIM_WEIGHT_U, lateral_module.EDGE_FLOOR_PX = saved
 
 
+def by_depth(cases: int, seed: int, depths: tuple[float, ...], codec: str = "none") -> None:
+    """The extents' errors around and along [% of the diameter] at each of ``depths`` [H], as the night finds them
+    in frames through ``codec``."""
+    errors: dict[float, list[tuple[float, float, float]]] = {t: [] for t in depths}
+    for i, scene, clock, frames, contour in ac.frames_at_depths("bca", cases, seed, ("circular",), depths, codec):
+        H, d = scene.pipe.height_mm, scene.features[0].diameter_mm
+        line = []
+        for t, frame in zip(depths, frames):
+            lat = lateral_module.find_lateral(frame, contour.view, clock=clock, expected_depth=t,
+                                              depths=(max(0.9, t - LATERAL_SEARCH_H), t + LATERAL_SEARCH_H))
+            if lat is None or lat.problems:
+                line.append(f"{t:.1f} H: -")
+                continue
+            a, b = np.array(lat.around)
+            px = float(np.linalg.norm(a - b))
+            around, along = (100.0 * (e * H - d) / d for e in (lat.extent_around, lat.extent_along))
+            errors[t].append((around, along, around / 100.0 * px))
+            line.append(f"{t:.1f} H: around {around:+.2f} % ({around / 100.0 * px:+.2f} px), along {along:+.2f} %")
+        print(f"{i:3d} DN {H:5.0f}, {d:4.0f} mm: " + "; ".join(line), flush=True)
+    for t in depths:
+        if not errors[t]:
+            continue
+        around, along, px = (np.array(c) for c in zip(*errors[t]))
+        print(f"{t:.1f} H ({len(around)} found): around median {np.median(around):+.2f} % (robust SD "
+              f"{robust_sd(around):.2f}; {np.median(px):+.2f} px), along {np.median(along):+.2f} % "
+              f"(robust SD {robust_sd(along):.2f})")
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--cases", type=int, default=30)
     ap.add_argument("--seed", type=int, default=34)
+    ap.add_argument("--depths", type=float, nargs="+", help="print the extents' errors at these depths [H]")
+    ap.add_argument("--codec", choices=tuple(ac.FOURCC), default="none", help="the frames' codec (with --depths)")
     args = ap.parse_args()
+    if args.depths:
+        by_depth(args.cases, args.seed, tuple(args.depths), args.codec)
+        return
     rows = []
     for i, scene, clock, frame, contour in ac.nearest_frames("bca", args.cases, args.seed):
         H, d = scene.pipe.height_mm, scene.features[0].diameter_mm

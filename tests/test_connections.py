@@ -229,14 +229,16 @@ def test_night_stores_found_not_measured_without_a_value(lateral):
     assert row.value is None and row.frame == 0
 
 
-def test_an_edge_through_mpeg4_part2_takes_the_codec_term_in_its_u():
+def test_an_edge_through_a_codec_takes_the_codec_term_in_its_u():
     from pipeline.measurement.connections import CODEC_EDGE_U_PX, codec_edge_u, intrusion_points, lateral_points
     from pipeline.vision.contour.intrusion import Intrusion
     from pipeline.vision.contour.lateral import Lateral
 
     assert codec_edge_u("XVID ") == codec_edge_u("mp4v") == CODEC_EDGE_U_PX["mp4v"] > 0
     assert codec_edge_u(None) == codec_edge_u("") == 0.0
-    assert codec_edge_u("avc1") == 0.0         # H.264 has no figure: it is not validated (validation_doubt)
+    # H.264 shortens an opening more than MPEG-4 Part 2 (docs/measurement.md): a larger term, whichever FourCC
+    assert codec_edge_u("avc1") == codec_edge_u("H264") == CODEC_EDGE_U_PX["avc1"] > CODEC_EDGE_U_PX["mp4v"]
+    assert codec_edge_u("MJPG") == 0.0         # a codec without a figure (not validated: validation_doubt)
     cert = load_certificate(CERT)
     lat = Lateral(1.0, 1.6, ((100.0, 200.0), (140.0, 190.0)), ((120.0, 180.0), (121.0, 210.0)), 0.3, 0.2, 0.2, 0.2,
                   50, 30.0, ())

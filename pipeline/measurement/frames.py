@@ -88,6 +88,12 @@ def _pose_groups(contours: Sequence[PipeContour]) -> list[int]:
     return group
 
 
+def _shared(built: list[_FrameModel], views: Sequence[tuple[MarkedQuantity, PipeContour]]) -> tuple[set[str], bool]:
+    """What every view shares: the ``SHARED_LABELS`` all their models hold, and whether one pose fit is theirs."""
+    common = {label for label in SHARED_LABELS if all(label in f.independent for f in built)}
+    return common, max(_pose_groups([c for _, c in views])) == 0
+
+
 def _common(frames: list[_FrameModel], label: str):
     """The one distribution of a shared input, and each frame's map from its draw to the frame's own value.
 
@@ -158,10 +164,8 @@ def measure_over_frames(views: Sequence[tuple[MarkedQuantity, PipeContour]], cer
         return _measure_frame(built[0], seed, edges, monte_carlo)
 
     group = _pose_groups([c for _, c in views])
-    n_groups = max(group) + 1
-    pose_tag = ["+".join(t for t, g in zip(tags, group) if g == k) for k in range(n_groups)]
-    shared_pose = n_groups == 1
-    common = {label for label in SHARED_LABELS if all(label in f.independent for f in built)}
+    pose_tag = ["+".join(t for t, g in zip(tags, group) if g == k) for k in range(max(group) + 1)]
+    common, shared_pose = _shared(built, views)
     if shared_pose:
         common |= set(POSE_LABELS)
 
@@ -240,8 +244,8 @@ def frame_values(views: Sequence[tuple[MarkedQuantity, PipeContour]], cert: Cert
     """
     views = list(views)
     built = [_frame_model(q, c, cert, H=H, tolerance=tolerance, model=model, seed=seed) for q, c in views]
-    common = {label for label in SHARED_LABELS if all(label in f.independent for f in built)}
-    if max(_pose_groups([c for _, c in views])) == 0:
+    common, shared_pose = _shared(built, views)
+    if shared_pose:
         common |= set(POSE_LABELS)
     own = [_own_variance(f, common) for f in built]
     return np.array([f.value for f in built], float), np.sqrt(np.maximum(own, 0.0))
@@ -261,8 +265,7 @@ def frame_covariance(views: Sequence[tuple[MarkedQuantity, PipeContour]], cert: 
     """
     views = list(views)
     built = [_frame_model(q, c, cert, H=H, tolerance=tolerance, model=model, seed=seed) for q, c in views]
-    common = {label for label in SHARED_LABELS if all(label in f.independent for f in built)}
-    shared_pose = max(_pose_groups([c for _, c in views])) == 0
+    common, shared_pose = _shared(built, views)
     n = len(built)
     cov = np.zeros((n, n))
     standardised = []    # per view: label -> sensitivity x u of each shared input drawn fully correlated

@@ -297,10 +297,18 @@ def test_an_intrusion_in_h264_video_is_found_not_measured_for_its_codec():
 
 
 @pytest.mark.slow
-def test_a_deposit_from_the_image_alone_is_kept_found_not_measured_until_validated():
+def test_a_deposit_from_the_image_alone_is_kept_found_not_measured_until_validated(monkeypatch):
     """BBC is validated in no codec yet (its U95 missed in 12 of 100 generated deposits): the night's row keeps the
-    surface found (its points and frame) but no value, with the reason, even in MPEG-4 Part 2."""
+    surface found (its points and frame) but no value, with the reason, even in MPEG-4 Part 2; no Monte Carlo is
+    spent on a value that will not be stored."""
     from types import SimpleNamespace
+
+    import pipeline.measurement.quantity as quantity
+
+    def no_monte_carlo(*args, **kwargs):
+        raise AssertionError("a Monte Carlo run for a result that cannot be stored as measured")
+
+    monkeypatch.setattr(quantity, "propagate_monte_carlo", no_monte_carlo)
 
     from pipeline.app.measure import _measure_feature
     from pipeline.domain.records import Observation
@@ -314,6 +322,7 @@ def test_a_deposit_from_the_image_alone_is_kept_found_not_measured_until_validat
                            cert=cert, header=header, mask=None, seed=1, edges=(), thumbnails=[], codec="mp4v")
     assert row.status == "unmeasured" and row.value is None and row.frame == 0
     assert "not validated yet" in row.error and row.a_x_px is not None
+    assert "linear preview" not in (row.warnings or "") + row.error     # no Monte Carlo will replace it
 
 
 def _bca(q2: float | None = 150.0, code: str = "BCA"):

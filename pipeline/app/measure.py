@@ -40,7 +40,7 @@ from pipeline.measurement.connections import (CONNECTION_CODES, DEPOSIT_SPAN_H, 
 from pipeline.measurement.joints import (ANGULAR_NOT_MEASURED, found_not_measured, measurable_joint, measure_joint,
                                          step_clock)
 from pipeline.measurement.marked import marked_quantity
-from pipeline.measurement.quantity import MODELS, MarkedQuantity, QuantityResult, doubts, measure_quantity
+from pipeline.measurement.quantity import LINEAR_PREVIEW, MODELS, MarkedQuantity, QuantityResult, doubts, measure_quantity
 from pipeline.measurement.wall import contour_under
 from pipeline.core.numeric import finite_number
 from pipeline.judgement.grading import class_edges, scheme as grading_scheme
@@ -479,11 +479,14 @@ def _measure_feature(obs: Observation, views: list[tuple[int, float]], track, mo
     (status error: no grade, no log check). found : where the connection's search is kept for its next quantity
     (the search's result, or the error it raised); codec : the video's FourCC (``validation_doubt``)."""
     row = _automatic_base(obs, views[0][0] if views else None, track, model, quantity)
+    # a code not validated in this codec or shape is never stored as measured: its Monte Carlo would be spent for
+    # nothing, so it is found and checked with the law of propagation alone
+    doubt = validation_doubt(obs.code, codec, header.shape)
     try:
         if not views:
             raise MeasurementError(f"row {obs.row}: no frame before its logged distance")
         common = dict(H=header.height_mm, tolerance=header.height_tolerance_mm, model=model, seed=seed, mask=mask,
-                      edges=edges)
+                      edges=edges, monte_carlo=doubt is None)
         ahead = LOG_AHEAD_M * 1000.0 / header.height_mm
         if obs.code in CONNECTION_CODES:
             frames = [(under(obs, contours[f]), ideal(f), t) for f, t in views]
@@ -504,9 +507,9 @@ def _measure_feature(obs: Observation, views: list[tuple[int, float]], track, mo
     except PipegaugeError as exc:          # "not found: ...", "found, not measured: ..." or a pose not fitted
         row.update(status="error", error=str(exc))
         return row
-    doubt = validation_doubt(obs.code, codec, header.shape)
     if doubt is not None:
-        auto = replace(auto, result=replace(auto.result, confident=False, reasons=(*auto.result.reasons, doubt)))
+        kept = (r for r in auto.result.reasons if r != LINEAR_PREVIEW)     # no Monte Carlo will replace it
+        auto = replace(auto, result=replace(auto.result, confident=False, reasons=(*kept, doubt)))
     frame = views[auto.view][0]
     chainage, u_chainage = _chainage_at(track, frame)
     q, res = auto.quantity, auto.result

@@ -234,7 +234,8 @@ def measure_connection(code: str, char1: str, clock: float | None, views: Sequen
                        cert: Certificate, *, H: float, tolerance: float, quantity: str = "Q1",
                        model: str = "perspective", seed: int = 1, mask: np.ndarray | None = None,
                        edges: tuple[float, ...] = (), ahead: float = 0.0,
-                       found: FoundConnection | None = None, codec: str | None = None) -> Automatic:
+                       found: FoundConnection | None = None, codec: str | None = None,
+                       monte_carlo: bool = True) -> Automatic:
     """A connection's opening (BCA Q1 around the pipe, Q2 along it) or intrusion (BAG) measured from the frames
     before it.
 
@@ -242,7 +243,8 @@ def measure_connection(code: str, char1: str, clock: float | None, views: Sequen
     clock : the logged clock position (None: anywhere around); ahead : how far beyond its logged distance the
     feature may lie [H] (a log may state the camera's chainage when it was recorded, not the feature's);
     found : ``find_connection``'s result on these views, when another quantity of it was measured already;
-    codec : the video's FourCC, for its edges' u (``codec_edge_u``).
+    codec : the video's FourCC, for its edges' u (``codec_edge_u``); monte_carlo : False: the law of propagation
+    alone, for a result that will not be stored as measured (``validation_doubt``), so its Monte Carlo is not spent.
     The quantity is measured on the frame where the opening is found nearest ``VIEW_DEPTHS_H[0]`` (wholly in
     view, and as near as that allows); the other frames confirm it.
     Raises MeasurementError when no frame shows an opening (the feature not found).
@@ -255,7 +257,8 @@ def measure_connection(code: str, char1: str, clock: float | None, views: Sequen
     q = (intrusion_points(lat, cert, code, char1, codec_u) if intruding
          else lateral_points(lat, cert, quantity, code, char1, codec_u))
     try:
-        res = measure_quantity(q, contour, cert, H=H, tolerance=tolerance, model=model, seed=seed, edges=edges)
+        res = measure_quantity(q, contour, cert, H=H, tolerance=tolerance, model=model, seed=seed, edges=edges,
+                               monte_carlo=monte_carlo)
     except (PipegaugeError, ValueError) as exc:
         # the points do not meet the wall, Monte Carlo draws leave the model's domain, or the pose fit's covariance
         # is not a covariance (seen once on an H.264 case: not symmetric)
@@ -333,9 +336,10 @@ def _deposit_found(contour, ideal, cert, code, char1, depths,
 
 def measure_deposit(code: str, char1: str, views: Sequence[tuple[PipeContour, np.ndarray, tuple[float, float]]],
                     cert: Certificate, *, H: float, tolerance: float, model: str = "perspective", seed: int = 1,
-                    mask: np.ndarray | None = None, edges: tuple[float, ...] = ()) -> Automatic:
+                    mask: np.ndarray | None = None, edges: tuple[float, ...] = (), monte_carlo: bool = True) -> Automatic:
     """A deposit's cross-sectional loss [%] from the frames before it (nearest first): (contour, ideal frame,
-    depths [H] the deposit covers there) per frame. Measured on the nearest frame where its surface is found."""
+    depths [H] the deposit covers there) per frame. Measured on the nearest frame where its surface is found.
+    monte_carlo : as ``measure_connection``'s."""
     results = []
     used = -1
     for k, (contour, ideal, depths) in enumerate(views):
@@ -349,7 +353,8 @@ def measure_deposit(code: str, char1: str, views: Sequence[tuple[PipeContour, np
                                "frame(s)")
     contour, q, problems, level, _ = results[0]
     try:
-        res = measure_quantity(q, contour, cert, H=H, tolerance=tolerance, model=model, seed=seed, edges=edges)
+        res = measure_quantity(q, contour, cert, H=H, tolerance=tolerance, model=model, seed=seed, edges=edges,
+                               monte_carlo=monte_carlo)
     except (PipegaugeError, ValueError) as exc:
         # the points do not meet the wall, Monte Carlo draws leave the model's domain, or the pose fit's covariance
         # is not a covariance (seen once on an H.264 case: not symmetric)

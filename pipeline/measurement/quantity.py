@@ -77,7 +77,8 @@ from pipeline.measurement.rays import marked_points
 from pipeline.domain.results import BudgetLine
 
 __all__ = ["MarkedQuantity", "QuantityResult", "BudgetEntry", "measure_quantity", "certificate_scale_u", "MODELS",
-           "INPUT_DESCRIPTIONS", "RESOLUTION_PX", "MC_NOT_CONVERGED", "doubts", "INPUT_UNITS", "input_unit"]
+           "INPUT_DESCRIPTIONS", "RESOLUTION_PX", "MC_NOT_CONVERGED", "LINEAR_PREVIEW", "doubts", "INPUT_UNITS",
+           "input_unit"]
 
 MODELS = ("orthographic", "perspective")
 POSE_LABELS = ("ox", "oy", "yaw", "pitch", "roll")
@@ -86,6 +87,8 @@ SHARED_LABELS = ("certificate", "H", "wall_x", "wall_y", "edge")   # the same qu
 CERTIFICATE_DRAWS = 200
 MAX_TRIALS = 400_000    # cap of the adaptive Monte Carlo: a run stopped by it is stated as not converged
 MC_NOT_CONVERGED = "Monte Carlo not converged"   # a reason that states the interval's last digit, not a doubt
+# a result of the law of propagation alone says so among its reasons (the reviewer's preview)
+LINEAR_PREVIEW = "linear preview: the Monte Carlo result replaces it"
 RESOLUTION_PX = 2.0     # an extent under about 2 px is not resolved: a blurred edge spreads over 1-2 px
 
 INPUT_DESCRIPTIONS = {
@@ -194,8 +197,9 @@ class QuantityResult:
 
 def doubts(res: "QuantityResult") -> tuple[str, ...]:
     """The reasons of a result that bear on trusting it: all but the Monte Carlo's convergence, which says only
-    that the interval's last digit is uncertain (a result found but not trusted is stored with these)."""
-    return tuple(r for r in res.reasons if not r.startswith(MC_NOT_CONVERGED))
+    that the interval's last digit is uncertain, and a preview's note (a result found but not trusted is stored
+    with these)."""
+    return tuple(r for r in res.reasons if not r.startswith((MC_NOT_CONVERGED, LINEAR_PREVIEW)))
 
 
 def certificate_scale_u(cert: Certificate, K: np.ndarray, ideal_points: np.ndarray, reference: np.ndarray,
@@ -553,7 +557,7 @@ def _linear_preview(main: _FrameModel, lin, value: float, v_ortho: float, v_pers
         k=float(lin.k), mc_trials=0, mc_seed=seed, linear_validated=False, d_low=math.nan, d_high=math.nan,
         delta=math.nan, p_H_px=plane.p_H, u_p_H_px=plane.u_p_H, SC_mm_per_px=main.H / plane.p_H, p_X_px=p_X,
         plane_depth_mm=plane.depth * main.H, orthographic_value=v_ortho, perspective_value=v_persp,
-        confident=confident, reasons=tuple(dict.fromkeys([*reasons, "linear preview: the Monte Carlo result replaces it"])),
+        confident=confident, reasons=tuple(dict.fromkeys([*reasons, LINEAR_PREVIEW])),
         budget=budget, extent=method.extent, below_resolution=p_X < RESOLUTION_PX, mc_converged=False,
         class_edges=[float(e) for e in edges], class_edges_cdf=cdf)
 

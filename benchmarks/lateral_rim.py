@@ -35,11 +35,15 @@ def _found(frame, view, clock, weight: float, weight_u: float, floor: float):
     saved = lateral_module.RIM_WEIGHT, lateral_module.RIM_WEIGHT_U, lateral_module.EDGE_FLOOR_PX
     lateral_module.RIM_WEIGHT, lateral_module.RIM_WEIGHT_U, lateral_module.EDGE_FLOOR_PX = weight, weight_u, floor
     try:
-        depth = VIEW_DEPTHS_H[0]
-        return lateral_module.find_lateral(frame, view, clock=clock, expected_depth=depth,
-                                           depths=(max(0.9, depth - LATERAL_SEARCH_H), depth + LATERAL_SEARCH_H))
+        return _find(frame, view, clock, VIEW_DEPTHS_H[0])
     finally:
         lateral_module.RIM_WEIGHT, lateral_module.RIM_WEIGHT_U, lateral_module.EDGE_FLOOR_PX = saved
+
+
+def _find(frame, view, clock, depth: float):
+    """find_lateral about ``depth`` [H], searched as the night searches a frame at that depth."""
+    return lateral_module.find_lateral(frame, view, clock=clock, expected_depth=depth,
+                                       depths=(max(0.9, depth - LATERAL_SEARCH_H), depth + LATERAL_SEARCH_H))
 
 
 def by_depth(cases: int, seed: int, depths: tuple[float, ...], codec: str = "none") -> None:
@@ -50,16 +54,15 @@ def by_depth(cases: int, seed: int, depths: tuple[float, ...], codec: str = "non
         H, d = scene.pipe.height_mm, scene.features[0].diameter_mm
         line = []
         for t, frame in zip(depths, frames):
-            lat = lateral_module.find_lateral(frame, contour.view, clock=clock, expected_depth=t,
-                                              depths=(max(0.9, t - LATERAL_SEARCH_H), t + LATERAL_SEARCH_H))
+            lat = _find(frame, contour.view, clock, t)
             if lat is None or lat.problems:
                 line.append(f"{t:.1f} H: -")
                 continue
             a, b = np.array(lat.around)
-            px = float(np.linalg.norm(a - b))
             around, along = (100.0 * (e * H - d) / d for e in (lat.extent_around, lat.extent_along))
-            errors[t].append((around, along, around / 100.0 * px))
-            line.append(f"{t:.1f} H: around {around:+.2f} % ({around / 100.0 * px:+.2f} px), along {along:+.2f} %")
+            px = around / 100.0 * float(np.linalg.norm(a - b))        # the error around on the extent [px]
+            errors[t].append((around, along, px))
+            line.append(f"{t:.1f} H: around {around:+.2f} % ({px:+.2f} px), along {along:+.2f} %")
         print(f"{i:3d} DN {H:5.0f}, {d:4.0f} mm: " + "; ".join(line), flush=True)
     for t in depths:
         if not errors[t]:

@@ -197,9 +197,8 @@ class QuantityResult:
 
 def doubts(res: "QuantityResult") -> tuple[str, ...]:
     """The reasons of a result that bear on trusting it: all but the Monte Carlo's convergence, which says only
-    that the interval's last digit is uncertain, and a preview's note (a result found but not trusted is stored
-    with these)."""
-    return tuple(r for r in res.reasons if not r.startswith((MC_NOT_CONVERGED, LINEAR_PREVIEW)))
+    that the interval's last digit is uncertain (a result found but not trusted is stored with these)."""
+    return tuple(r for r in res.reasons if not r.startswith(MC_NOT_CONVERGED))
 
 
 def certificate_scale_u(cert: Certificate, K: np.ndarray, ideal_points: np.ndarray, reference: np.ndarray,

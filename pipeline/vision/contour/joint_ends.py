@@ -273,25 +273,55 @@ def _far_u(view: PipeView, walls: np.ndarray, t_far: float, centre, radius) -> n
     return u
 
 
-def _far_residual(view, walls, far_u, t_near, x, radius) -> np.ndarray:
-    """The far edges' 1 / t [1/H] against the model: the far end's ring where it shows, else the plane where the
-    far end hides behind the near pipe's end or shows its own end face (the joint's plane ``x[3]``): an edge
-    is taken for whichever of the two it lies nearer. A weak prior puts that plane midway between the ends
-    (as the renderer draws a joint; it settles the plane when no edge lies on it)."""
+def _far_residual(view, walls, far_u, near, x, radius) -> np.ndarray:
+    """The far edges' 1 / t [1/H] against the model: the far end's ring where it shows, else the near pipe's rim
+    where the far end hides behind it or shows its own end face (the joint's plane ``x[3]``, the rim centred where
+    the near ring is: a pose a little off moves both pipes' rings alike, and the rim taken about the nominal centre
+    would then lie off the near pipe's own end by that much, which the far ring's centre absorbed as a shorter
+    step); an edge is taken for whichever of the two it lies nearer. ``near`` is the near ring (t, cx, cy) [H].
+    A weak prior puts the plane midway between the ends (where a spigot's end meets its socket; it settles the
+    plane when no edge lies on it)."""
     t_far, cx, cy, t_plane = x
-    u_plane = 1.0 / t_plane
-    seen = far_u - np.minimum(_far_u(view, walls, t_far, (cx, cy), radius), u_plane)
-    plane = far_u - u_plane
+    t_near = near[0]
+    rim = _far_u(view, walls, t_plane, near[1:], radius)
+    seen = far_u - np.minimum(_far_u(view, walls, t_far, (cx, cy), radius), rim)
+    plane = far_u - rim
     r = np.where(np.abs(seen) <= np.abs(plane), seen, plane)
-    return np.append(r, 0.1 * (u_plane - 2.0 / (t_near + t_far)))
+    return np.append(r, 0.1 * (1.0 / t_plane - 2.0 / (t_near + t_far)))
 
 
-def _fit_far(view, walls, far_u, t_near, t0, radius, x0=None) -> tuple[np.ndarray, float]:
-    """(t, cx, cy) [H] of the far pipe's end from its edges' 1 / t on the generators, and the rms [1/H]."""
-    start = np.array(x0 if x0 is not None else (t0, 0.0, 0.0, 0.5 * (t0 + t_near)), float)
-    sol = least_squares(lambda x: _far_residual(view, walls, far_u, t_near, x, radius), start,
-                        loss="soft_l1", f_scale=0.005 / t0, x_scale=[0.01 * t0, 0.01, 0.01, 0.01 * t0])
-    return sol.x, _robust_rms(sol.fun[:-1])
+def _fit_far(view, walls, far_u, near, t0, radius, x0=None) -> tuple[np.ndarray, float]:
+    """(t, cx, cy, plane) [H] of the far pipe's end from its edges' 1 / t on the generators, and the rms [1/H];
+    ``near`` is the near ring (t, cx, cy) [H]. Started from ``x0`` when given, else from each of ``_far_starts``
+    (the model switches between the ring and the rim, so a start far from a large step can settle on a wrong
+    minimum), the fit of least cost kept."""
+    best = None
+    for start in ([x0] if x0 is not None else _far_starts(walls, far_u, near, t0)):
+        sol = least_squares(lambda x: _far_residual(view, walls, far_u, near, x, radius), np.asarray(start, float),
+                            loss="soft_l1", f_scale=0.005 / t0, x_scale=[0.01 * t0, 0.01, 0.01, 0.01 * t0])
+        if best is None or sol.cost < best.cost:
+            best = sol
+    return best.x, _robust_rms(best.fun[:-1])
+
+
+def _far_starts(walls, far_u, near, t0) -> list[tuple[float, float, float, float]]:
+    """Starts of the far ring's fit: no step, and steps read from the far edges' first harmonic around the pipe.
+
+    Where the far pipe stands into the flow its end shows deeper along the generators (1 / t smaller), opposite
+    the direction it is displaced in; the harmonic's amplitude, clipped where the far end hides behind the near
+    one, gives the step's size to within a factor of about two, hence two sizes."""
+    t_near, cx, cy = near
+    plane = 0.5 * (t0 + t_near)
+    starts = [(t0, cx, cy, plane)]
+    theta = np.arctan2(walls[:, 1], walls[:, 0])
+    design = np.column_stack([np.ones_like(theta), np.cos(theta), np.sin(theta)])
+    (a, b, c), *_ = np.linalg.lstsq(design, far_u, rcond=None)
+    if a > 0 and math.hypot(b, c) > 0:
+        deepest = math.atan2(-c, -b)                    # where the far end stands in most
+        size = 0.5 * math.hypot(b, c) / a               # a radius of H / 2: the step as a share of H
+        for k in (1.0, 2.0):
+            starts.append((t0, cx - k * size * math.cos(deepest), cy - k * size * math.sin(deepest), plane))
+    return starts
 
 
 def _in_plane(view: PipeView, pts: np.ndarray, t: float) -> np.ndarray:
@@ -337,17 +367,17 @@ def find_joint_ends(gray: np.ndarray, view: PipeView, depth: float, *, mask: np.
     radius = _radius_of(view.shape)
     walls = _wall(view.shape, ang)
     (tn, *cn), rms_n = _fit_ring(view, near_px, depth, radius)
-    (tf, *cf, tp), rms_f = _fit_far(view, walls, far_u, tn, depth * 1.02, radius)
+    (tf, *cf, tp), rms_f = _fit_far(view, walls, far_u, (tn, *cn), depth * 1.02, radius)
     if not (tn > 0 and tf > 0):
         return None                                     # the edges follow no ring in front of the camera
     # the points off their rings (texture, a crack across the gap): dropped, and the rings fitted again
     keep = (_ring_distance(view, near_px, tn, cn, radius) < max(3 * rms_n, 0.004)) & \
-           (np.abs(_far_residual(view, walls, far_u, tn, (tf, *cf, tp), radius)[:-1]) < max(3 * rms_f, 0.004 / tf))
+           (np.abs(_far_residual(view, walls, far_u, (tn, *cn), (tf, *cf, tp), radius)[:-1]) < max(3 * rms_f, 0.004 / tf))
     near_px, far_px, ang, walls, far_u = near_px[keep], far_px[keep], ang[keep], walls[keep], far_u[keep]
     if len(ang) < MIN_EDGES * len(angles) / 2:
         return None
     (tn, *cn), rms_n = _fit_ring(view, near_px, tn, radius)
-    (tf, *cf, tp), rms_f = _fit_far(view, walls, far_u, tn, tf, radius, (tf, *cf, tp))
+    (tf, *cf, tp), rms_f = _fit_far(view, walls, far_u, (tn, *cn), tf, radius, (tf, *cf, tp))
     if not (tn > 0 and tf > 0):
         return None
     # the residuals in the image along the generators [px]: the near ring's radial [H] at depth tn, the far
@@ -361,7 +391,7 @@ def find_joint_ends(gray: np.ndarray, view: PipeView, depth: float, *, mask: np.
     for s in held:
         rest = sector != s
         a_n, _ = _fit_ring(view, near_px[rest], tn, radius)
-        a_f, _ = _fit_far(view, walls[rest], far_u[rest], a_n[0], tf, radius, (tf, *cf, tp))
+        a_f, _ = _fit_far(view, walls[rest], far_u[rest], a_n, tf, radius, (tf, *cf, tp))
         jack.append(np.concatenate([a_n, a_f[:3]]))
     jack = np.array(jack)
     m = len(held)

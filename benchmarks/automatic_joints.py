@@ -50,6 +50,7 @@ from coverage_stats import robust_sd, wilson  # noqa: E402
 
 SAMPLES = Path(__file__).resolve().parent.parent / "sample_videos"
 CODECS = {"mpeg4": None, "h264": "h264"}
+FOURCC = {"mpeg4": "mp4v", "h264": "avc1"}     # what the night reads from each video (``codecs.codec_edge_u``)
 
 
 def _obs(char1: str) -> Observation:
@@ -100,8 +101,10 @@ def _budget(res) -> dict[str, float]:
     return out
 
 
-def measure_case(video: Path, truth: dict, cert, cache: Path | None = None, kept: Path | None = None) -> list[dict]:
-    """Both quantities of one encoding of a case: rows with the truth, the result or why none."""
+def measure_case(video: Path, truth: dict, cert, cache: Path | None = None, kept: Path | None = None,
+                 fourcc: str | None = None) -> list[dict]:
+    """Both quantities of one encoding of a case: rows with the truth, the result or why none; ``fourcc`` the
+    video's codec as the night reads it."""
     case = truth["case"]
     H = case["height_mm"]
     contour, sightings, following = case_sightings(video, truth, cert, cache, kept)
@@ -116,7 +119,8 @@ def measure_case(video: Path, truth: dict, cert, cache: Path | None = None, kept
                            "step_mm": float(np.hypot(*s.ends.step)) * H, "u_near": s.ends.u_near,
                            "u_far": s.ends.u_far, "problems": list(s.ends.problems)} for s in sightings]}
         try:
-            points, res = measure_joint(_obs(char1), sightings, contour, cert, H=H, tolerance=0.0, seed=7)
+            points, res = measure_joint(_obs(char1), sightings, contour, cert, H=H, tolerance=0.0, seed=7,
+                                          codec=fourcc)
             # each frame's own value and u from its own inputs (what the frames share left out): ``--split``
             own_values, own_u = frame_values([(q, contour) for q in points], cert, H=H, tolerance=0.0)
             row.update(status="measured" if res.confident else "found, not measured", value=res.value, u=res.u,
@@ -223,7 +227,7 @@ def main() -> None:
                 or read_truth(folder)["case"] != json.loads(json.dumps(asdict(case))):
             write_case(case, cert, args.work, codecs=(CODECS[codec],))
         truth = read_truth(folder)
-        for row in measure_case(video, truth, cert, args.contours, args.sightings):
+        for row in measure_case(video, truth, cert, args.contours, args.sightings, FOURCC[codec]):
             rows.append({**row, "codec": codec})
         if args.json:                    # kept as it goes: a long run's rows survive an interruption
             args.json.write_text(json.dumps(rows, indent=1, default=str))

@@ -230,7 +230,8 @@ def test_night_stores_found_not_measured_without_a_value(lateral):
 
 
 def test_an_edge_through_a_codec_takes_the_codec_term_in_its_u():
-    from pipeline.measurement.connections import CODEC_EDGE_U_PX, codec_edge_u, intrusion_points, lateral_points
+    from pipeline.measurement.codecs import CODEC_EDGE_U_PX, codec_edge_u
+    from pipeline.measurement.connections import intrusion_points, lateral_points
     from pipeline.vision.contour.intrusion import Intrusion
     from pipeline.vision.contour.lateral import Lateral
 

@@ -158,12 +158,35 @@ def test_a_point_s_u_is_its_ring_s_edge_scatter_in_that_frame(joint, cert):
     s = sightings[0]
     assert 0.0 < s.ends.scatter_near_px < 1.0 and 0.0 < s.ends.scatter_far_px < 1.0
     q = joint_points(_obs("A"), s, contour.view, cert)
-    assert q.u_edge == pytest.approx(math.hypot(s.ends.scatter_near_px, s.ends.scatter_far_px))
+    # carried to the gap by the fit's own sensitivity: both ends' edges moved into the gap shorten it, about one
+    # to one in px of the points' separation
+    assert all(k < 0 for k in s.ends.gap_per_px)
+    assert 0.7 < q.u_edge / math.hypot(s.ends.scatter_near_px, s.ends.scatter_far_px) < 1.5
     rough = dataclasses.replace(s, ends=dataclasses.replace(s.ends, scatter_far_px=3 * s.ends.scatter_far_px + 1.0))
     q_rough = joint_points(_obs("A"), rough, contour.view, cert)
     # the edges' scatter is the frames' shared edge term, not each point's own u (their rings' jackknife)
     assert q_rough.u_a == pytest.approx(q.u_a) and q_rough.u_b == pytest.approx(q.u_b)
-    assert q_rough.u_edge > q.u_edge + 0.9
+    assert q_rough.u_edge > q.u_edge + 0.6
+
+
+def test_a_step_s_shared_edge_is_what_moves_the_rings_centres_and_the_codec_s(joint, cert):
+    """Edges moved alike around both rings move their depths (the gap), hardly their centres (the step): B's shared
+    edge is a fraction of A's in the same frame; the codec's term, which moves the far end's rim where it stands
+    into the pipe, is added to B's whole."""
+    from pipeline.measurement.codecs import codec_edge_u
+
+    frames, contour = joint
+    sightings, _ = follow_joint(frames, contour.view, H)
+    s = sightings[0]
+    a = joint_points(_obs("A"), s, contour.view, cert)
+    b = joint_points(_obs("B"), s, contour.view, cert)
+    assert 0.0 < b.u_edge < 0.5 * a.u_edge
+    coded = joint_points(_obs("B"), s, contour.view, cert, codec_edge_u("mp4v"))
+    assert coded.u_edge == pytest.approx(math.hypot(b.u_edge, codec_edge_u("mp4v")))
+    # ends found before the sensitivities were kept: the gap's one-to-one taken, never less
+    old = dataclasses.replace(s, ends=dataclasses.replace(s.ends, step_per_px=(math.nan, math.nan)))
+    assert joint_points(_obs("B"), old, contour.view, cert).u_edge == pytest.approx(
+        math.hypot(s.ends.scatter_near_px, s.ends.scatter_far_px))
 
 
 def test_the_frames_reasons_are_said_once_with_their_frames():

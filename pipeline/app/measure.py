@@ -283,7 +283,8 @@ def measure_package(folder: str | os.PathLike, *, certificates: str | os.PathLik
             sightings, _ = follow_joint(approach, contour.view, header.height_mm, mask=mask)
             qs, res = measure_joint(obs, sightings, contour, cert, H=header.height_mm,
                                     tolerance=header.height_tolerance_mm, model=model,
-                                    seed=quantity_seed(manifest.package_id, r, "Q1 contour"), edges=edges(obs, "Q1"))
+                                    seed=quantity_seed(manifest.package_id, r, "Q1 contour"), edges=edges(obs, "Q1"),
+                                    codec=info.codec)
             t_measure += time.perf_counter() - t0
             nearest = sightings[0].frame
             chainage, u_chainage = _chainage_at(ingest.track, nearest)

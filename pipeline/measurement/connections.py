@@ -35,6 +35,7 @@ import numpy as np
 
 from pipeline.camera import Certificate
 from pipeline.core.errors import MeasurementError, PipegaugeError
+from pipeline.measurement.codecs import CODEC_FAMILIES, MPEG4_PART2, codec_edge_u
 from pipeline.measurement.frames import beyond_agreement, chi_square_with_covariance, frame_covariance
 from pipeline.measurement.quantity import MarkedQuantity, QuantityResult, measure_quantity
 from pipeline.vision.contour import PipeContour
@@ -82,22 +83,6 @@ ORIGIN = {"BCA": "lateral rim fit", "BAG": "intruding lateral's base and tip", "
 # MPEG-4 Part 2 the surface was not found in 39 % and the 4 measured all missed (seed 40), and under H.264 it is
 # rarely found: the codecs quantise and blur the chroma that alone tells the surface. Until a code is validated, its result is
 # kept "found, not measured" with the reason: never graded nor checked against the log.
-MPEG4_PART2 = frozenset({"mp4v", "fmp4", "xvid", "divx", "dx50"})
-# The u [px] MPEG-4 Part 2's 8x8 blocks give an edge coordinate of an opening's rim or an intruding lateral's base
-# and tip: through OpenCV's mp4v (the samples' codec) 17 of 105 BCA and 10 of 68 BAG missed their U95 with the
-# clean frames' u alone (seed 40; median z -0.02 and +0.08: no bias, heavy tails). 0.5 px was set there, on a benchmark
-# whose pose rested on too few rings (docs/measurement.md); with the night's 4 m window of ring frames and
-# the frames' value check, 0.5 px made the intervals twice the errors (robust SD of z 0.48 BCA, 0.53 BAG, seed 43)
-# and 0.2 px brings both to about 95 % with SD 0.8 there (0 px: 90-92 %); checked on seed 44.
-# H.264 (x264 at CRF 23 in the benchmark) shortens an opening more: paired with the same cases in rendered frames,
-# the extent around at the nearest frame moves by -0.26 px through H.264 and -0.13 px through mp4v (median of 19,
-# benchmarks/lateral_rim.py --depths, seed 50); 0.3 px brought BCA's coverage at DN >= 200 in circular pipes to
-# 95 % on seed 43's rows (--table --codec-u 0 0.3; 0 px: 84 %), the shortening left in the median z (-0.46).
-# On a fresh seed (47) 91.8 % (Wilson 84.0-96.0 %) with all 7 misses low: the codec's shortening is one-sided,
-# now and then over a pixel, which no symmetric term covers; H.264 stays out of VALIDATED_CODECS for BCA and BAG.
-H264 = frozenset({"avc1", "h264", "x264", "avc3"})
-CODEC_EDGE_U_PX: dict[str, float] = {fourcc: 0.2 for fourcc in MPEG4_PART2} | {fourcc: 0.3 for fourcc in H264}
-CODEC_FAMILIES = {"MPEG-4 Part 2": MPEG4_PART2, "H.264": H264}     # their names, for the reasons said
 VALIDATED_CODECS: dict[str, frozenset[str]] = {"BCA": MPEG4_PART2, "BAG": MPEG4_PART2,
                                                "BBC": frozenset(), "BBB": frozenset()}
 # The pipe shapes in which a code held its U95, for a code that failed in some shape (the same rule as the codecs):
@@ -172,13 +157,6 @@ def lateral_points(lateral: Lateral, cert: Certificate, quantity: str, code: str
 
 def _origin(code: str, codec_u_px: float) -> str:
     return ORIGIN[code] + (", codec blocks" if codec_u_px > 0 else "")
-
-
-def codec_edge_u(codec: str | None) -> float:
-    """The standard uncertainty [px] a video codec's blocks give an edge coordinate of an opening's rim or an
-    intruding lateral's base and tip, by the video's FourCC (``CODEC_EDGE_U_PX``); 0 for frames not through a
-    codec (None) or a codec without a figure (those are not validated: ``validation_doubt``)."""
-    return CODEC_EDGE_U_PX.get(codec.strip().lower(), 0.0) if codec else 0.0
 
 
 def _find_lateral(view, ideal, clock, depths, expected, mask) -> Lateral | None:

@@ -12,7 +12,8 @@ each frame yields the two points an operator would mark (as ``measurement.automa
 Each point's own standard uncertainty [px] is its ring's (jackknife over sectors: the ring is fitted to all its
 edges, so their single scatter enters it divided down) with the certificate's image coordinate u. The edges'
 definition (where the half level lies against the true end) is the same in every frame of the approach: one
-input, ``edge`` [px of the points' separation], the size of the frame's single-edge scatter (``edge_u``). The
+input, ``edge`` [px of the points' separation], the size of the frame's single-edge scatter carried to the
+quantity by the fit's own sensitivity to it (``edge_u``: about one for the gap, a tenth for the step). The
 frames are combined with ``measure_over_frames``: the pose (one fit for the approach), H, the certificate, the
 wall and the edge counted once, each frame's points its own. C, the angular displacement, is not
 measured: the far pipe's axis would need its wall over a length of pipe beyond the joint, which the rings of
@@ -30,6 +31,7 @@ import numpy as np
 from pipeline.camera import Certificate
 from pipeline.core.errors import MeasurementError
 from pipeline.domain.records import Observation
+from pipeline.measurement.codecs import codec_edge_u
 from pipeline.measurement.frames import beyond_agreement, chi_square_with_covariance, frame_covariance, measure_over_frames
 from pipeline.measurement.quantity import MarkedQuantity, QuantityResult, doubts
 from pipeline.vision.contour import PipeContour
@@ -62,8 +64,14 @@ def _px_per_depth(view: PipeView, wall: np.ndarray, t: float) -> float:
 
 
 def joint_points(obs: Observation, sighting: JointSighting, view: PipeView,
-                 cert: Certificate) -> MarkedQuantity:
-    """The two points of a BAJ A or B in one frame's ideal image, found from the joint's ends."""
+                 cert: Certificate, codec_u_px: float = 0.0) -> MarkedQuantity:
+    """The two points of a BAJ A or B in one frame's ideal image, found from the joint's ends.
+
+    codec_u_px : the u a video codec's blocks give an edge [px] (``codecs.codec_edge_u``), part of B's shared
+    edge: the codec moves the far end's rim where it stands into the pipe (rendered frames read B's steps
+    unbiased, their video 0.1-0.5 px short), and the scatter of single edges, which B's ring centres all but
+    cancel, does not say so. A's gap takes the scatter at about one to one, and the scatter is the coded frame's.
+    """
     e = sighting.ends
     step = e.step
     direction = math.atan2(step[1], step[0]) if np.hypot(*step) > 0 else 0.0
@@ -82,7 +90,8 @@ def joint_points(obs: Observation, sighting: JointSighting, view: PipeView,
         u_a = math.hypot(e.u_near * _px_per_depth(view, wall, e.near_depth), u_near_img)
         u_b = math.hypot(e.u_far * _px_per_depth(view, wall, e.far_depth), u_far_img)
         return MarkedQuantity("BAJ", "A", "Q1", "axial", (float(a[0]), float(a[1])), (float(b[0]), float(b[1])),
-                              u_a, u_b, origin=ORIGIN, u_edge=edge_u(e))
+                              u_a, u_b, origin=ORIGIN,
+                              u_edge=edge_u(e, "A", _px_per_depth(view, wall, 0.5 * (e.near_depth + e.far_depth))))
     face = direction + math.pi                         # the far end stands into the pipe opposite its shift
     wall = _wall(view.shape, np.array([face]))[0]
     t = 0.5 * (e.near_depth + e.far_depth)
@@ -94,12 +103,13 @@ def joint_points(obs: Observation, sighting: JointSighting, view: PipeView,
     u_a = math.hypot(e.u_near * _px_per_depth(view, wall, t), u_near_img)
     u_b = math.hypot(u_step * px_per_h, u_far_img)
     return MarkedQuantity("BAJ", "B", "Q1", "step", (float(a[0]), float(a[1])), (float(b[0]), float(b[1])),
-                          u_a, u_b, origin=ORIGIN, u_edge=edge_u(e))
+                          u_a, u_b, origin=ORIGIN, u_edge=math.hypot(edge_u(e, "B", px_per_h), codec_u_px))
 
 
-def edge_u(ends: JointEnds) -> float:
+def edge_u(ends: JointEnds, char1: str = "A", px_per_h: float | None = None) -> float:
     """The standard uncertainty [px] of the two points' separation that every frame of one joint shares: the
-    edges' definition, as large as single edges of the two rings scatter about them in this frame.
+    edges' placement, as large as single edges of the two rings scatter about them in this frame, carried to
+    the quantity by the fit's own sensitivity.
 
     Each edge is placed where the profile crosses half-way between the gap's floor and the plateau beside it, in
     light linearised with a response (``RESPONSE_GAMMA``) set on synthetic video; how far that level lies from the
@@ -108,8 +118,20 @@ def edge_u(ends: JointEnds) -> float:
     11.2 and 12.3 mm for a 9.8 mm gap), so this part does not average down over them and is one input
     (``edge``), counted once. Its size is the frame's own measure of how well an edge is defined, the robust rms
     of single edges about their ring (``scatter_near_px``, ``scatter_far_px``), not a constant set on test cases.
+
+    How far a ring's edges, all moved alike, move the quantity is read from the fit (``JointEnds.gap_per_px``,
+    ``step_per_px``: the rings refitted with their edges moved) and given here in px of the points' separation
+    (``px_per_h`` [px per H] along it): about one for the gap (both ends move into it), a tenth or less for the
+    step, a difference of the rings' centres, which edges moved alike all around a ring do not shift (until
+    2026-12-04 the step took the gap's one: its u several times what its frames' errors showed, robust SD of z
+    0.3-0.45). Without the sensitivities (``px_per_h`` None, or ends found before they were kept) the gap's
+    one is taken for both.
     """
-    return math.hypot(ends.scatter_near_px, ends.scatter_far_px)
+    near, far = ends.scatter_near_px, ends.scatter_far_px
+    k = ends.gap_per_px if char1 == "A" else ends.step_per_px
+    if px_per_h is None or not all(math.isfinite(x) for x in k):
+        return math.hypot(near, far)
+    return math.hypot(k[0] * px_per_h * near, k[1] * px_per_h * far)
 
 
 def _on_nominal(shape: str, near: float, shift: np.ndarray) -> float:
@@ -123,10 +145,11 @@ def _on_nominal(shape: str, near: float, shift: np.ndarray) -> float:
 
 def measure_joint(obs: Observation, sightings: Sequence[JointSighting], contour: PipeContour, cert: Certificate, *,
                   H: float, tolerance: float, model: str = "perspective", seed: int = 1,
-                  edges: tuple[float, ...] = ()) -> tuple[list[MarkedQuantity], QuantityResult]:
+                  edges: tuple[float, ...] = (), codec: str | None = None) -> tuple[list[MarkedQuantity], QuantityResult]:
     """Measure a BAJ A or B from the joint's ends seen in one or more frames (nearest first), with U95 and budget.
 
-    contour : the pose fit the frames share (their approach's); H, tolerance : the header's [mm].
+    contour : the pose fit the frames share (their approach's); H, tolerance : the header's [mm]; codec : the
+    video's FourCC (``codecs.codec_edge_u``; None: frames not through a codec).
     The result is not confident, with the reasons, when the contour is not trusted, when the joint was found in
     one frame only, or when a frame's ends say so (glare, part of the ring hidden...).
     Raises MeasurementError when there is nothing to measure (no sighting; BAJ C).
@@ -137,7 +160,7 @@ def measure_joint(obs: Observation, sightings: Sequence[JointSighting], contour:
         raise MeasurementError("BAJ: not found: no joint gap was found in the frames of the camera's approach")
     if not np.all(np.isfinite(contour.covariance)):
         raise MeasurementError(f"BAJ: no camera pose could be fitted ({'; '.join(contour.problems)})")
-    points = [joint_points(obs, s, contour.view, cert) for s in sightings]
+    points = [joint_points(obs, s, contour.view, cert, codec_edge_u(codec)) for s in sightings]
     frames = [s.frame for s in sightings]
     views = [(q, contour) for q in points]
     res = measure_over_frames(views, cert, H=H, tolerance=tolerance, model=model, seed=seed, edges=edges,

@@ -79,6 +79,11 @@ class JointEnds:
     # how well one edge point is located in this frame, read from the frame itself
     scatter_near_px: float
     scatter_far_px: float
+    # how the gap [H] and the step along its own direction [H] move when every edge of one ring moves by a pixel
+    # into the gap (the edges' shared placement, ``scatter_*_px`` its size): sensitivity coefficients from the fit
+    # itself, d/d(px) of (gap, step) for the near ring's edges and for the far ring's [H per px]
+    gap_per_px: tuple[float, float] = (math.nan, math.nan)
+    step_per_px: tuple[float, float] = (math.nan, math.nan)
 
     @property
     def step(self) -> np.ndarray:
@@ -297,10 +302,16 @@ def _fit_far(view, walls, far_u, near, t0, radius, x0=None) -> tuple[np.ndarray,
     minimum), the fit of least cost kept."""
     best = None
     for start in ([x0] if x0 is not None else _far_starts(walls, far_u, near, t0)):
-        sol = least_squares(lambda x: _far_residual(view, walls, far_u, near, x, radius), np.asarray(start, float),
-                            loss="soft_l1", f_scale=0.005 / t0, x_scale=[0.01 * t0, 0.01, 0.01, 0.01 * t0])
-        if best is None or sol.cost < best.cost:
+        def residual(x):
+            return _far_residual(view, walls, far_u, near, x, radius)
+        if not np.all(np.isfinite(residual(np.asarray(start, float)))):
+            continue                                    # a ring no generator meets from there
+        sol = least_squares(residual, np.asarray(start, float), loss="soft_l1", f_scale=0.005 / t0,
+                            x_scale=[0.01 * t0, 0.01, 0.01, 0.01 * t0])
+        if np.all(np.isfinite(sol.x)) and (best is None or sol.cost < best.cost):
             best = sol
+    if best is None:                                    # no far ring fits: the caller finds no joint here
+        return np.full(4, np.nan), math.nan
     return best.x, _robust_rms(best.fun[:-1])
 
 
@@ -318,7 +329,8 @@ def _far_starts(walls, far_u, near, t0) -> list[tuple[float, float, float, float
     (a, b, c), *_ = np.linalg.lstsq(design, far_u, rcond=None)
     if a > 0 and math.hypot(b, c) > 0:
         deepest = math.atan2(-c, -b)                    # where the far end stands in most
-        size = 0.5 * math.hypot(b, c) / a               # a radius of H / 2: the step as a share of H
+        # a radius of H / 2: the step as a share of H (at most half the largest a joint is taken to step)
+        size = min(0.5 * math.hypot(b, c) / a, 0.5 * MAX_STEP_H)
         for k in (1.0, 2.0):
             starts.append((t0, cx - k * size * math.cos(deepest), cy - k * size * math.sin(deepest), plane))
     return starts
@@ -346,7 +358,8 @@ def find_joint_ends(gray: np.ndarray, view: PipeView, depth: float, *, mask: np.
     angles = np.linspace(-np.pi, np.pi, 2 * N_ANGLES, endpoint=False)
     vals, pts = _profiles(gray, view, angles, inv_t, mask)
     near, far, kept, near_u, far_u = [], [], [], [], []
-    glare = []
+    glare, deeper, du_px = [], [], []                  # per edge: the generator's image direction away from the
+                                                       # camera at the near edge; 1 / t per px at the far edge
     for a, (p, line) in enumerate(zip(vals, pts)):
         e = _edges(p)
         if e is None:
@@ -357,12 +370,17 @@ def find_joint_ends(gray: np.ndarray, view: PipeView, depth: float, *, mask: np.
         near_u.append(float(np.interp(i_near, np.arange(len(inv_t)), inv_t)))
         far_u.append(float(np.interp(i_far, np.arange(len(inv_t)), inv_t)))
         kept.append(a)
+        step_px = float(np.hypot(*(_at(line, i_far + 1) - _at(line, i_far))))
+        du_px.append((inv_t[1] - inv_t[0]) / step_px if step_px > 0 else 0.0)
+        v = _at(line, i_near - 1) - _at(line, i_near)
+        deeper.append(v / max(float(np.hypot(*v)), 1e-12))
         i0, i1 = int(math.floor(i_far)) - 4, int(math.ceil(i_near)) + 4
         glare.append(float(np.mean(p[max(0, i0):i1 + 1] >= GLARE_LEVEL)))
     if len(kept) < MIN_EDGES * len(angles) / 2:          # fewer than a quarter: no gap here
         return None
     near_px, far_px = np.array(near), np.array(far)
     near_u, far_u = np.array(near_u), np.array(far_u)
+    deeper, du_px = np.array(deeper), np.array(du_px)
     ang = angles[kept]
     radius = _radius_of(view.shape)
     walls = _wall(view.shape, ang)
@@ -374,12 +392,14 @@ def find_joint_ends(gray: np.ndarray, view: PipeView, depth: float, *, mask: np.
     keep = (_ring_distance(view, near_px, tn, cn, radius) < max(3 * rms_n, 0.004)) & \
            (np.abs(_far_residual(view, walls, far_u, (tn, *cn), (tf, *cf, tp), radius)[:-1]) < max(3 * rms_f, 0.004 / tf))
     near_px, far_px, ang, walls, far_u = near_px[keep], far_px[keep], ang[keep], walls[keep], far_u[keep]
+    deeper, du_px = deeper[keep], du_px[keep]
     if len(ang) < MIN_EDGES * len(angles) / 2:
         return None
     (tn, *cn), rms_n = _fit_ring(view, near_px, tn, radius)
     (tf, *cf, tp), rms_f = _fit_far(view, walls, far_u, (tn, *cn), tf, radius, (tf, *cf, tp))
     if not (tn > 0 and tf > 0):
         return None
+    sens = _edge_sensitivity(view, near_px, deeper, walls, far_u, du_px, (tn, *cn), (tf, *cf, tp), radius)
     # the residuals in the image along the generators [px]: the near ring's radial [H] at depth tn, the far
     # ring's in 1 / t [1/H] (a wall point at radius r lies f r / t from the vanishing point)
     r_mean = float(np.mean(np.hypot(walls[:, 0] - view.ox, walls[:, 1] - view.oy)))
@@ -411,9 +431,10 @@ def find_joint_ends(gray: np.ndarray, view: PipeView, depth: float, *, mask: np.
     if not tf > tn:
         problems.append("the far edge is not beyond the near one")
     u_depth = max(math.sqrt(cov[0, 0]), math.sqrt(cov[3, 3])) if m > 1 else 0.0
-    if u_depth > MAX_RING_U_H:
-        problems.append(f"the pipe ends' rings are not settled: their depth moves by {100 * u_depth:.1f} % of H when "
-                        "one part of the circumference is left out (something else taken for an end in part of it)")
+    if not u_depth <= MAX_RING_U_H:                    # nan: a part left out leaves no ring to fit
+        moves = f"by {100 * u_depth:.1f} % of H" if math.isfinite(u_depth) else "beyond a fit"
+        problems.append(f"the pipe ends' rings are not settled: their depth moves {moves} when one part of the "
+                        "circumference is left out (something else taken for an end in part of it)")
     step = math.hypot(cf[0] - cn[0], cf[1] - cn[1])
     if step > MAX_STEP_H:
         problems.append(f"the far end's ring lies {100 * step:.0f} % of H off the near one's, more than a displaced "
@@ -421,7 +442,34 @@ def find_joint_ends(gray: np.ndarray, view: PipeView, depth: float, *, mask: np.
     return JointEnds(float(tn), float(tf), (float(cn[0]), float(cn[1])), (float(cf[0]), float(cf[1])),
                      float(math.sqrt(cov[0, 0])), float(math.sqrt(cov[3, 3])), d_step @ cov @ d_step.T,
                      near_px, far_px, ang, coverage, share_glare, tuple(problems), float(scatter_near),
-                     float(scatter_far))
+                     float(scatter_far), *sens)
+
+
+EDGE_PROBE_PX = 0.5         # how far the edges are moved to read the fit's sensitivity to their placement [px]
+
+
+def _edge_sensitivity(view, near_px, deeper, walls, far_u, du_px, near, far, radius):
+    """d(gap)/d(px) and d(step)/d(px) [H per px] for the near ring's edges and the far ring's moved into the gap.
+
+    Where an edge is placed against the pipe end's true edge (blur, response, codec) is shared by all edges of a
+    ring; a gap moves by about that placement (both ends into the gap: shorter), while a step, the difference of
+    the rings' centres, is moved by it only as far as the far ring is seen on part of its circumference (where
+    the far pipe stands into the flow) and its depth and centre trade against each other there. Read by
+    refitting with every edge of one ring moved by ``EDGE_PROBE_PX``, from the fit at hand (no new minimum sought).
+    """
+    tn, cxn, cyn = near
+    tf, cxf, cyf, tp = far
+    direction = np.array([cxf - cxn, cyf - cyn])
+    norm = float(np.hypot(*direction))
+    direction = direction / norm if norm > 0 else np.array([1.0, 0.0])
+    gap0, step0 = tf - tn, float(np.dot([cxf - cxn, cyf - cyn], direction))
+    d = EDGE_PROBE_PX
+    (tn2, *cn2), _ = _fit_ring(view, near_px + d * deeper, tn, radius)
+    (tf2, *cf2, _), _ = _fit_far(view, walls, far_u, (tn2, *cn2), tf, radius, far)
+    gap_near, step_near = (tf2 - tn2 - gap0) / d, (float(np.dot(np.subtract(cf2, cn2), direction)) - step0) / d
+    (tf3, *cf3, _), _ = _fit_far(view, walls, far_u + d * du_px, near, tf, radius, far)
+    gap_far, step_far = (tf3 - tn - gap0) / d, (float(np.dot([cf3[0] - cxn, cf3[1] - cyn], direction)) - step0) / d
+    return (float(gap_near), float(gap_far)), (float(step_near), float(step_far))
 
 
 def _at(line: np.ndarray, i: float) -> np.ndarray:

@@ -256,3 +256,27 @@ def test_the_image_alone_joint_s_thumbnail_shows_the_overlay_as_recorded(s02):
     video = next((SAMPLES / "S02-circular-water-offset").glob("*.mp4"))
     for t in thumbs:
         assert_overlay_as_recorded(t.image_jpeg, video, t.frame)
+
+
+def test_generators_the_far_ring_does_not_meet_are_outliers_not_a_crash(joint, monkeypatch):
+    """Where the far ring or the rim meets no generator from the fit's parameters (a step of the fit wandering off:
+    nan or inf), those generators are outliers of fixed size and the fit goes on from the rest; a night's frame
+    never stops on an exception there (seed 351 did before)."""
+    from pipeline.vision.contour import joint_ends
+
+    _, contour = joint
+    view = contour.view
+    angles = np.linspace(-np.pi, np.pi, 64, endpoint=False)
+    walls = joint_ends._wall(view.shape, angles)
+    far_u = np.full(len(angles), 1.0 / 1.05)
+    radius = joint_ends._radius_of(view.shape)
+    real = joint_ends._far_u
+
+    def lost(view, walls, t_far, centre, radius):
+        u = real(view, walls, t_far, centre, radius)
+        u[::2] = np.inf if t_far > 1.0 else np.nan
+        return u
+
+    monkeypatch.setattr(joint_ends, "_far_u", lost)
+    fitted, _ = joint_ends._fit_far(view, walls, far_u, (1.0, 0.0, 0.0), 1.05, radius)
+    assert fitted[0] == pytest.approx(1.05, rel=1e-3) and np.hypot(*fitted[1:3]) < 1e-3

@@ -48,6 +48,8 @@ MIN_CONTRAST = 3.0          # grey levels between the gap's floor and a plateau 
 MAX_RING_RMS_H = 0.01      # a ring's residual above this [H]: its edges do not follow one ring
 RESPONSE_GAMMA = 1.35      # a video camera's transfer function, inverted to find the edges in linear light [1]
 MAX_RING_U_H = 0.02        # a ring's depth moving more than this [H] when one sector is left out: not settled
+MAX_NEAR_OFF_H = 0.05      # the near end's ring this far [H] off the pose's axis: the points cannot be placed (seed 351:
+                           # the two beyond it, 5.7 and 8.3 % of H, read B 9-14 % short; none else beyond 4.4 %)
 MAX_STEP_H = 0.2           # the far ring's centre this far [H] off the near one's: not a pipe end (displaced joints
                            # step a few % of H; a far end 20 % off is another feature taken for it)
 
@@ -112,10 +114,12 @@ def _radius_of(shape: str):
     table = np.interp(grid, phi, t, period=2 * np.pi)
 
     def radius(theta):
-        x = ((np.asarray(theta) + np.pi) % (2 * np.pi)) * (4096 / (2 * np.pi))
-        k = np.minimum(x.astype(np.int64), 4095)
+        theta = np.asarray(theta, float)
+        lost = ~np.isfinite(theta)                      # a point the fit sent to infinity: no radius there
+        x = ((np.where(lost, 0.0, theta) + np.pi) % (2 * np.pi)) * (4096 / (2 * np.pi))
+        k = np.clip(x.astype(np.int64), 0, 4095)
         w = x - k
-        return table[k] * (1 - w) + table[k + 1] * w
+        return np.where(lost, np.nan, table[k] * (1 - w) + table[k + 1] * w)
 
     return radius
 
@@ -292,6 +296,9 @@ def _far_residual(view, walls, far_u, near, x, radius) -> np.ndarray:
     seen = far_u - np.minimum(_far_u(view, walls, t_far, (cx, cy), radius), rim)
     plane = far_u - rim
     r = np.where(np.abs(seen) <= np.abs(plane), seen, plane)
+    # a generator the ring or the rim does not meet from these parameters (the fit wandering far off): an outlier
+    # of fixed size, which the robust loss carries without a gradient, rather than a nan that stops the fit
+    r = np.nan_to_num(r, nan=1.0, posinf=1.0, neginf=-1.0)
     return np.append(r, 0.1 * (1.0 / t_plane - 2.0 / (t_near + t_far)))
 
 
@@ -304,10 +311,13 @@ def _fit_far(view, walls, far_u, near, t0, radius, x0=None) -> tuple[np.ndarray,
     for start in ([x0] if x0 is not None else _far_starts(walls, far_u, near, t0)):
         def residual(x):
             return _far_residual(view, walls, far_u, near, x, radius)
-        if not np.all(np.isfinite(residual(np.asarray(start, float)))):
-            continue                                    # a ring no generator meets from there
-        sol = least_squares(residual, np.asarray(start, float), loss="soft_l1", f_scale=0.005 / t0,
-                            x_scale=[0.01 * t0, 0.01, 0.01, 0.01 * t0])
+        if not (np.all(np.isfinite(start)) and np.all(np.isfinite(residual(np.asarray(start, float))))):
+            continue
+        try:
+            sol = least_squares(residual, np.asarray(start, float), loss="soft_l1", f_scale=0.005 / t0,
+                                x_scale=[0.01 * t0, 0.01, 0.01, 0.01 * t0])
+        except ValueError:                              # its Jacobian not finite: no fit from this start
+            continue
         if np.all(np.isfinite(sol.x)) and (best is None or sol.cost < best.cost):
             best = sol
     if best is None:                                    # no far ring fits: the caller finds no joint here
@@ -435,6 +445,12 @@ def find_joint_ends(gray: np.ndarray, view: PipeView, depth: float, *, mask: np.
         moves = f"by {100 * u_depth:.1f} % of H" if math.isfinite(u_depth) else "beyond a fit"
         problems.append(f"the pipe ends' rings are not settled: their depth moves {moves} when one part of the "
                         "circumference is left out (something else taken for an end in part of it)")
+    near_off = math.hypot(*cn)
+    if near_off > MAX_NEAR_OFF_H:
+        # the measurement places its points on the wall where the pose puts it; the near pipe's own end, 5 % of H
+        # away, says the pose (or a ring half under water, whose depth and centre trade) does not hold at this joint
+        problems.append(f"the near pipe's end lies {100 * near_off:.1f} % of H off the pipe's axis as the camera's "
+                        "pose puts it there (the pose does not hold at this joint)")
     step = math.hypot(cf[0] - cn[0], cf[1] - cn[1])
     if step > MAX_STEP_H:
         problems.append(f"the far end's ring lies {100 * step:.0f} % of H off the near one's, more than a displaced "

@@ -16,6 +16,10 @@ DN 300), and the false-find rate; ``--json FILE`` keeps every case's row.
 ``--sightings DIR`` keeps each video's joint sightings (``follow_joint``) with its pose fit, keyed by the video's bytes
 and the joint finder's source: a rerun that changes only the measurement (``pipeline.measurement``) neither decodes
 nor follows the joint again, so the measurement of one set of cases can be compared before and after a change.
+
+``--rendered N`` pairs each of the first N cases' sighted frames with the same frame rendered again without a
+codec (the same pose fit, the same depth): the step's error along its direction and the gap's error, in both,
+per frame, and their medians in px: what the codec alone does to the joint's ends.
 """
 
 from __future__ import annotations
@@ -23,6 +27,7 @@ from __future__ import annotations
 import argparse
 import hashlib
 import json
+import math
 import pickle
 import sys
 import time
@@ -38,7 +43,10 @@ from pipeline.domain.records import Observation
 from pipeline.formats.certificate import load_certificate
 from pipeline.measurement.frames import frame_values
 from pipeline.measurement.joints import measure_joint
-from pipeline.synth.joint_cases import random_case, read_truth, write_case
+from pipeline.maths.profiles import clock_to_theta
+from pipeline.synth.joint_cases import JointCase, case_scene, random_case, read_truth, write_case
+from pipeline.synth.render import Renderer
+from pipeline.vision.contour.joint_ends import find_joint_ends
 from pipeline.vision.contour import detect_contour
 from pipeline.vision.contour.detect import wall_u_from_tolerance
 from pipeline.vision.contour import joint_ends
@@ -135,6 +143,33 @@ def measure_case(video: Path, truth: dict, cert, cache: Path | None = None, kept
     return rows
 
 
+def rendered_pairs(case: JointCase, video: Path, truth: dict, cert, cache: Path | None,
+                   kept: Path | None) -> list[tuple[float, float, float, float, float]]:
+    """Per sighted frame of the video: (depth [H], step error along the step in the video and in the frame rendered
+    without a codec [px across at that depth], gap error in both [mm]); the same pose fit for both."""
+    H = case.height_mm
+    contour, sightings, _ = case_sightings(video, truth, cert, cache, kept)
+    if not sightings or case.step_mm <= 0:
+        return []
+    und = Undistorter(cert, cert.image_width_px, cert.image_height_px)
+    r = Renderer(case_scene(case), cert, offset_mm=case.offset_mm, yaw=math.radians(case.yaw_deg),
+                 pitch=math.radians(case.pitch_deg), roll=math.radians(case.roll_deg), seed=case.seed)
+    th = clock_to_theta(case.clock)
+    along = np.array([math.cos(th), math.sin(th)])
+    out = []
+    for s in sightings:
+        c = truth["frames_chainage_m"][s.frame]
+        raw = cv2.cvtColor(und.frame(r.render(1000.0 * c, s.frame / 25.0, s.frame)), cv2.COLOR_BGR2GRAY)
+        ends = find_joint_ends(raw, contour.view, s.depth)
+        if ends is None:
+            continue
+        px = float(contour.view.p_H(s.depth)[0]) / H           # px per mm across the pipe at the joint
+        step = [(float(np.dot(e.step, along)) * H - case.step_mm) * px for e in (s.ends, ends)]
+        gap = [(e.far_depth - e.near_depth) * H - case.gap_mm for e in (s.ends, ends)]
+        out.append((s.depth, step[0], step[1], gap[0], gap[1]))
+    return out
+
+
 def table(rows: list[dict]) -> list[str]:
     out = ["| quantity | codec | DN | n | found | measured | coverage | Wilson 95 % | median z | robust SD z | "
            "median U95 [mm] | median U95 DN300 [mm] |", "|---|---|---|---|---|---|---|---|---|---|---|---|"]
@@ -192,6 +227,28 @@ def split(rows: list[dict]) -> list[str]:
     return out
 
 
+def widths(rows: list[dict], fx: float) -> list[str]:
+    """Each trusted frame's own gap error against the gap's width in the image, in px along the wall (circular
+    cases: a gap g [H] at depth t [H] spans fx g / (2 t^2) px): how the edges read a narrow gap."""
+    out = ["| gap's width in the image [px] | frames | median error [px] | quartiles [px] |", "|---|---|---|---|"]
+    pts = []
+    for r in rows:
+        if r["quantity"] != "A" or not r["displaced"] or r["shape"] != "circular":
+            continue
+        g = r["truth"] / r["H"]
+        for f in r.get("frames", []):
+            if not f["problems"]:
+                scale = 0.5 * fx / f["depth"] ** 2             # px per H of depth along the wall at that depth
+                pts.append((scale * g, scale * (f["gap_mm"] - r["truth"]) / r["H"]))
+    a = np.array(pts).reshape(-1, 2)
+    for lo, hi in ((0, 5), (5, 8), (8, 10), (10, 14), (14, 20), (20, 40), (40, 1000)):
+        e = a[(a[:, 0] >= lo) & (a[:, 0] < hi), 1]
+        if len(e):
+            q1, q3 = np.percentile(e, [25, 75])
+            out.append(f"| {lo}-{hi if hi < 1000 else ''} | {len(e)} | {np.median(e):+.2f} | {q1:+.2f} to {q3:+.2f} |")
+    return out
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--cases", type=int, default=10, help="cases with a displaced joint (default 10)")
@@ -203,6 +260,10 @@ def main() -> None:
     ap.add_argument("--sightings", type=Path, help="keep each video's joint sightings here (reruns of the measurement "
                     "alone neither decode nor follow the joint)")
     ap.add_argument("--table", type=Path, help="only print the table of rows kept by --json")
+    ap.add_argument("--widths", type=Path, help="only print each trusted frame's gap error by the gap's width in the "
+                    "image, from rows kept by --json")
+    ap.add_argument("--rendered", type=int, default=0, metavar="N",
+                    help="only pair the first N cases' sighted frames with the same frames rendered without a codec")
     ap.add_argument("--split", type=Path, help="only print what the frames share and what each adds, from rows kept "
                     "by --json")
     args = ap.parse_args()
@@ -213,11 +274,17 @@ def main() -> None:
         print("\n".join(split(json.loads(args.split.read_text()))))
         return
     cert = load_certificate(SAMPLES / "certificates" / "SYN-720x576.json")
+    if args.widths:
+        print("\n".join(widths(json.loads(args.widths.read_text()), cert.focal_px[0])))
+        return
     rng = np.random.default_rng(args.seed)
     cases = [random_case(rng, f"J{i:03d}", seed=i) for i in range(args.cases)]
     cases += [random_case(rng, f"E{i:03d}", displaced=False, seed=1000 + i) for i in range(args.empty)]
     rows: list[dict] = []
     t0 = time.perf_counter()
+    if args.rendered:
+        cases = [c for c in cases if c.displaced][:args.rendered]
+    paired = []
     for n, case in enumerate(cases, start=1):
         folder = args.work / case.case_id
         # the codecs take turns (each case rendered once, delivered in one of them): half the CPU of both
@@ -227,6 +294,14 @@ def main() -> None:
                 or read_truth(folder)["case"] != json.loads(json.dumps(asdict(case))):
             write_case(case, cert, args.work, codecs=(CODECS[codec],))
         truth = read_truth(folder)
+        if args.rendered:
+            for depth, video_px, raw_px, video_gap, raw_gap in rendered_pairs(case, video, truth, cert, args.contours,
+                                                                              args.sightings):
+                paired.append((video_px, raw_px))
+                print(f"{case.case_id} DN{case.height_mm:.0f} {case.shape} {codec} {depth:.2f} H: step error "
+                      f"{video_px:+.2f} px in the video, {raw_px:+.2f} px rendered; gap error {video_gap:+.2f} mm, "
+                      f"{raw_gap:+.2f} mm")
+            continue
         for row in measure_case(video, truth, cert, args.contours, args.sightings, FOURCC[codec]):
             rows.append({**row, "codec": codec})
         if args.json:                    # kept as it goes: a long run's rows survive an interruption
@@ -235,6 +310,11 @@ def main() -> None:
         print(f"{n}/{len(cases)} {case.case_id} DN{case.height_mm:.0f} {case.shape}: "
               + ", ".join(f"{r['codec']} {r['quantity']} {r['status']} "
                           f"{r.get('value', float('nan')):.1f}/{r['truth']:.1f}" for r in mine), file=sys.stderr)
+    if args.rendered:
+        v, r = np.array(paired).T if paired else (np.array([]), np.array([]))
+        print(f"{len(paired)} frames of {len(cases)} cases: median step error {np.median(v):+.2f} px in the video, "
+              f"{np.median(r):+.2f} px rendered; median shift by the codec {np.median(v - r):+.2f} px")
+        return
     print(f"{len(cases)} cases in {time.perf_counter() - t0:.0f} s")
     print("\n".join(table(rows)))
     print()

@@ -293,9 +293,7 @@ def measure_package(folder: str | os.PathLike, *, certificates: str | os.PathLik
             if obs.char1 == "B":
                 row.update(warnings="; ".join(w for w in (f"largest step at {round(step_clock(sightings)) or 12} o'clock "
                                                           f"(from {len(sightings)} frame(s))", row.warnings) if w))
-            # a characterisation not validated in this video's codec is found, not measured, like an untrusted one
-            doubt = validation_doubt(f"BAJ {obs.char1}", info.codec, header.shape)
-            untrusted = found_not_measured(res) or (doubt and f"found, not measured: {doubt}")
+            untrusted = found_not_measured(res)
             if untrusted is not None:         # a joint found but not trusted is not a measurement: no grade, no log check
                 row.update(status="unmeasured", error=untrusted)
             result.thumbnails.append(thumbnail(nearest, qs[0], r, "contour", contours[found]))

@@ -83,11 +83,8 @@ ORIGIN = {"BCA": "lateral rim fit", "BAG": "intruding lateral's base and tip", "
 # MPEG-4 Part 2 the surface was not found in 39 % and the 4 measured all missed (seed 40), and under H.264 it is
 # rarely found: the codecs quantise and blur the chroma that alone tells the surface. Until a code is validated, its result is
 # kept "found, not measured" with the reason: never graded nor checked against the log.
-# BAJ B (the step) through H.264: 83.7 % (Wilson 71.0-91.5 %) at DN >= 200 on seed 351 once its edge term was
-# the fit's own sensitivity (2026-12-04): the far end's rim where it stands into the pipe read short by up to 3 px
-# at narrow gaps in large pipes (rendered frames: unbiased), one-sided like an opening's; BAJ A holds in both.
 VALIDATED_CODECS: dict[str, frozenset[str]] = {"BCA": MPEG4_PART2, "BAG": MPEG4_PART2,
-                                               "BBC": frozenset(), "BBB": frozenset(), "BAJ B": MPEG4_PART2}
+                                               "BBC": frozenset(), "BBB": frozenset()}
 # The pipe shapes in which a code held its U95, for a code that failed in some shape (the same rule as the codecs):
 # an intruding lateral in an egg-shaped pipe missed in 6 of 14 measured through MPEG-4 Part 2 (seeds 40 and 41;
 # Wilson 33-79 % inside), where circular pipes held 98 % (seed 41); an opening in an egg's wall held 35 of 42

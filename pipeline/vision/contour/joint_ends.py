@@ -14,11 +14,15 @@ depth t [H] along that line is known. So:
    displaced: each ring is carried along its rays into one plane and fitted with the header's profile, scaled
    along the pipe (its depth) and shifted across it (its centre) [H]. The gap along the axis is the difference
    of the depths; the radial step the difference of the centres, largest at the clock position it points away
-   from (where the far pipe's end stands into the flow).
+   from (where the far pipe's end stands into the flow). Where the far pipe stands out of the wall its end hides
+   behind the near one's, and the far edge seen is the near pipe's rim, taken about the near ring's own centre
+   (a pose a little off moves both rings alike; the step, their difference, does not move).
 
 Standard uncertainties of the rings' depths and centres come from a delete-one-sector jackknife (neighbouring
 edge points share the texture and the blur, so sectors, not points, are the independent observations). The
-pose's own uncertainty is not part of them: the measurement model adds it (``pipeline.measurement``).
+pose's own uncertainty is not part of them: the measurement model adds it (``pipeline.measurement``). How far
+the edges' shared placement moves the gap and the step (``JointEnds.gap_per_px``, ``step_per_px``) is read from
+the fit by moving one ring's edges and fitting again: the sensitivity coefficients of that shared input.
 """
 
 from __future__ import annotations

@@ -46,7 +46,6 @@ from pipeline.measurement.joints import measure_joint
 from pipeline.maths.profiles import clock_to_theta
 from pipeline.synth.joint_cases import JointCase, case_scene, random_case, read_truth, write_case
 from pipeline.synth.render import Renderer
-from pipeline.vision.contour.joint_ends import find_joint_ends
 from pipeline.vision.contour import detect_contour
 from pipeline.vision.contour.detect import wall_u_from_tolerance
 from pipeline.vision.contour import joint_ends
@@ -160,7 +159,7 @@ def rendered_pairs(case: JointCase, video: Path, truth: dict, cert, cache: Path 
     for s in sightings:
         c = truth["frames_chainage_m"][s.frame]
         raw = cv2.cvtColor(und.frame(r.render(1000.0 * c, s.frame / 25.0, s.frame)), cv2.COLOR_BGR2GRAY)
-        ends = find_joint_ends(raw, contour.view, s.depth)
+        ends = joint_ends.find_joint_ends(raw, contour.view, s.depth)
         if ends is None:
             continue
         px = float(contour.view.p_H(s.depth)[0]) / H           # px per mm across the pipe at the joint

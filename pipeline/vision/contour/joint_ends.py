@@ -311,10 +311,11 @@ def _fit_far(view, walls, far_u, near, t0, radius, x0=None) -> tuple[np.ndarray,
     ``near`` is the near ring (t, cx, cy) [H]. Started from ``x0`` when given, else from each of ``_far_starts``
     (the model switches between the ring and the rim, so a start far from a large step can settle on a wrong
     minimum), the fit of least cost kept."""
+    def residual(x):
+        return _far_residual(view, walls, far_u, near, x, radius)
+
     best = None
     for start in ([x0] if x0 is not None else _far_starts(walls, far_u, near, t0)):
-        def residual(x):
-            return _far_residual(view, walls, far_u, near, x, radius)
         if not (np.all(np.isfinite(start)) and np.all(np.isfinite(residual(np.asarray(start, float))))):
             continue
         try:
@@ -479,10 +480,9 @@ def _edge_sensitivity(view, near_px, deeper, walls, far_u, du_px, near, far, rad
     """
     tn, cxn, cyn = near
     tf, cxf, cyf, tp = far
-    direction = np.array([cxf - cxn, cyf - cyn])
-    norm = float(np.hypot(*direction))
-    direction = direction / norm if norm > 0 else np.array([1.0, 0.0])
-    gap0, step0 = tf - tn, float(np.dot([cxf - cxn, cyf - cyn], direction))
+    step0 = float(np.hypot(cxf - cxn, cyf - cyn))
+    direction = np.array([cxf - cxn, cyf - cyn]) / step0 if step0 > 0 else np.array([1.0, 0.0])
+    gap0 = tf - tn
     d = EDGE_PROBE_PX
     (tn2, *cn2), _ = _fit_ring(view, near_px + d * deeper, tn, radius)
     (tf2, *cf2, _), _ = _fit_far(view, walls, far_u, (tn2, *cn2), tf, radius, far)

@@ -42,7 +42,7 @@ from pipeline.core.errors import PipegaugeError
 from pipeline.domain.records import Observation
 from pipeline.formats.certificate import load_certificate
 from pipeline.measurement.frames import frame_values
-from pipeline.measurement.joints import measure_joint
+from pipeline.measurement.joints import _px_per_depth, measure_joint
 from pipeline.maths.profiles import clock_to_theta
 from pipeline.synth.joint_cases import JointCase, case_scene, random_case, read_truth, write_case
 from pipeline.synth.render import Renderer
@@ -108,6 +108,14 @@ def _budget(res) -> dict[str, float]:
     return out
 
 
+def _px_across(view, depth: float, char1: str) -> float:
+    """px per H of the quantity at a joint at ``depth`` [H]: along the wall at the top for a gap (A), across the
+    pipe for a step (B)."""
+    if char1 == "B":
+        return float(view.p_H(depth)[0])
+    return _px_per_depth(view, joint_ends._wall(view.shape, np.array([math.pi / 2]))[0], depth)
+
+
 def measure_case(video: Path, truth: dict, cert, cache: Path | None = None, kept: Path | None = None,
                  fourcc: str | None = None) -> list[dict]:
     """Both quantities of one encoding of a case: rows with the truth, the result or why none; ``fourcc`` the
@@ -124,7 +132,11 @@ def measure_case(video: Path, truth: dict, cert, cache: Path | None = None, kept
                # each frame's own ends (for looking into a case): gap and step [mm], their depths [H], problems
                "frames": [{"frame": s.frame, "depth": s.depth, "gap_mm": (s.ends.far_depth - s.ends.near_depth) * H,
                            "step_mm": float(np.hypot(*s.ends.step)) * H, "u_near": s.ends.u_near,
-                           "u_far": s.ends.u_far, "problems": list(s.ends.problems)} for s in sightings]}
+                           "u_far": s.ends.u_far, "problems": list(s.ends.problems),
+                           # the fit's sensitivity to its edges' shared placement [px of separation per px]
+                           "gap_px_per_px": [k * _px_across(contour.view, s.depth, "A") for k in s.ends.gap_per_px],
+                           "step_px_per_px": [k * _px_across(contour.view, s.depth, "B") for k in s.ends.step_per_px]}
+                          for s in sightings]}
         try:
             points, res = measure_joint(_obs(char1), sightings, contour, cert, H=H, tolerance=0.0, seed=7,
                                           codec=fourcc)

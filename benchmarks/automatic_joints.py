@@ -135,7 +135,9 @@ def measure_case(video: Path, truth: dict, cert, cache: Path | None = None, kept
                            "u_far": s.ends.u_far, "problems": list(s.ends.problems),
                            # the fit's sensitivity to its edges' shared placement [px of separation per px]
                            "gap_px_per_px": [k * _px_across(contour.view, s.depth, "A") for k in s.ends.gap_per_px],
-                           "step_px_per_px": [k * _px_across(contour.view, s.depth, "B") for k in s.ends.step_per_px]}
+                           "step_px_per_px": [k * _px_across(contour.view, s.depth, "B") for k in s.ends.step_per_px],
+                           # the frame's blur read from the gap [px], and whether the gap is wide enough against it
+                           "blur_px": s.ends.blur_px, "gap_resolved": s.ends.gap_resolved}
                           for s in sightings]}
         try:
             points, res = measure_joint(_obs(char1), sightings, contour, cert, H=H, tolerance=0.0, seed=7,
@@ -240,8 +242,10 @@ def split(rows: list[dict]) -> list[str]:
 
 def widths(rows: list[dict], fx: float) -> list[str]:
     """Each trusted frame's own gap error against the gap's width in the image, in px along the wall (circular
-    cases: a gap g [H] at depth t [H] spans fx g / (2 t^2) px): how the edges read a narrow gap."""
-    out = ["| gap's width in the image [px] | frames | median error [px] | quartiles [px] |", "|---|---|---|---|"]
+    cases: a gap g [H] at depth t [H] spans fx g / (2 t^2) px): how the edges read a narrow gap; with the blur the
+    frame's edges gave and the frames whose gap it does not resolve (left out of the errors: A does not use them)."""
+    out = ["| gap's width in the image [px] | frames | not resolved | median error [px] | quartiles [px] | median blur "
+           "[px] |", "|---|---|---|---|---|---|"]
     pts = []
     for r in rows:
         if r["quantity"] != "A" or not r["displaced"] or r["shape"] != "circular":
@@ -250,13 +254,19 @@ def widths(rows: list[dict], fx: float) -> list[str]:
         for f in r.get("frames", []):
             if not f["problems"]:
                 scale = 0.5 * fx / f["depth"] ** 2             # px per H of depth along the wall at that depth
-                pts.append((scale * g, scale * (f["gap_mm"] - r["truth"]) / r["H"]))
-    a = np.array(pts).reshape(-1, 2)
+                pts.append((scale * g, scale * (f["gap_mm"] - r["truth"]) / r["H"], f.get("blur_px", math.nan),
+                            f.get("gap_resolved", True)))
+    a = np.array(pts, float).reshape(-1, 4)
     for lo, hi in ((0, 5), (5, 8), (8, 10), (10, 14), (14, 20), (20, 40), (40, 1000)):
-        e = a[(a[:, 0] >= lo) & (a[:, 0] < hi), 1]
+        inside = (a[:, 0] >= lo) & (a[:, 0] < hi)
+        e = a[inside & (a[:, 3] > 0), 1]
+        blur = a[inside & np.isfinite(a[:, 2]), 2]
+        n_out = int(np.sum(inside & (a[:, 3] == 0)))
         if len(e):
             q1, q3 = np.percentile(e, [25, 75])
-            out.append(f"| {lo}-{hi if hi < 1000 else ''} | {len(e)} | {np.median(e):+.2f} | {q1:+.2f} to {q3:+.2f} |")
+            b = f"{np.median(blur):.2f}" if len(blur) else "-"
+            out.append(f"| {lo}-{hi if hi < 1000 else ''} | {len(e)} | {n_out} | {np.median(e):+.2f} | {q1:+.2f} to "
+                       f"{q3:+.2f} | {b} |")
     return out
 
 

@@ -114,6 +114,24 @@ def test_a_joint_found_in_one_frame_only_is_not_trusted(joint, cert):
     assert not res.confident and any("only one frame" in r for r in res.reasons)
 
 
+def test_a_gap_the_blur_does_not_resolve_is_measured_from_the_frames_that_do_or_not_at_all(joint, cert):
+    """A frame whose gap is under about 2.5 blur widths reads the blur's width, not the gap's: the gap is measured
+    from the frames that resolve it; when none does, it is found, not measured, with that reason. The step does
+    not depend on it."""
+    frames, contour = joint
+    sightings, _ = follow_joint(frames, contour.view, H)
+    assert all(s.ends.gap_resolved for s in sightings) and all(0.8 < s.ends.blur_px < 2.5 for s in sightings)
+    farthest_blurred = sightings[:-1] + [dataclasses.replace(sightings[-1], ends=dataclasses.replace(
+        sightings[-1].ends, gap_resolved=False))]
+    points, res = measure_joint(_obs("A"), farthest_blurred, contour, cert, H=H, tolerance=0.0, seed=3)
+    assert len(points) == len(sightings) - 1 and res.confident
+    none = [dataclasses.replace(s, ends=dataclasses.replace(s.ends, gap_resolved=False)) for s in sightings]
+    _, res = measure_joint(_obs("A"), none, contour, cert, H=H, tolerance=0.0, seed=3)
+    assert not res.confident and "narrower than the frames' blur resolves" in found_not_measured(res)
+    _, step = measure_joint(_obs("B"), none, contour, cert, H=H, tolerance=0.0, seed=3)
+    assert step.confident
+
+
 def test_the_angular_displacement_says_why_it_is_not_measured(joint, cert):
     frames, contour = joint
     with pytest.raises(MeasurementError, match="angular"):

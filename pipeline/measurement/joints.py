@@ -13,7 +13,8 @@ Each point's own standard uncertainty [px] is its ring's (jackknife over sectors
 edges, so their single scatter enters it divided down) with the certificate's image coordinate u. The edges'
 definition (where the half level lies against the true end) is the same in every frame of the approach: one
 input, ``edge`` [px of the points' separation], the size of the frame's single-edge scatter carried to the
-quantity by the fit's own sensitivity to it (``edge_u``: about one for the gap, a tenth for the step). The
+quantity by the fit's own sensitivity to it (``edge_u``: about one for the gap, a tenth for the step), with the
+codec's edge term and, for the gap, the u of its correction for the frame's blur (``JointEnds.blur_u_px``). The
 frames are combined with ``measure_over_frames``: the pose (one fit for the approach), H, the certificate, the
 wall and the edge counted once, each frame's points its own. C, the angular displacement, is not
 measured: the far pipe's axis would need its wall over a length of pipe beyond the joint, which the rings of
@@ -47,6 +48,8 @@ ORIGIN = "joint ends fit"
 # frame's own inputs (what the frames share moves them alike), is beyond its 99 % point: one of them took
 # something else for the joint's end.
 AGREE_P = 0.01
+GAP_UNRESOLVED = ("the gap is narrower than the frames' blur resolves (under about three times its width in every "
+                  "frame: the width read is the blur's own)")
 ANGULAR_NOT_MEASURED = ("BAJ C (angular displacement) is not measured from the image alone: the far pipe's axis "
                         "needs its wall over a length beyond the joint, which the ring of its end does not fix; "
                         "mark it (marks.csv) or measure it with `pipegauge review`")
@@ -67,10 +70,13 @@ def joint_points(obs: Observation, sighting: JointSighting, view: PipeView,
                  cert: Certificate, codec_u_px: float = 0.0) -> MarkedQuantity:
     """The two points of a BAJ A or B in one frame's ideal image, found from the joint's ends.
 
-    codec_u_px : the u a video codec's blocks give an edge [px] (``codecs.codec_edge_u``), part of B's shared
-    edge: the codec moves the far end's rim where it stands into the pipe (rendered frames read B's steps
-    unbiased, their video 0.1-0.5 px short), and the scatter of single edges, which B's ring centres all but
-    cancel, does not say so. A's gap takes the scatter at about one to one, and the scatter is the coded frame's.
+    codec_u_px : the u a video codec's blocks give an edge [px] (``codecs.codec_edge_u``), part of both
+    quantities' shared edge: the codec moves the far end's rim where it stands into the pipe (rendered frames read
+    B's steps unbiased, their video 0.1-0.5 px short), and it moves the gap's edges (seed 354's gaps against the
+    same frames rendered without a codec, by DN from 150 to 800: rms 0.08-0.24 px through MPEG-4 Part 2, 0.10-0.38
+    px through H.264, the size of the edge figure; H.264 in DN 800-1000 narrows them by 0.6 px, a darker, narrower
+    floor, beyond it); the scatter of single edges does not say so, since the frames of one approach pass through
+    the same codec alike. Each quantity takes it once.
     """
     e = sighting.ends
     step = e.step
@@ -89,9 +95,11 @@ def joint_points(obs: Observation, sighting: JointSighting, view: PipeView,
         b = view.project(np.array([[*(wall + e.far_centre), e.far_depth]]))[0]
         u_a = math.hypot(e.u_near * _px_per_depth(view, wall, e.near_depth), u_near_img)
         u_b = math.hypot(e.u_far * _px_per_depth(view, wall, e.far_depth), u_far_img)
+        # the edges' placement shared by the frames, the blur's correction (its model shared too) and the codec's
+        u_edge = math.sqrt(edge_u(e, "A", _px_per_depth(view, wall, 0.5 * (e.near_depth + e.far_depth))) ** 2
+                           + e.blur_u_px ** 2 + codec_u_px ** 2)
         return MarkedQuantity("BAJ", "A", "Q1", "axial", (float(a[0]), float(a[1])), (float(b[0]), float(b[1])),
-                              u_a, u_b, origin=ORIGIN,
-                              u_edge=edge_u(e, "A", _px_per_depth(view, wall, 0.5 * (e.near_depth + e.far_depth))))
+                              u_a, u_b, origin=ORIGIN, u_edge=u_edge)
     face = direction + math.pi                         # the far end stands into the pipe opposite its shift
     wall = _wall(view.shape, np.array([face]))[0]
     t = 0.5 * (e.near_depth + e.far_depth)
@@ -160,12 +168,21 @@ def measure_joint(obs: Observation, sightings: Sequence[JointSighting], contour:
         raise MeasurementError("BAJ: not found: no joint gap was found in the frames of the camera's approach")
     if not np.all(np.isfinite(contour.covariance)):
         raise MeasurementError(f"BAJ: no camera pose could be fitted ({'; '.join(contour.problems)})")
+    unresolved = []
+    if obs.char1 == "A":
+        # a gap under about three blur widths reads about the blur's width whatever its own: such frames do not
+        # measure it; when no frame resolves it, the value is given but not trusted
+        resolved = [s for s in sightings if s.ends.gap_resolved]
+        if resolved:
+            sightings = resolved
+        else:
+            unresolved.append(GAP_UNRESOLVED)
     points = [joint_points(obs, s, contour.view, cert, codec_edge_u(codec)) for s in sightings]
     frames = [s.frame for s in sightings]
     views = [(q, contour) for q in points]
     res = measure_over_frames(views, cert, H=H, tolerance=tolerance, model=model, seed=seed, edges=edges,
                               frames=frames)
-    reasons = list(res.reasons)
+    reasons = list(res.reasons) + unresolved
     if not contour.confident:
         reasons.append("contour untrusted: " + "; ".join(contour.problems))
     if len(sightings) == 1:

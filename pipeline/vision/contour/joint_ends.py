@@ -10,6 +10,9 @@ depth t [H] along that line is known. So:
    range asked for is the joint (none when no dip is deep enough: not found);
 2. on every generator the gap's two edges are found where the profile crosses half-way between the gap's floor
    and the plateau on each side (the renderer's and a lens's blur are symmetric, so the half level is the edge);
+   a gap not wide against the blur reads wider than it is at half levels, so the frame's blur is read from its
+   edges' ramps and each generator's width taken back through it (``blurred_gap``), and a gap under about 2.5
+   blur widths is said not resolved (``JointEnds.gap_resolved``: its width read is the blur's own);
 3. the near edges are a ring of the near pipe's end, the far edges a ring of the far pipe's end, which may be
    displaced: each ring is carried along its rays into one plane and fitted with the header's profile, scaled
    along the pipe (its depth) and shifted across it (its centre) [H]. The gap along the axis is the difference
@@ -36,6 +39,8 @@ import numpy as np
 from scipy.optimize import least_squares
 
 from pipeline.maths.profiles import exit_table, profile_polygon, theta_to_clock
+from pipeline.vision.contour.blurred_gap import RHO_INFORMATIVE, blur_from_edges, half_level_width, \
+    unblurred_width, width_per_sigma
 from pipeline.vision.contour.view import PipeView
 
 __all__ = ["JointEnds", "JointSighting", "find_joint_ends", "follow_joint", "joint_depths", "ring_in_view"]
@@ -54,6 +59,12 @@ RESPONSE_GAMMA = 1.35      # a video camera's transfer function, inverted to fin
 MAX_RING_U_H = 0.02        # a ring's depth moving more than this [H] when one sector is left out: not settled
 MAX_NEAR_OFF_H = 0.05      # the near end's ring this far [H] off the pose's axis: the points cannot be placed (seed 351:
                            # the two beyond it, 5.7 and 8.3 % of H, read B 9-14 % short; none else beyond 4.4 %)
+INNER_MIN = 4              # samples (a pixel) inside a gap, 1.5 ramps clear of each edge, for it to have a floor
+FLAT_INNER = 0.25          # a gap's inside is its floor when its upper quartile lies within this share of the
+                           # contrast above its darkest sample
+MIN_BLURRED_W = 2.0        # a generator's gap corrected for the blur as if at least this wide [sigma]
+BLUR_MODEL_SHARE = 0.3     # the blur's correction uncertain by this share of itself (a Gaussian in linear light,
+                           # an assumption; the renderer blurs its grey levels)
 MAX_STEP_H = 0.2           # the far ring's centre this far [H] off the near one's: not a pipe end (displaced joints
                            # step a few % of H; a far end 20 % off is another feature taken for it)
 
@@ -90,6 +101,12 @@ class JointEnds:
     # itself, d/d(px) of (gap, step) for the near ring's edges and for the far ring's [H per px]
     gap_per_px: tuple[float, float] = (math.nan, math.nan)
     step_per_px: tuple[float, float] = (math.nan, math.nan)
+    # the frame's blur sigma [px] read from the gap's edges (nan: not read), and the standard uncertainty [px] of
+    # the gap's correction for it (``blurred_gap``: a gap read at half levels reads wide by up to the blur's width)
+    blur_px: float = math.nan
+    blur_u_px: float = 0.0
+    # whether the gap is wide enough against the blur for its width to be read (2.5 sigma)
+    gap_resolved: bool = True
 
     @property
     def step(self) -> np.ndarray:
@@ -190,11 +207,13 @@ def joint_depths(gray: np.ndarray, view: PipeView, t_range: tuple[float, float],
     return found
 
 
-def _edges(p: np.ndarray) -> tuple[float, float] | None:
+def _edges(p: np.ndarray) -> tuple[float, float, float, float] | None:
     """The gap's two edges in one generator's profile (index positions, near first: the profile runs from far
-    to near, 1 / t growing), or None.
+    to near, 1 / t growing) and the width of each edge's ramp, from a quarter to three quarters of the way from
+    the floor to that side's plateau [samples]; or None.
 
-    The gap's floor is the profile's minimum. The near edge is where the profile, coming from the camera's side
+    The gap's floor is the profile's minimum (a gap wider than its edges' blur: the lower quartile of its inside).
+    The near edge is where the profile, coming from the camera's side
     (the socket's face, bright), first falls below half-way between its brightest level there and the floor; the
     far edge where it, coming from the far wall (the deepest quarter of the profile), first falls below half-way
     between that wall's level and the floor. A far pipe's end face, lit inside the gap where that pipe stands
@@ -225,8 +244,34 @@ def _edges(p: np.ndarray) -> tuple[float, float] | None:
     # quarter's level sits low and would move the far edge into its ramp), the crossings found again from there
     near_level = float(p[j + 1:j + 1 + LOCAL].max())
     far_level = float(p[max(0, k - LOCAL):k].max())
+    found = _half_crossings(p, j, k, floor, near_level, far_level)
+    if found is None:
+        return None
+    (e_near, e_far), ramps = found, _ramps(p, i, floor, near_level, far_level)
+    # a gap wider than its edges' ramps has a floor of its own: its lower quartile, not its single darkest sample,
+    # the extreme of the inside's noise and shading (seed 354: gaps 20-40 px wide read 0.08 px short, wider ones
+    # 0.22 px; with the quartile -0.01 to +0.04 and -0.10 to -0.05). Not where the inside is not dark throughout:
+    # a far pipe's end face lit inside the gap (where it stands into the flow) lifts the quartile and would move
+    # the edges out (B's steps read long: median z +0.5 on seed 354 with the quartile taken everywhere)
+    inner = p[int(math.ceil(e_far + 1.5 * ramps[1])):int(math.floor(e_near - 1.5 * ramps[0])) + 1] \
+        if all(map(math.isfinite, ramps)) else p[:0]
+    if len(inner) >= INNER_MIN and \
+            np.percentile(inner, 75) - floor <= FLAT_INNER * (min(near_level, far_level) - floor):
+        floor = float(np.percentile(inner, 25))
+        found = _half_crossings(p, int(math.floor(e_near)), int(math.ceil(e_far)), floor, near_level, far_level)
+        if found is None:
+            return None
+        (e_near, e_far), ramps = found, _ramps(p, i, floor, near_level, far_level)
+    return float(e_near), float(e_far), float(ramps[0]), float(ramps[1])
+
+
+def _half_crossings(p: np.ndarray, j: int, k: int, floor: float, near_level: float,
+                    far_level: float) -> tuple[float, float] | None:
+    """The near and far edges [index] where the profile crosses half-way between the floor and each side's level,
+    sought from samples j (near) and k (far) whichever side they lie; None where they do not cross."""
+    n = len(p)
     half_near, half_far = 0.5 * (floor + near_level), 0.5 * (floor + far_level)
-    for _ in range(LOCAL):                          # to the crossing of the new level, whichever side it lies
+    for _ in range(LOCAL):                          # to the crossing of the level, whichever side it lies
         if p[j] >= half_near and j > k:
             j -= 1
         elif j + 2 < n and p[j + 1] < half_near:
@@ -235,11 +280,66 @@ def _edges(p: np.ndarray) -> tuple[float, float] | None:
             k += 1
         elif k > 1 and p[k - 1] < half_far:
             k -= 1
-    if k > j or p[j] >= half_near or p[j + 1] < half_near or p[k] >= half_far or p[k - 1] < half_far:
+    if not (0 < k <= j < n - 1) or p[j] >= half_near or p[j + 1] < half_near or p[k] >= half_far \
+            or p[k - 1] < half_far:
         return None
-    e_near = j + (p[j] - half_near) / (p[j] - p[j + 1])
-    e_far = k - (p[k] - half_far) / (p[k] - p[k - 1])
-    return float(e_near), float(e_far)
+    return j + (p[j] - half_near) / (p[j] - p[j + 1]), k - (p[k] - half_far) / (p[k] - p[k - 1])
+
+
+def _ramps(p: np.ndarray, i: int, floor: float, near_level: float, far_level: float) -> tuple[float, float]:
+    """Each edge's ramp [samples], a quarter to three quarters of the way up from the floor (the darkest sample
+    at i) to its side's level: with the gap's width, the blur (``blurred_gap``)."""
+    near, far = ((step * (_crossing(p, i, floor + 0.75 * (level - floor), step)
+                          - _crossing(p, i, floor + 0.25 * (level - floor), step)))
+                 for level, step in ((near_level, 1), (far_level, -1)))
+    return near, far
+
+
+def _crossing(p: np.ndarray, i: int, level: float, step: int) -> float:
+    """Where [index] the profile first rises to ``level`` going from index i by ``step``; nan if it does not."""
+    m = i
+    while 0 <= m + step < len(p) and p[m + step] < level:
+        m += step
+    if not 0 <= m + step < len(p):
+        return math.nan
+    return m + step * (level - p[m]) / (p[m + step] - p[m])
+
+
+def _blur(found, pts) -> tuple[float, bool, list[tuple[float, float]], float]:
+    """The frame's blur from its gap's edges, and how far to move each generator's edges back into the gap.
+
+    found : (generator, ``_edges``' result) of the generators where both edges were found; pts : the generators'
+    image points. Returns the blur sigma [px] (nan where the frame does not tell it: a gap wide against it needs
+    no correction, a gap too narrow cannot give one), whether the gap is resolved (its median generator at
+    least ``RHO_INFORMATIVE``'s width, 2.5 sigma: narrower, the width read hardly moves with the width),
+    the shifts (near edge, far edge) [samples], and the standard uncertainty of the gap's correction [px] (the
+    blur's own u and ``BLUR_MODEL_SHARE`` of the correction: the blur is not exactly a Gaussian in linear light).
+    """
+    if not found:
+        return math.nan, True, [], 0.0
+    px_near, px_far, width, ramp = [], [], [], []
+    for a, (i_near, i_far, r_near, r_far) in found:
+        line = pts[a]
+        px_near.append(float(np.hypot(*(_at(line, i_near + 1) - _at(line, i_near)))))
+        px_far.append(float(np.hypot(*(_at(line, i_far + 1) - _at(line, i_far)))))
+        width.append(float(np.hypot(*(_at(line, i_near) - _at(line, i_far)))))
+        ramp.append(0.5 * (r_near * px_near[-1] + r_far * px_far[-1]))
+    width_a, ramp_a = np.array(width), np.array(ramp)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        resolved = bool(np.nanmedian(ramp_a / width_a) <= RHO_INFORMATIVE)
+    sig = blur_from_edges(width_a, ramp_a)
+    ok = np.isfinite(sig)
+    none = [(0.0, 0.0)] * len(found)
+    if not resolved or ok.sum() < max(8, len(found) // 4):
+        return math.nan, resolved, none, 0.0
+    sigma = float(np.median(sig[ok]))
+    u_sigma = 1.4826 * float(np.median(np.abs(sig[ok] - sigma))) / math.sqrt(SECTORS)
+    floor = float(half_level_width(MIN_BLURRED_W))      # a generator read narrower: noise, corrected as this wide
+    read = np.maximum(width_a, floor * sigma)
+    excess = np.clip(read - unblurred_width(read, sigma), 0.0, None)
+    shifts = [(0.5 * d / max(pn, 1e-9), 0.5 * d / max(pf, 1e-9)) for d, pn, pf in zip(excess, px_near, px_far)]
+    u = math.hypot(float(np.mean(width_per_sigma(read, sigma))) * u_sigma, BLUR_MODEL_SHARE * float(np.mean(excess)))
+    return sigma, resolved, shifts, u
 
 
 def _linear(grey: np.ndarray) -> np.ndarray:
@@ -372,14 +472,14 @@ def find_joint_ends(gray: np.ndarray, view: PipeView, depth: float, *, mask: np.
     inv_t = np.arange(lo, hi, 0.25 / f)                  # about a quarter pixel a step
     angles = np.linspace(-np.pi, np.pi, 2 * N_ANGLES, endpoint=False)
     vals, pts = _profiles(gray, view, angles, inv_t, mask)
+    found = [(a, e) for a, e in enumerate(map(_edges, vals)) if e is not None]
+    blur, resolved, shift, u_blur = _blur(found, pts)
     near, far, kept, near_u, far_u = [], [], [], [], []
     glare, deeper, du_px = [], [], []                  # per edge: the generator's image direction away from the
                                                        # camera at the near edge; 1 / t per px at the far edge
-    for a, (p, line) in enumerate(zip(vals, pts)):
-        e = _edges(p)
-        if e is None:
-            continue
-        i_near, i_far = e
+    for (a, (i_near, i_far, _, _)), (d_near, d_far) in zip(found, shift):
+        p, line = vals[a], pts[a]
+        i_near, i_far = i_near - d_near, i_far + d_far   # the blur's widening taken out, half at each edge
         near.append(_at(line, i_near))
         far.append(_at(line, i_far))
         near_u.append(float(np.interp(i_near, np.arange(len(inv_t)), inv_t)))
@@ -463,7 +563,7 @@ def find_joint_ends(gray: np.ndarray, view: PipeView, depth: float, *, mask: np.
     return JointEnds(float(tn), float(tf), (float(cn[0]), float(cn[1])), (float(cf[0]), float(cf[1])),
                      float(math.sqrt(cov[0, 0])), float(math.sqrt(cov[3, 3])), d_step @ cov @ d_step.T,
                      near_px, far_px, ang, coverage, share_glare, tuple(problems), float(scatter_near),
-                     float(scatter_far), *sens)
+                     float(scatter_far), *sens, blur_px=blur, blur_u_px=u_blur, gap_resolved=resolved)
 
 
 EDGE_PROBE_PX = 0.5         # how far the edges are moved to read the fit's sensitivity to their placement [px]

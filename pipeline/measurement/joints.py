@@ -73,10 +73,10 @@ def joint_points(obs: Observation, sighting: JointSighting, view: PipeView,
     codec_u_px : the u a video codec's blocks give an edge [px] (``codecs.codec_edge_u``), part of both
     quantities' shared edge: the codec moves the far end's rim where it stands into the pipe (rendered frames read
     B's steps unbiased, their video 0.1-0.5 px short), and it moves the gap's edges (seed 354's gaps against the
-    same frames rendered without a codec, by DN from 150 to 800: rms 0.08-0.24 px through MPEG-4 Part 2, 0.10-0.38
-    px through H.264, the size of the edge figure; H.264 in DN 800-1000 narrows them by 0.6 px, a darker, narrower
-    floor, beyond it); the scatter of single edges does not say so, since the frames of one approach pass through
-    the same codec alike. Each quantity takes it once.
+    same frames rendered without a codec, DN 150-800: medians -0.25 to +0.06 px, robust SD 0.07-0.30 px, the size
+    of the edge figure; H.264 narrows DN 800-1000's by 0.6 px, beyond it: docs/measurement.md); the scatter of
+    single edges does not say so, since the frames of one approach pass through the same codec alike. Each
+    quantity takes it once.
     """
     e = sighting.ends
     step = e.step

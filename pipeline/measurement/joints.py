@@ -48,8 +48,8 @@ ORIGIN = "joint ends fit"
 # frame's own inputs (what the frames share moves them alike), is beyond its 99 % point: one of them took
 # something else for the joint's end.
 AGREE_P = 0.01
-GAP_UNRESOLVED = ("the gap is narrower than the frames' blur resolves (under about three times its width in every "
-                  "frame: the width read is the blur's own)")
+GAP_UNRESOLVED = ("the gap is narrower than the frames' blur resolves (under 2.5 times the blur's standard deviation "
+                  "in every frame: the width read there is mostly the blur's own)")
 ANGULAR_NOT_MEASURED = ("BAJ C (angular displacement) is not measured from the image alone: the far pipe's axis "
                         "needs its wall over a length beyond the joint, which the ring of its end does not fix; "
                         "mark it (marks.csv) or measure it with `pipegauge review`")
@@ -159,7 +159,8 @@ def measure_joint(obs: Observation, sightings: Sequence[JointSighting], contour:
     contour : the pose fit the frames share (their approach's); H, tolerance : the header's [mm]; codec : the
     video's FourCC (``codecs.codec_edge_u``; None: frames not through a codec).
     The result is not confident, with the reasons, when the contour is not trusted, when the joint was found in
-    one frame only, or when a frame's ends say so (glare, part of the ring hidden...).
+    one frame only, when a frame's ends say so (glare, part of the ring hidden...), or, for the gap, when no frame
+    resolves it against its blur (``JointEnds.gap_resolved``; the frames that do not are left out of A).
     Raises MeasurementError when there is nothing to measure (no sighting; BAJ C).
     """
     if obs.char1 == "C":
@@ -170,8 +171,8 @@ def measure_joint(obs: Observation, sightings: Sequence[JointSighting], contour:
         raise MeasurementError(f"BAJ: no camera pose could be fitted ({'; '.join(contour.problems)})")
     unresolved = []
     if obs.char1 == "A":
-        # a gap under about three blur widths reads about the blur's width whatever its own: such frames do not
-        # measure it; when no frame resolves it, the value is given but not trusted
+        # a gap under 2.5 blur sigmas reads about the blur's own width whatever its own (``blurred_gap``): such
+        # frames do not measure it; when no frame resolves it, the value is given but not trusted
         resolved = [s for s in sightings if s.ends.gap_resolved]
         if resolved:
             sightings = resolved

@@ -11,8 +11,8 @@ depth t [H] along that line is known. So:
 2. on every generator the gap's two edges are found where the profile crosses half-way between the gap's floor
    and the plateau on each side (the renderer's and a lens's blur are symmetric, so the half level is the edge);
    a gap not wide against the blur reads wider than it is at half levels, so the frame's blur is read from its
-   edges' ramps and each generator's width taken back through it (``blurred_gap``), and a gap under about 2.5
-   blur widths is said not resolved (``JointEnds.gap_resolved``: its width read is the blur's own);
+   edges' ramps and each generator's width taken back through it (``blurred_gap``), and a gap under 2.5 times
+   the blur's sigma is said not resolved (``JointEnds.gap_resolved``: its width read is the blur's own);
 3. the near edges are a ring of the near pipe's end, the far edges a ring of the far pipe's end, which may be
    displaced: each ring is carried along its rays into one plane and fitted with the header's profile, scaled
    along the pipe (its depth) and shifted across it (its centre) [H]. The gap along the axis is the difference

@@ -326,7 +326,11 @@ def _blur(found, pts) -> tuple[float, bool, list[tuple[float, float]], float]:
         ramp.append(0.5 * (r_near * px_near[-1] + r_far * px_far[-1]))
     width_a, ramp_a = np.array(width), np.array(ramp)
     with np.errstate(invalid="ignore", divide="ignore"):
-        resolved = bool(np.nanmedian(ramp_a / width_a) <= RHO_INFORMATIVE)
+        rho = ramp_a / width_a
+    rho = rho[np.isfinite(rho)]
+    if not len(rho):                                    # no ramp read: the blur not told, nothing corrected
+        return math.nan, True, [(0.0, 0.0)] * len(found), 0.0
+    resolved = bool(np.median(rho) <= RHO_INFORMATIVE)
     sig = blur_from_edges(width_a, ramp_a)
     ok = np.isfinite(sig)
     none = [(0.0, 0.0)] * len(found)

@@ -242,6 +242,12 @@ def split(rows: list[dict]) -> list[str]:
     return out
 
 
+def _top_px_per_h(fx: float, depth: float) -> float:
+    """px per H of depth along the wall at the top of a circular pipe at depth t [H] from a centred camera:
+    fx / (2 t^2) (rows keep no pose, so the gap's width and error in the image are taken so)."""
+    return 0.5 * fx / depth ** 2
+
+
 def widths(rows: list[dict], fx: float) -> list[str]:
     """Each trusted frame's own gap error against the gap's width in the image, in px along the wall (circular
     cases: a gap g [H] at depth t [H] spans fx g / (2 t^2) px): how the edges read a narrow gap; with the blur the
@@ -255,7 +261,7 @@ def widths(rows: list[dict], fx: float) -> list[str]:
         g = r["truth"] / r["H"]
         for f in r.get("frames", []):
             if not f["problems"]:
-                scale = 0.5 * fx / f["depth"] ** 2             # px per H of depth along the wall at that depth
+                scale = _top_px_per_h(fx, f["depth"])
                 pts.append((scale * g, scale * (f["gap_mm"] - r["truth"]) / r["H"], f.get("blur_px", math.nan),
                             f.get("gap_resolved", True)))
     a = np.array(pts, float).reshape(-1, 4)
@@ -284,10 +290,8 @@ def codec_gaps(gaps: list[tuple[str, float, float, float]]) -> list[str]:
             if len(a):
                 d = a[:, 0] - a[:, 1]
                 p10, p90 = np.percentile(d, [10, 90])
-                out.append(f"| {codec} | {lo}-{hi} | {len(d)} | {np.median(d):+.2f} | "
-                           f"{1.4826 * np.median(np.abs(d - np.median(d))):.2f} | {p10:+.2f} to {p90:+.2f} | "
-                           f"{np.median(a[:, 0]):+.2f} | "
-                           f"{np.median(a[:, 1]):+.2f} |")
+                out.append(f"| {codec} | {lo}-{hi} | {len(d)} | {np.median(d):+.2f} | {robust_sd(d):.2f} | "
+                           f"{p10:+.2f} to {p90:+.2f} | {np.median(a[:, 0]):+.2f} | {np.median(a[:, 1]):+.2f} |")
     return out
 
 
@@ -340,8 +344,7 @@ def main() -> None:
         if args.rendered:
             for depth, video_px, raw_px, video_gap, raw_gap in rendered_pairs(case, video, truth, cert, args.contours,
                                                                               args.sightings):
-                # the gap's errors in px along the wall at the top (as ``widths``: fx / (2 t^2) px per H)
-                px_per_mm = 0.5 * cert.focal_px[0] / depth ** 2 / case.height_mm
+                px_per_mm = _top_px_per_h(cert.focal_px[0], depth) / case.height_mm     # as ``widths``
                 paired.append((video_px, raw_px))
                 gaps.append((codec, case.height_mm, video_gap * px_per_mm, raw_gap * px_per_mm))
                 print(f"{case.case_id} DN{case.height_mm:.0f} {case.shape} {codec} {depth:.2f} H: step error "

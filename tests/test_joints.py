@@ -115,7 +115,7 @@ def test_a_joint_found_in_one_frame_only_is_not_trusted(joint, cert):
 
 
 def test_a_gap_the_blur_does_not_resolve_is_measured_from_the_frames_that_do_or_not_at_all(joint, cert):
-    """A frame whose gap is under about 2.5 blur widths reads the blur's width, not the gap's: the gap is measured
+    """A frame whose gap is under 2.5 blur sigmas reads the blur's width, not the gap's: the gap is measured
     from the frames that resolve it; when none does, it is found, not measured, with that reason. The step does
     not depend on it."""
     frames, contour = joint

@@ -328,16 +328,16 @@ def _blur(found, pts) -> tuple[float, bool, list[tuple[float, float]], float]:
     with np.errstate(invalid="ignore", divide="ignore"):
         rho = ramp_a / width_a
     rho = rho[np.isfinite(rho)]
+    none = [(0.0, 0.0)] * len(found)
     if not len(rho):                                    # no ramp read: the blur not told, nothing corrected
-        return math.nan, True, [(0.0, 0.0)] * len(found), 0.0
+        return math.nan, True, none, 0.0
     resolved = bool(np.median(rho) <= RHO_INFORMATIVE)
     sig = blur_from_edges(width_a, ramp_a)
     ok = np.isfinite(sig)
-    none = [(0.0, 0.0)] * len(found)
     if not resolved or ok.sum() < max(8, len(found) // 4):
         return math.nan, resolved, none, 0.0
     sigma = float(np.median(sig[ok]))
-    u_sigma = 1.4826 * float(np.median(np.abs(sig[ok] - sigma))) / math.sqrt(SECTORS)
+    u_sigma = _robust_rms(sig[ok] - sigma) / math.sqrt(SECTORS)
     floor = float(half_level_width(MIN_BLURRED_W))      # a generator read narrower: noise, corrected as this wide
     read = np.maximum(width_a, floor * sigma)
     excess = np.clip(read - unblurred_width(read, sigma), 0.0, None)

@@ -170,6 +170,14 @@ def test_a_logged_displaced_joint_widens_the_wall_term_on_the_pipe_after_it():
     assert displaced_wall_u(log[4], log, unit_length_m=2.5, height_mm=300.0, pose_at_m=3.0) == 0.0
     assert displaced_wall_u(log[0], log, unit_length_m=2.5, height_mm=300.0, pose_at_m=3.0) == pytest.approx(
         9.0 / np.sqrt(3.0) / 300.0)                # before the joint, with a pose fitted beyond it
+    # a gap measured on its joint's two ends found in the image: its own joint's step is in the model (S01's and
+    # S02's gaps were "found, not measured" for it), a step at an earlier joint of the same pipe still counts
+    assert displaced_wall_u(log[2], log, unit_length_m=2.5, height_mm=300.0, own_joint_found=True) == 0.0
+    earlier = [obs(6, 0.4, "BAJ", "B", 6.0)] + log
+    assert displaced_wall_u(log[2], earlier, unit_length_m=2.5, height_mm=300.0, own_joint_found=True) == \
+        pytest.approx(6.0 / np.sqrt(3.0) / 300.0)
+    assert displaced_wall_u(log[2], earlier, unit_length_m=2.5, height_mm=300.0) == pytest.approx(
+        9.0 / np.sqrt(3.0) / 300.0)                # marked, the larger of the two steps
 
 
 def test_a_point_beyond_the_distortion_models_fold_has_no_ideal_position():

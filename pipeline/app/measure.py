@@ -152,11 +152,11 @@ def measure_package(folder: str | os.PathLike, *, certificates: str | os.PathLik
                                   recorded_frames=recorded_frames, keep_windows=[f for f in joints.values() if f is not None])
     t_contour = time.perf_counter() - t0
 
-    def under(obs: Observation, contour):
+    def under(obs: Observation, contour, own_joint_found: bool = False):
         # a pose borrowed from another window: the joints between that window and the observation count too
         pose_at = None if contour.pose_frame is None else ingest.track.at_frame(contour.pose_frame)[0]
         return contour_under(obs, observations, contour, unit_length_m=header.pipe_unit_length_m,
-                             height_mm=header.height_mm, pose_at_m=pose_at)
+                             height_mm=header.height_mm, pose_at_m=pose_at, own_joint_found=own_joint_found)
 
     def edges(obs: Observation, quantity: str) -> tuple[float, ...]:
         return quantity_edges(obs, quantity, header)
@@ -279,7 +279,8 @@ def measure_package(folder: str | os.PathLike, *, certificates: str | os.PathLik
             # contour's window is wider), decoded once with the contour's window; the logged frame first
             approach = [(i, cv2.cvtColor(ideal_frames[i], cv2.COLOR_BGR2GRAY), _chainage_at(ingest.track, i)[0])
                         for i in window_frames(ingest.track, found) if i in ideal_frames]
-            contour = under(obs, contours[found])
+            # its points lie on the joint's two rings found in the frames: its own step is in their model
+            contour = under(obs, contours[found], own_joint_found=True)
             sightings, _ = follow_joint(approach, contour.view, header.height_mm, mask=mask)
             qs, res = measure_joint(obs, sightings, contour, cert, H=header.height_mm,
                                     tolerance=header.height_tolerance_mm, model=model,

@@ -20,6 +20,13 @@ the other pipe: the joint's step then enters at any distance, the pose's
 own chainage given (``pose_at_m``). Found on the samples' benchmark: S01's
 frame 1002, 2.5 m beyond its joint, used the pose fitted around frame 436
 before it, and its quantities erred by the 10 mm step (|z| up to 5).
+
+A joint's gap measured from the image alone (BAJ A, ``pipeline.measurement.joints``)
+places its far point on the far pipe's ring as found in the frame, where that
+ring crosses the nominal one: its own joint's step is in its model, as in B's,
+and only a step logged at an earlier joint enters (``own_joint_found``). Until
+2026-12-05 the joint's own logged B entered too, put the two points 3 % of p_H
+off in the samples, and kept S01's and S02's gaps "found, not measured".
 """
 
 from __future__ import annotations
@@ -34,17 +41,22 @@ __all__ = ["displaced_wall_u", "contour_under"]
 
 
 def displaced_wall_u(obs: Observation, observations: list[Observation], *, unit_length_m: float,
-                     height_mm: float, pose_at_m: float | None = None) -> float:
+                     height_mm: float, pose_at_m: float | None = None, own_joint_found: bool = False) -> float:
     """Standard uncertainty [H] of the pipe's shift under ``obs`` from displaced joints logged before it.
 
     unit_length_m : pipe length between joints [m]; height_mm : H [mm]; pose_at_m : the chainage [m] of the frame
-    whose window the pose was fitted around, when that is not the observation's own (None: its own). 0 when no
-    displaced joint precedes it within a pipe length, nor lies between the pose's frame and it.
+    whose window the pose was fitted around, when that is not the observation's own (None: its own); own_joint_found :
+    ``obs`` is a joint whose two pipe ends were found in the image and its points placed on them, so a step logged at
+    its own joint (within half a pipe length before it: joints lie a pipe length apart) is in its model already. 0
+    when no displaced joint precedes it within a pipe length, nor lies between the pose's frame and it.
     """
     if obs.code == "BAJ" and obs.char1 == "B":
         return 0.0          # the step itself: its model puts its second point on the displaced pipe already
 
     def between(d: float) -> bool:
+        if own_joint_found and 0.0 <= obs.distance_m - d < 0.5 * unit_length_m:
+            return False    # its own joint, whose far ring the points were placed on
+
         if 0.0 <= obs.distance_m - d < unit_length_m:
             return True
         return pose_at_m is not None and min(pose_at_m, obs.distance_m) < d <= max(pose_at_m, obs.distance_m)
@@ -56,8 +68,10 @@ def displaced_wall_u(obs: Observation, observations: list[Observation], *, unit_
 
 
 def contour_under(obs: Observation, observations: list[Observation], contour: PipeContour, *, unit_length_m: float,
-                  height_mm: float, pose_at_m: float | None = None) -> PipeContour:
+                  height_mm: float, pose_at_m: float | None = None, own_joint_found: bool = False) -> PipeContour:
     """The contour with the wall's departure under ``obs``: the tolerance's, and that of displaced joints before it
-    (``displaced_wall_u``; pose_at_m : the chainage [m] of ``contour.pose_frame`` when the pose is borrowed)."""
-    extra = displaced_wall_u(obs, observations, unit_length_m=unit_length_m, height_mm=height_mm, pose_at_m=pose_at_m)
+    (``displaced_wall_u``; pose_at_m : the chainage [m] of ``contour.pose_frame`` when the pose is borrowed;
+    own_joint_found : a joint measured on its two ends found in the image)."""
+    extra = displaced_wall_u(obs, observations, unit_length_m=unit_length_m, height_mm=height_mm, pose_at_m=pose_at_m,
+                             own_joint_found=own_joint_found)
     return replace(contour, wall_u=math.hypot(contour.wall_u, extra)) if extra > 0 else contour

@@ -95,6 +95,26 @@ def test_no_lateral_is_not_found(no_lateral):
 
 
 @pytest.mark.slow
+def test_an_opening_under_the_overlay_is_not_found_and_says_where_the_overlay_hid_the_wall(lateral, no_lateral):
+    """S03's opening at 10 o'clock lies under the overlay's text in every frame that reaches it: "not found" alone
+    read as though the logged connection were not there. The reason now says how much of the wall searched the
+    overlay hid; where it hid none (the lateral-free pipe, no mask) it says nothing of it."""
+    cert, contour, frames = lateral
+    views = [(contour, frames[k], t) for k, t in enumerate(VIEW_DEPTHS_H)]
+    mask = np.full(frames[0].shape[:2], 255, np.uint8)
+    rows, cols = mask.shape
+    mask[:rows // 2, cols // 2:] = 0                  # an overlay over the upper right quarter, where 2 o'clock lies
+    with pytest.raises(MeasurementError, match=r"no lateral opening at 2 o'clock .*the video's overlay hides "
+                                               r"\d+(-\d+)? % of the wall searched in 2 of them"):
+        find_connection("BCA", 2, views, mask=mask)
+    assert find_connection("BCA", 2, views, mask=np.full_like(mask, 255)).found       # the same frames, unmasked
+    cert, contour, frames = no_lateral
+    with pytest.raises(MeasurementError) as err:
+        find_connection("BCA", 2, [(contour, frames[k], t) for k, t in enumerate(VIEW_DEPTHS_H)])
+    assert "overlay" not in str(err.value)
+
+
+@pytest.mark.slow
 def test_untrusted_contour_is_found_not_measured(lateral):
     cert, contour, frames = lateral
     doubtful = replace(contour, problems=["only 2 ring(s) follow the profile: too few to fix the pose"])

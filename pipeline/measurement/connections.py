@@ -40,7 +40,7 @@ from pipeline.measurement.frames import beyond_agreement, chi_square_with_covari
 from pipeline.measurement.quantity import MarkedQuantity, QuantityResult, measure_quantity
 from pipeline.vision.contour import PipeContour
 from pipeline.vision.contour.intrusion import Intrusion, find_intrusion
-from pipeline.vision.contour.lateral import Lateral, find_lateral
+from pipeline.vision.contour.lateral import Lateral, find_lateral, hidden_share
 from pipeline.vision.contour.deposit import find_deposit_surface
 
 __all__ = ["CONNECTION_CODES", "DEPOSIT_CODES", "FEATURE_CODES", "Automatic", "lateral_points", "intrusion_points", "deposit_points",
@@ -70,6 +70,7 @@ DEPOSIT_TRUST_CONTRAST = 15.0
 CLOCK_AGREEMENT_DEG = 25.0     # the frames must place the lateral within this of one another around the pipe
 FRAMES_AGREE_P = 0.01          # the frames' values disagree beyond the chi-square's 99 % point (``_frames_agree``)
 LATERAL_SEARCH_H = 0.9         # an opening is looked for this far either side of its expected depth [H]
+HIDDEN_SAY = 0.05              # a feature not found says what share of the wall searched the overlay hid, from this on
 ORIGIN = {"BCA": "lateral rim fit", "BAG": "intruding lateral's base and tip", "deposit": "deposit surface edge fit"}
 
 
@@ -194,9 +195,11 @@ def find_connection(code: str, clock: float | None, views: Sequence[tuple[PipeCo
     intruding = code == "BAG"
     found: list = []
     index = []
+    searched = []
     for k, (contour, ideal, depth) in enumerate(views):
         _pose_reason(contour, code)
         search = (max(0.9, depth - LATERAL_SEARCH_H), depth + ahead + LATERAL_SEARCH_H)
+        searched.append((contour.view, ideal.shape[:2], search))
         lat = (_find_intrusion if intruding else _find_lateral)(contour.view, ideal, clock, search,
                                                               depth + 0.5 * ahead, mask)
         if lat is not None:
@@ -206,10 +209,23 @@ def find_connection(code: str, clock: float | None, views: Sequence[tuple[PipeCo
         where = f"at {clock:g} o'clock " if clock is not None else ""
         what = "intruding lateral" if intruding else "lateral opening"
         raise MeasurementError(f"not found: {code}: no {what} {where}was found near the logged distance "
-                               f"in {len(views)} frame(s)")
+                               f"in {len(views)} frame(s){_hidden(searched, clock, mask)}")
     best = int(np.argmin([abs(math.log(lat.depth / VIEW_DEPTHS_H[0])) for _, lat in found]))
     found.insert(0, found.pop(best))
     return FoundConnection(found, index[best], len(views))
+
+
+def _hidden(searched, clock: float | None, mask: np.ndarray | None) -> str:
+    """What a feature not found says of the wall the video's overlay hid where it was looked for: not found is then
+    not evidence that it is not there (S03's opening at 10 o'clock lies under the overlay's text in every frame
+    that reaches it)."""
+    shares = [hidden_share(view, size, clock=clock, depths=depths, mask=mask) for view, size, depths in searched]
+    hid = [s for s in shares if s >= HIDDEN_SAY]
+    if not hid:
+        return ""
+    lo, hi = round(100 * min(hid)), round(100 * max(hid))
+    share = f"{lo} %" if lo == hi else f"{lo}-{hi} %"
+    return f"; the video's overlay hides {share} of the wall searched in {len(hid)} of them, where it may lie"
 
 
 def measure_connection(code: str, char1: str, clock: float | None, views: Sequence[tuple[PipeContour, np.ndarray, float]],

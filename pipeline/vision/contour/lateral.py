@@ -38,7 +38,7 @@ from scipy.ndimage import map_coordinates
 from pipeline.maths.profiles import clock_to_theta, wall_points
 from pipeline.vision.contour.view import PipeView
 
-__all__ = ["Lateral", "find_lateral", "rim_definition_u", "rim_on_ray", "wall_map"]
+__all__ = ["Lateral", "find_lateral", "hidden_share", "rim_definition_u", "rim_on_ray", "wall_map"]
 
 THETA_STEPS = 720                 # samples around the ring (0.5 deg)
 DEPTH_STEPS = 160                 # samples along the depths searched (geometric)
@@ -130,6 +130,29 @@ def wall_map(ideal: np.ndarray, view: PipeView, thetas: np.ndarray, depths: np.n
                         np.broadcast_to(depths[:, None, None], (len(depths), len(thetas), 1))], axis=2)
     pts = view.project(P.reshape(-1, 3)).reshape(len(depths), len(thetas), 2)
     return _masked(_sample(gray, pts), pts, mask)
+
+
+def hidden_share(view: PipeView, size: tuple[int, int], *, clock: float | None, depths: tuple[float, float],
+                 mask: np.ndarray | None, steps: tuple[int, int] = (61, 41)) -> float:
+    """The share of the wall searched for an opening (``SEARCH_CLOCK_H`` either side of ``clock``, or all round
+    for None; ``depths`` [H]) whose image lies in the frame (``size``: rows, columns) but under the mask (the
+    video's burned-in overlay): where a feature cannot be seen though the wall is in view. 0 without a mask."""
+    if mask is None:
+        return 0.0
+    half = np.radians(30.0 * SEARCH_CLOCK_H) if clock is not None else np.pi
+    centre = clock_to_theta(clock) if clock is not None else 0.0
+    thetas = centre + np.linspace(-half, half, steps[0])
+    ts = np.geomspace(depths[0], depths[1], steps[1])
+    xy = _wall_xy(view.shape, thetas)
+    P = np.column_stack([np.tile(xy, (len(ts), 1)), np.repeat(ts, len(thetas))])
+    pts = view.project(P)
+    rows, cols = size
+    inside = np.all(np.isfinite(pts), axis=1) & (pts[:, 0] >= 0) & (pts[:, 0] <= cols - 1) \
+        & (pts[:, 1] >= 0) & (pts[:, 1] <= rows - 1)
+    if not inside.any():
+        return 0.0
+    x, y = pts[inside, 0].round().astype(int), pts[inside, 1].round().astype(int)
+    return float(np.mean(mask[y, x] == 0) * inside.mean())
 
 
 def _running_median(m: np.ndarray, window: int) -> np.ndarray:

@@ -85,3 +85,12 @@ def test_a_wide_gap_s_floor_is_its_inside_s_lower_quartile_unless_something_lit_
     moved = np.array([(q[0] - d[0], q[1] - d[1]) for q, d in zip(quartile, darkest)])
     assert np.all(moved[:-1, 0] > 0) and np.all(moved[:-1, 1] < 0)       # a higher floor: both edges move out
     assert np.all(moved[-1] == 0.0)                                       # the lit face: the floor kept
+
+
+def test_the_worked_examples_in_the_docstrings():
+    import doctest
+
+    from pipeline.vision.contour import blurred_gap
+
+    failed, tried = doctest.testmod(blurred_gap)
+    assert tried and not failed

@@ -85,6 +85,46 @@ def test_the_step_is_measured_with_the_clock_of_its_largest_step(joint, cert):
     assert round(sightings[0].ends.step_clock) == 12          # the far pipe lower: it stands into the pipe at 12
 
 
+def test_a_joint_logged_at_its_own_distance_is_found_behind_the_reference_frame(joint, cert):
+    """EN 13508-2's longitudinal location is the feature's distance: a contractor may record a joint with the camera
+    at it or just past it, not stopped short of it as the samples' logs do. The joint then lies behind the
+    reference frame's camera, and was looked for only ahead of it (from 0.1 m): not found, or another joint
+    taken for it. The same approach with the reference frame 0.2 m past the joint finds the same sightings."""
+    frames, contour = joint
+    scene = Scene(Pipe("circular", H, "concrete", 1000.0 * JOINT_M), features=(DisplacedJoint("j", 1, GAP, STEP, clock=6),))
+    und = Undistorter(cert, cert.image_width_px, cert.image_height_px)
+    past = JOINT_M + 0.2
+    gray = cv2.cvtColor(und.frame(Renderer(scene, cert, offset_mm=(8.0, -15.0), seed=3).render(1000.0 * past, 0.0, 99)),
+                        cv2.COLOR_BGR2GRAY)
+    expected, _ = follow_joint(frames, contour.view, H)
+    sightings, _ = follow_joint([(99, gray, past)] + frames[1:], contour.view, H)
+    assert len(expected) >= 2 and [s.frame for s in sightings] == [s.frame for s in expected]
+    assert [s.depth for s in sightings] == pytest.approx([s.depth for s in expected], rel=1e-3)
+    # looked for only ahead of the camera, as before, the joint behind it is not found
+    assert follow_joint([(99, gray, past)] + frames[1:], contour.view, H, ahead_m=(0.1, 3.5))[0] == []
+
+
+def test_a_joint_is_not_looked_for_beyond_the_next_displaced_joint_logged():
+    """Of two displaced joints within reach, the more displaced was taken for both rows; each row now looks short of
+    the next BAJ the log gives (more than half a metre on: not the same joint), from half a metre behind."""
+    import doctest
+
+    from pipeline.measurement import joints
+    from pipeline.measurement.joints import joint_search_m
+
+    failed, tried = doctest.testmod(joints)
+    assert tried and not failed
+
+    def baj(row, m, char1="A"):
+        return Observation(row, m, "BAJ", char1, "", 8.0, "mm", None, "", None, None, True, "", None, "", "", {})
+
+    log = [baj(1, 10.0), baj(2, 10.02, "B"), baj(3, 12.5), baj(4, 20.0)]
+    assert joint_search_m(log[0], log, 10.0) == (-0.5, 2.0)           # short of row 3's joint, from 12.0 m on
+    assert joint_search_m(log[1], log, 10.02) == pytest.approx((-0.5, 1.98))   # the same joint's B: its A ignored
+    assert joint_search_m(log[2], log, 11.8) == (-0.5, 3.5)           # row 4's joint out of reach anyway
+    assert joint_search_m(baj(5, 19.3), log, 19.45) == (-0.5, 0.1)    # a log whose next joint is this near
+
+
 def test_frames_without_a_joint_give_not_found(cert):
     case = JointCase("E", "circular", H, "concrete", 8000.0, 0.0, 0.0, 6.0, 0.0, (8.0, -15.0), 0.0, 0.0, 0.0, 1.2,
                      displaced=False)

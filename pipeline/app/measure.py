@@ -37,8 +37,8 @@ from pipeline.measurement.automatic import measurable_automatically, measure_aut
 from pipeline.measurement.frames import measure_over_frames
 from pipeline.measurement.connections import (CONNECTION_CODES, DEPOSIT_SPAN_H, DEPOSIT_VIEW_H, FEATURE_CODES, VIEW_DEPTHS_H,
                                               validation_doubt, find_connection, measure_connection, measure_deposit)
-from pipeline.measurement.joints import (ANGULAR_NOT_MEASURED, found_not_measured, measurable_joint, measure_joint,
-                                         step_clock)
+from pipeline.measurement.joints import (ANGULAR_NOT_MEASURED, found_not_measured, joint_search_m, measurable_joint,
+                                         measure_joint, step_clock)
 from pipeline.measurement.marked import marked_quantity
 from pipeline.measurement.quantity import LINEAR_PREVIEW, MODELS, MarkedQuantity, QuantityResult, doubts, measure_quantity
 from pipeline.measurement.wall import contour_under
@@ -281,7 +281,8 @@ def measure_package(folder: str | os.PathLike, *, certificates: str | os.PathLik
                         for i in window_frames(ingest.track, found) if i in ideal_frames]
             # its points lie on the joint's two rings found in the frames: its own step is in their model
             contour = under(obs, contours[found], own_joint_found=True)
-            sightings, _ = follow_joint(approach, contour.view, header.height_mm, mask=mask)
+            reach = joint_search_m(obs, observations, approach[0][2]) if approach else (0.0, 0.0)
+            sightings, _ = follow_joint(approach, contour.view, header.height_mm, mask=mask, ahead_m=reach)
             qs, res = measure_joint(obs, sightings, contour, cert, H=header.height_mm,
                                     tolerance=header.height_tolerance_mm, model=model,
                                     seed=quantity_seed(manifest.package_id, r, "Q1 contour"), edges=edges(obs, "Q1"),

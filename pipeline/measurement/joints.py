@@ -36,10 +36,10 @@ from pipeline.measurement.codecs import codec_edge_u
 from pipeline.measurement.frames import beyond_agreement, chi_square_with_covariance, frame_covariance, measure_over_frames
 from pipeline.measurement.quantity import MarkedQuantity, QuantityResult, doubts
 from pipeline.vision.contour import PipeContour
-from pipeline.vision.contour.joint_ends import JointEnds, JointSighting, _wall
+from pipeline.vision.contour.joint_ends import LOG_BEHIND_M, SEARCH_AHEAD_M, JointEnds, JointSighting, _wall
 from pipeline.vision.contour.view import PipeView
 
-__all__ = ["JOINT_CHARS", "ORIGIN", "ANGULAR_NOT_MEASURED", "joint_points", "edge_u", "measure_joint",
+__all__ = ["JOINT_CHARS", "ORIGIN", "ANGULAR_NOT_MEASURED", "joint_points", "edge_u", "measure_joint", "joint_search_m",
            "measurable_joint", "found_not_measured", "step_clock", "frames_disagree", "plain_reasons"]
 
 JOINT_CHARS = {"A": "axial", "B": "step"}
@@ -58,6 +58,26 @@ ANGULAR_NOT_MEASURED = ("BAJ C (angular displacement) is not measured from the i
 def measurable_joint(obs: Observation) -> bool:
     """Whether a valid logged observation is a displaced joint the image alone can measure (BAJ A, B)."""
     return obs.code == "BAJ" and obs.char1 in JOINT_CHARS and not obs.problems
+
+
+def joint_search_m(obs: Observation, observations: Sequence[Observation], reference_m: float) -> tuple[float, float]:
+    """Where a logged joint is looked for, behind and ahead [m] of the camera at its reference frame (chainage
+    ``reference_m``): from ``LOG_BEHIND_M`` behind (a log giving the joint's own distance) to ``SEARCH_AHEAD_M``
+    ahead (a camera stopped short of it), but short of the next displaced joint the log gives (a BAJ more than
+    ``LOG_BEHIND_M`` beyond this one's distance: not the same joint), whose joint lies from ``LOG_BEHIND_M``
+    before its distance on. Without that bound, of two displaced joints within reach the more displaced was taken
+    for both rows, whichever way the log places them.
+
+    >>> from pipeline.domain.records import Observation
+    >>> def baj(row, m): return Observation(row, m, "BAJ", "B", "", 8.0, "mm", None, "", None, None, True, "", None, "", "", {})
+    >>> log = [baj(1, 2.0), baj(2, 2.0), baj(3, 4.5)]
+    >>> joint_search_m(log[0], log, 2.0), joint_search_m(log[2], log, 4.5)
+    ((-0.5, 2.0), (-0.5, 3.5))
+    """
+    later = [o.distance_m for o in observations
+             if o.code == "BAJ" and math.isfinite(o.distance_m) and o.distance_m > obs.distance_m + LOG_BEHIND_M]
+    ahead = SEARCH_AHEAD_M if not later else min(SEARCH_AHEAD_M, min(later) - LOG_BEHIND_M - reference_m)
+    return -LOG_BEHIND_M, max(ahead, 0.1)
 
 
 def _px_per_depth(view: PipeView, wall: np.ndarray, t: float) -> float:

@@ -43,7 +43,8 @@ from pipeline.vision.contour.blurred_gap import RHO_INFORMATIVE, blur_from_edges
     unblurred_width, width_per_sigma
 from pipeline.vision.contour.view import PipeView
 
-__all__ = ["JointEnds", "JointSighting", "find_joint_ends", "follow_joint", "joint_depths", "ring_in_view"]
+__all__ = ["JointEnds", "JointSighting", "LOG_BEHIND_M", "SEARCH_AHEAD_M", "find_joint_ends", "follow_joint", "joint_depths",
+           "ring_in_view"]
 
 N_ANGLES = 96
 SECTORS = 8
@@ -65,6 +66,10 @@ FLAT_INNER = 0.25          # a gap's inside is its floor when its upper quartile
 MIN_BLURRED_W = 2.0        # a generator's gap corrected for the blur as if at least this wide [sigma]
 BLUR_MODEL_SHARE = 0.3     # the blur's correction uncertain by this share of itself (a Gaussian in linear light,
                            # an assumption; the renderer blurs its grey levels)
+SEARCH_AHEAD_M = 3.5       # and at most this far ahead of it [m]: a camera stopped short of the joint (up to 2.5 m
+                           # before a DN 1000's, where its ring shows whole from about 2 H)
+LOG_BEHIND_M = 0.5         # a logged joint is looked for from this far behind the reference frame's camera [m]: a log
+                           # may give the joint's own distance (the camera at it, or just past it, when recorded)
 MAX_STEP_H = 0.2           # the far ring's centre this far [H] off the near one's: not a pipe end (displaced joints
                            # step a few % of H; a far end 20 % off is another feature taken for it)
 
@@ -616,12 +621,15 @@ class JointSighting:
     ends: JointEnds
 
 
-def follow_joint(frames, view: PipeView, height_mm: float, *, ahead_m: tuple[float, float] = (0.1, 3.5),
+def follow_joint(frames, view: PipeView, height_mm: float, *,
+                 ahead_m: tuple[float, float] = (-LOG_BEHIND_M, SEARCH_AHEAD_M),
                  n_nearest: int = 3, mask: np.ndarray | None = None) -> tuple[list[JointSighting], list[str]]:
-    """A joint ahead of the reference frame, found in the frames of the camera's approach, nearest first.
+    """A joint near the reference frame, found in the frames of the camera's approach, nearest first.
 
     frames : (frame id, ideal grey image, camera chainage [m]) of frames sharing the pose of ``view``, the
-    reference frame (where the joint was logged) first; the joint sought lies ``ahead_m`` [m] ahead of it.
+    reference frame (where the joint was logged) first; the joint sought lies ``ahead_m`` [m] ahead of it: from
+    ``LOG_BEHIND_M`` behind (a log giving the joint's own distance, EN 13508-2's longitudinal location, recorded
+    with the camera at or just past it) to where a camera stopped short of it still sees it.
     The joints each frame shows (``joint_depths``) are placed along the pipe by the frame's chainage; the one
     whose two ends show the widest gap and the largest step in its nearest frame is the joint; it is then
     found in the ``n_nearest`` frames nearest to it with its whole ring in view.

@@ -223,6 +223,31 @@ def test_an_intrusion_on_an_egg_side_wall_is_measured_with_its_axis_from_the_tub
     assert res.low <= truth <= res.high, (truth, res.value, res.low, res.high, res.reasons)
 
 
+@pytest.mark.slow
+def test_an_intruding_lateral_whose_region_takes_in_its_shadow_is_found_from_the_bright_region_alone():
+    """S02's lateral (DN400, 150 mm at 2 o'clock, 60 mm in, 30 % water, the camera 35 mm right and 40 mm low,
+    turned 1.5-3 degrees), looked for as the night does when the log may place it up to a metre ahead: from 1.6 H
+    the region unlike the wall took in the lit tube's shadow beside it, its axis fell off the tube, the tube's sides
+    were not found and the lateral was not. The region brighter than the wall alone is the tube."""
+    h, z = 400.0, 1500.0
+    cert = load_certificate(CERT)
+    scene = Scene(Pipe("circular", h, "vitrified clay", 1000.0), water_percent=30.0,
+                  features=(Connection("g", z, 2, 150.0, intrusion_mm=60.0),))
+    r = Renderer(scene, cert, offset_mm=(35.0, -40.0), yaw=math.radians(3.0), pitch=math.radians(2.0),
+                 roll=math.radians(1.5), seed=3)
+    und = Undistorter(cert, cert.image_width_px, cert.image_height_px)
+    zs = [z - t * h for t in (*VIEW_DEPTHS_H, 2.65, 3.0, 3.35, 3.7)]
+    frames = [und.frame(r.render(float(zz), 0.0, i)) for i, zz in enumerate(zs)]
+    contour = detect_contour([cv2.cvtColor(f, cv2.COLOR_BGR2GRAY) for f in frames], und.K, "circular",
+                             wall_u=wall_u_from_tolerance(h, 0.0))
+    ahead = 1000.0 / h                                   # the log may place it a metre ahead (LOG_AHEAD_M)
+    for k, t in enumerate(VIEW_DEPTHS_H):
+        found = find_intrusion(frames[k], contour.view, clock=2, expected_depth=t + 0.5 * ahead,
+                               depths=(max(0.9, t - LATERAL_SEARCH_H), t + ahead + LATERAL_SEARCH_H))
+        assert found is not None and found.confident, (t, found)
+        assert found.share == pytest.approx(60.0 / (h / 2), abs=0.01)          # the tip's share of the radius
+
+
 class _Track:
     def at_frame(self, frame):
         return 1.8 - (0.48, 0.69)[frame], 0.005

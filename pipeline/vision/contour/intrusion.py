@@ -277,6 +277,46 @@ def _axis_theta(gray: np.ndarray, view: PipeView, found, mask: np.ndarray | None
     return phi
 
 
+def _tube_in(gray: np.ndarray, view: PipeView, m: np.ndarray, unlike: np.ndarray, thetas: np.ndarray,
+             ts: np.ndarray, near_clock: bool, window: int, want: float, mask: np.ndarray | None):
+    """``_along_tube``'s result for the tube in the wall map's region where ``unlike`` (its log contrast to the
+    wall's level, one way or both) exceeds ``UNLIKE``: the region nearest the depth ``want`` [H] (and within
+    ``window`` map columns of the map's middle, the logged clock, where ``near_clock``), its axis from the tube's
+    two sides in the image; or None."""
+    smooth = cv2.GaussianBlur(np.nan_to_num(unlike, nan=0.0).astype(np.float32), (0, 0), 1.5)
+    region = (smooth > UNLIKE).astype(np.uint8)
+    region = cv2.morphologyEx(region, cv2.MORPH_CLOSE, np.ones((5, 5), np.uint8))
+    n, labels, stats, _ = cv2.connectedComponentsWithStats(region, connectivity=8)
+    mid = THETA_STEPS // 2
+    best = None
+    for k in range(1, n):
+        x0, y0, w, h, area = stats[k]
+        if area < 30 or w > THETA_STEPS / 3:
+            continue
+        if near_clock and not (x0 <= mid + window and x0 + w >= mid - window):
+            continue
+        cx = _axis_column(labels[y0:y0 + max(3, h // 5)] == k, thetas, view.shape)
+        if near_clock and abs(cx - mid) > window:
+            continue
+        score = abs(np.log(ts[y0] / want))
+        if best is None or score < best[0]:
+            best = (score, k, cx)
+    if best is None:
+        return None
+    _, k, cx = best
+    first_pass = _along_tube(gray, view, m, labels == k, cx, thetas, ts, mask)
+    if first_pass is None:
+        return None
+    # the tube's axis from its sides in the image (below); the region's outline on the map gives it only on a
+    # circle. A region whose two sides are not seen is not taken for a tube: on 50 generated pipes without a
+    # lateral (seed 37) the wall's own stains made 5 such regions, 2 of them seen alike in both frames and
+    # measured, and none of them showed a tube's sides
+    theta_axis = _axis_theta(gray, view, first_pass, mask)
+    if theta_axis is None:
+        return None
+    return _along_tube(gray, view, m, labels == k, _column(theta_axis, thetas), thetas, ts, mask)
+
+
 def find_intrusion(ideal_bgr: np.ndarray, view: PipeView, *, clock: float | None = None,
                    depths: tuple[float, float] = (1.0, 3.5), expected_depth: float | None = None,
                    mask: np.ndarray | None = None) -> Intrusion | None:
@@ -290,45 +330,22 @@ def find_intrusion(ideal_bgr: np.ndarray, view: PipeView, *, clock: float | None
     m = wall_map(ideal_bgr, view, thetas, ts, mask)
     background = _running_median(m, int(THETA_STEPS / 2) | 1)
     with np.errstate(invalid="ignore", divide="ignore"):
-        unlike = np.abs(np.log(np.maximum(m, 1.0) / np.maximum(background, 1.0)))
-    smooth = cv2.GaussianBlur(np.nan_to_num(unlike, nan=0.0).astype(np.float32), (0, 0), 1.5)
-    region = (smooth > UNLIKE).astype(np.uint8)
-    region = cv2.morphologyEx(region, cv2.MORPH_CLOSE, np.ones((5, 5), np.uint8))
-    n, labels, stats, _ = cv2.connectedComponentsWithStats(region, connectivity=8)
+        contrast = np.log(np.maximum(m, 1.0) / np.maximum(background, 1.0))
     window = int(SEARCH_CLOCK_H * 30 / 360 * THETA_STEPS)
-    mid = THETA_STEPS // 2
     want = expected_depth if expected_depth is not None else float(np.sqrt(depths[0] * depths[1]))
     # the log may put the feature behind the camera's frame (a chainage logged where the camera stood): the
     # nearest depth searched then, not a log of a negative depth (nan, which left the choice to the list's order)
     want = max(want, depths[0])
-    best = None
-    for k in range(1, n):
-        x0, y0, w, h, area = stats[k]
-        if area < 30 or w > THETA_STEPS / 3:
-            continue
-        if clock is not None and not (x0 <= mid + window and x0 + w >= mid - window):
-            continue
-        cx = _axis_column(labels[y0:y0 + max(3, h // 5)] == k, thetas, view.shape)
-        if clock is not None and abs(cx - mid) > window:
-            continue
-        score = abs(np.log(ts[y0] / want))
-        if best is None or score < best[0]:
-            best = (score, k, cx)
-    if best is None:
-        return None
-    _, k, cx = best
     gray = _gray(ideal_bgr)           # once for the frame: both passes and the sides read it
-    first_pass = _along_tube(gray, view, m, labels == k, cx, thetas, ts, mask)
-    if first_pass is None:
-        return None
-    # the tube's axis from its sides in the image (below); the region's outline on the map gives it only on a
-    # circle. A region whose two sides are not seen is not taken for a tube: on 50 generated pipes without a
-    # lateral (seed 37) the wall's own stains made 5 such regions, 2 of them seen alike in both frames and
-    # measured, and none of them showed a tube's sides
-    theta_axis = _axis_theta(gray, view, first_pass, mask)
-    if theta_axis is None:
-        return None
-    found = _along_tube(gray, view, m, labels == k, _column(theta_axis, thetas), thetas, ts, mask)
+    # the region unlike the wall either way first (a lit tube, its dark bore); where that is not a tube, the
+    # regions brighter and darker than the wall apart: a lit tube's shadow on the wall beside it joins the two
+    # (S02 logged at the feature: from 1.6 and 2.0 H the region took in the shadow, its axis fell 20 degrees off
+    # and the tube's sides were not found there)
+    found = None
+    for unlike in (np.abs(contrast), contrast, -contrast):
+        found = _tube_in(gray, view, m, unlike, thetas, ts, clock is not None, window, want, mask)
+        if found is not None:
+            break
     if found is None:
         return None
     theta, t_base, base, tip, u_base, share, step_px = found

@@ -241,6 +241,11 @@ def test_a_step_s_shared_edge_is_what_moves_the_rings_centres_and_the_codec_s(jo
     assert 0.0 < b.u_edge < 0.5 * a.u_edge
     coded = joint_points(_obs("B"), s, contour.view, cert, codec_edge_u("mp4v"))
     assert coded.u_edge == pytest.approx(math.hypot(b.u_edge, codec_edge_u("mp4v")))
+    # a codec without a figure (not benchmarked) takes the largest known, H.264's, not none
+    points = {c: measure_joint(_obs("B"), sightings, contour, cert, H=H, tolerance=0.0, seed=3, codec=c)[0][0]
+              for c in ("MJPG", "unknown", "avc1", None)}
+    assert points["MJPG"].u_edge == points["unknown"].u_edge == pytest.approx(points["avc1"].u_edge)
+    assert points["MJPG"].u_edge > points[None].u_edge
     # ends found before the sensitivities were kept: the gap's one-to-one taken, never less
     old = dataclasses.replace(s, ends=dataclasses.replace(s.ends, step_per_px=(math.nan, math.nan)))
     assert joint_points(_obs("B"), old, contour.view, cert).u_edge == pytest.approx(

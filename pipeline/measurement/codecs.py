@@ -8,7 +8,7 @@ same way in every frame of one approach. The figures are by codec family, read f
 
 from __future__ import annotations
 
-__all__ = ["MPEG4_PART2", "H264", "CODEC_EDGE_U_PX", "CODEC_FAMILIES", "codec_edge_u"]
+__all__ = ["MPEG4_PART2", "H264", "CODEC_EDGE_U_PX", "CODEC_FAMILIES", "LARGEST_CODEC_EDGE_U_PX", "codec_edge_u"]
 
 MPEG4_PART2 = frozenset({"mp4v", "fmp4", "xvid", "divx", "dx50"})
 # The u [px] MPEG-4 Part 2's 8x8 blocks give an edge coordinate of an opening's rim or an intruding lateral's base
@@ -26,10 +26,16 @@ MPEG4_PART2 = frozenset({"mp4v", "fmp4", "xvid", "divx", "dx50"})
 H264 = frozenset({"avc1", "h264", "x264", "avc3"})
 CODEC_EDGE_U_PX: dict[str, float] = {fourcc: 0.2 for fourcc in MPEG4_PART2} | {fourcc: 0.3 for fourcc in H264}
 CODEC_FAMILIES = {"MPEG-4 Part 2": MPEG4_PART2, "H.264": H264}     # their names, for the reasons said
+LARGEST_CODEC_EDGE_U_PX = max(CODEC_EDGE_U_PX.values())
 
 
-def codec_edge_u(codec: str | None) -> float:
+def codec_edge_u(codec: str | None, *, without_figure: float = 0.0) -> float:
     """The standard uncertainty [px] a video codec's blocks give an edge coordinate of an opening's rim or an
     intruding lateral's base and tip, by the video's FourCC (``CODEC_EDGE_U_PX``); 0 for frames not through a
-    codec (None) or a codec without a figure (those are not validated: ``validation_doubt``)."""
-    return CODEC_EDGE_U_PX.get(codec.strip().lower(), 0.0) if codec else 0.0
+    codec (None). A codec without a figure gets ``without_figure``: 0 where the code is not validated in it anyway
+    (``connections.validation_doubt``: found, not measured), the largest figure known
+    (``LARGEST_CODEC_EDGE_U_PX``) for a code measured in any codec (a displaced joint): its blocks move edges too,
+    by an amount no benchmark measured."""
+    if not codec:
+        return 0.0
+    return CODEC_EDGE_U_PX.get(codec.strip().lower(), without_figure)

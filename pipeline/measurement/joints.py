@@ -32,7 +32,7 @@ import numpy as np
 from pipeline.camera import Certificate
 from pipeline.core.errors import MeasurementError
 from pipeline.domain.records import Observation
-from pipeline.measurement.codecs import codec_edge_u
+from pipeline.measurement.codecs import LARGEST_CODEC_EDGE_U_PX, codec_edge_u
 from pipeline.measurement.frames import beyond_agreement, chi_square_with_covariance, frame_covariance, measure_over_frames
 from pipeline.measurement.quantity import MarkedQuantity, QuantityResult, doubts
 from pipeline.vision.contour import PipeContour
@@ -177,7 +177,7 @@ def measure_joint(obs: Observation, sightings: Sequence[JointSighting], contour:
     """Measure a BAJ A or B from the joint's ends seen in one or more frames (nearest first), with U95 and budget.
 
     contour : the pose fit the frames share (their approach's); H, tolerance : the header's [mm]; codec : the
-    video's FourCC (``codecs.codec_edge_u``; None: frames not through a codec).
+    video's FourCC (``codecs.codec_edge_u``; None: frames not through a codec; one without a figure: the largest).
     The result is not confident, with the reasons, when the contour is not trusted, when the joint was found in
     one frame only, when a frame's ends say so (glare, part of the ring hidden...), or, for the gap, when no frame
     resolves it against its blur (``JointEnds.gap_resolved``; the frames that do not are left out of A).
@@ -198,7 +198,10 @@ def measure_joint(obs: Observation, sightings: Sequence[JointSighting], contour:
             sightings = resolved
         else:
             unresolved.append(GAP_UNRESOLVED)
-    points = [joint_points(obs, s, contour.view, cert, codec_edge_u(codec)) for s in sightings]
+    # a codec the joints were not benchmarked in (MJPG, HEVC, a FourCC the reader could not tell): the largest
+    # figure known, not none
+    codec_u = codec_edge_u(codec, without_figure=LARGEST_CODEC_EDGE_U_PX)
+    points = [joint_points(obs, s, contour.view, cert, codec_u) for s in sightings]
     frames = [s.frame for s in sightings]
     views = [(q, contour) for q in points]
     res = measure_over_frames(views, cert, H=H, tolerance=tolerance, model=model, seed=seed, edges=edges,

@@ -56,7 +56,6 @@ def displaced_wall_u(obs: Observation, observations: list[Observation], *, unit_
     def between(d: float) -> bool:
         if own_joint_found and 0.0 <= obs.distance_m - d < 0.5 * unit_length_m:
             return False    # its own joint, whose far ring the points were placed on
-
         if 0.0 <= obs.distance_m - d < unit_length_m:
             return True
         return pose_at_m is not None and min(pose_at_m, obs.distance_m) < d <= max(pose_at_m, obs.distance_m)

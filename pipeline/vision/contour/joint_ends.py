@@ -66,10 +66,10 @@ FLAT_INNER = 0.25          # a gap's inside is its floor when its upper quartile
 MIN_BLURRED_W = 2.0        # a generator's gap corrected for the blur as if at least this wide [sigma]
 BLUR_MODEL_SHARE = 0.3     # the blur's correction uncertain by this share of itself (a Gaussian in linear light,
                            # an assumption; the renderer blurs its grey levels)
-SEARCH_AHEAD_M = 3.5       # and at most this far ahead of it [m]: a camera stopped short of the joint (up to 2.5 m
-                           # before a DN 1000's, where its ring shows whole from about 2 H)
 LOG_BEHIND_M = 0.5         # a logged joint is looked for from this far behind the reference frame's camera [m]: a log
                            # may give the joint's own distance (the camera at it, or just past it, when recorded)
+SEARCH_AHEAD_M = 3.5       # and at most this far ahead of it [m]: a camera stopped short of the joint (up to 2.5 m
+                           # before a DN 1000's, where its ring shows whole from about 2 H)
 MAX_STEP_H = 0.2           # the far ring's centre this far [H] off the near one's: not a pipe end (displaced joints
                            # step a few % of H; a far end 20 % off is another feature taken for it)
 

@@ -124,12 +124,16 @@ def wall_map(ideal: np.ndarray, view: PipeView, thetas: np.ndarray, depths: np.n
              mask: np.ndarray | None = None) -> np.ndarray:
     """Grey values (depths, thetas) of the wall at angles ``thetas`` [rad] and depths ``depths`` [H]; nan where
     the wall is out of the image or under the mask."""
-    gray = _gray(ideal)
+    pts = _wall_image(view, thetas, depths)
+    return _masked(_sample(_gray(ideal), pts), pts, mask)
+
+
+def _wall_image(view: PipeView, thetas: np.ndarray, depths: np.ndarray) -> np.ndarray:
+    """Image points (depths, thetas, 2) [px] of the wall at angles ``thetas`` [rad] and depths ``depths`` [H]."""
     xy = _wall_xy(view.shape, thetas)
     P = np.concatenate([np.broadcast_to(xy[None], (len(depths), len(thetas), 2)),
                         np.broadcast_to(depths[:, None, None], (len(depths), len(thetas), 1))], axis=2)
-    pts = view.project(P.reshape(-1, 3)).reshape(len(depths), len(thetas), 2)
-    return _masked(_sample(gray, pts), pts, mask)
+    return view.project(P.reshape(-1, 3)).reshape(len(depths), len(thetas), 2)
 
 
 def hidden_share(view: PipeView, size: tuple[int, int], *, clock: float | None, depths: tuple[float, float],
@@ -142,10 +146,7 @@ def hidden_share(view: PipeView, size: tuple[int, int], *, clock: float | None, 
     half = np.radians(30.0 * SEARCH_CLOCK_H) if clock is not None else np.pi
     centre = clock_to_theta(clock) if clock is not None else 0.0
     thetas = centre + np.linspace(-half, half, steps[0])
-    ts = np.geomspace(depths[0], depths[1], steps[1])
-    xy = _wall_xy(view.shape, thetas)
-    P = np.column_stack([np.tile(xy, (len(ts), 1)), np.repeat(ts, len(thetas))])
-    pts = view.project(P)
+    pts = _wall_image(view, thetas, np.geomspace(depths[0], depths[1], steps[1])).reshape(-1, 2)
     rows, cols = size
     inside = np.all(np.isfinite(pts), axis=1) & (pts[:, 0] >= 0) & (pts[:, 0] <= cols - 1) \
         & (pts[:, 1] >= 0) & (pts[:, 1] <= rows - 1)

@@ -7,7 +7,7 @@ opening's height around the pipe: the chord of its rim at its centre
 cross-section, as ``pipeline.synth.package`` states it), an intruding
 lateral (BAG, its length inside the pipe as % of the height: 5-30 %), or a
 settled deposit of random area (BBC, % of the cross-section). Frames are rendered small
-(the 720x576 certificate, a few frames per case): the two frames the night
+(the 720x576 certificate unless ``--camera`` names another, a few frames per case): the two frames the night
 measures on (the camera 1.6 H and 2.3 H before the lateral; 1.2 H and 1.7 H
 before a deposit's start) and forty more every 0.1 m within 2 m of the first, the night's window
 (``pipeline.vision.video.pipe_contour``), for the contour's rings.
@@ -179,8 +179,8 @@ def run_case(kind: str, i: int, rng, cert, codec: str, with_feature: bool, tmp: 
     frames, K = frames_of(scene, z, cert, mount, depths, i, codec, tmp)
     contour = detect_contour([cv2.cvtColor(f, cv2.COLOR_BGR2GRAY) for f in frames], K, shape,
                              wall_u=wall_u_from_tolerance(H, 0.0))
-    row = dict(kind=kind, dn=round(H, -1), shape=shape, codec=codec, feature=with_feature, truth=truth,
-               found=False, measured=False, value=None, u=None, U95=None, low=None, high=None, reason="")
+    row = dict(kind=kind, dn=round(H, -1), shape=shape, codec=codec, camera=cert.certificate_id, feature=with_feature,
+               truth=truth, found=False, measured=False, value=None, u=None, U95=None, low=None, high=None, reason="")
     try:
         if kind in ("bca", "bag"):
             views = [(contour, frames[k], t) for k, t in enumerate(depths)]
@@ -243,12 +243,15 @@ def main() -> None:
     ap.add_argument("--codec-u", type=float, nargs=2, metavar=("WAS", "NOW"),
                     help="with --table: the rows' codec term in each edge coordinate's u [px] as run, and a trial value "
                          "(the points' u widened or narrowed after the fact, ``rescaled``)")
+    ap.add_argument("--camera", type=Path, default=SAMPLES / "certificates" / "SYN-720x576.json",
+                    help="the camera's certificate the cases are rendered and measured with (default: the samples' "
+                    "720x576 camera; sample_videos/certificates/SYN-1280x720.json is a second one)")
     args = ap.parse_args()
     if args.table:
         rows = json.loads(args.table.read_text())
         report(rescaled(rows, *args.codec_u) if args.codec_u else rows)
         return
-    cert = load_certificate(SAMPLES / "certificates" / "SYN-720x576.json")
+    cert = load_certificate(args.camera)
     kinds, codecs = args.kind or KINDS, args.codec or ["none"]
     empty = args.cases // 3 if args.empty is None else args.empty
     rows: list[dict] = []

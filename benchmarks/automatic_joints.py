@@ -312,6 +312,9 @@ def main() -> None:
                     help="only pair the first N cases' sighted frames with the same frames rendered without a codec")
     ap.add_argument("--split", type=Path, help="only print what the frames share and what each adds, from rows kept "
                     "by --json")
+    ap.add_argument("--camera", type=Path, default=SAMPLES / "certificates" / "SYN-720x576.json",
+                    help="the camera's certificate the cases are rendered and measured with (default: the samples' "
+                    "720x576 camera; sample_videos/certificates/SYN-1280x720.json is a second one)")
     args = ap.parse_args()
     if args.table:
         print("\n".join(table(json.loads(args.table.read_text()))))
@@ -319,7 +322,7 @@ def main() -> None:
     if args.split:
         print("\n".join(split(json.loads(args.split.read_text()))))
         return
-    cert = load_certificate(SAMPLES / "certificates" / "SYN-720x576.json")
+    cert = load_certificate(args.camera)
     if args.widths:
         print("\n".join(widths(json.loads(args.widths.read_text()), cert.focal_px[0])))
         return
@@ -338,7 +341,8 @@ def main() -> None:
         codec = "h264" if n % 2 == 0 else "mpeg4"
         video = folder / "video.mp4" if codec == "mpeg4" else folder / f"{case.case_id}-h264.mp4"
         if not video.is_file() or not (folder / "truth.json").is_file() \
-                or read_truth(folder)["case"] != json.loads(json.dumps(asdict(case))):
+                or read_truth(folder)["case"] != json.loads(json.dumps(asdict(case))) \
+                or read_truth(folder).get("certificate_id", "SYN-720x576") != cert.certificate_id:   # (before 12-05)
             write_case(case, cert, args.work, codecs=(CODECS[codec],))
         truth = read_truth(folder)
         if args.rendered:
@@ -352,7 +356,7 @@ def main() -> None:
                       f"{raw_gap:+.2f} mm")
             continue
         for row in measure_case(video, truth, cert, args.contours, args.sightings, FOURCC[codec]):
-            rows.append({**row, "codec": codec})
+            rows.append({**row, "codec": codec, "camera": cert.certificate_id})
         if args.json:                    # kept as it goes: a long run's rows survive an interruption
             args.json.write_text(json.dumps(rows, indent=1, default=str))
         mine = [r for r in rows if r["case"] == case.case_id]

@@ -30,11 +30,11 @@ from typing import Sequence
 import numpy as np
 
 from pipeline.camera import Certificate
-from pipeline.core.errors import MeasurementError
+from pipeline.core.errors import MeasurementError, ModelError
 from pipeline.domain.records import Observation
 from pipeline.measurement.codecs import LARGEST_CODEC_EDGE_U_PX, codec_edge_u
 from pipeline.measurement.frames import beyond_agreement, chi_square_with_covariance, frame_covariance, measure_over_frames
-from pipeline.measurement.quantity import MarkedQuantity, QuantityResult, doubts
+from pipeline.measurement.quantity import LINEAR_PREVIEW, MarkedQuantity, QuantityResult, doubts
 from pipeline.vision.contour import PipeContour
 from pipeline.vision.contour.joint_ends import LOG_BEHIND_M, SEARCH_AHEAD_M, JointEnds, JointSighting, _wall
 from pipeline.vision.contour.view import PipeView
@@ -204,8 +204,16 @@ def measure_joint(obs: Observation, sightings: Sequence[JointSighting], contour:
     points = [joint_points(obs, s, contour.view, cert, codec_u) for s in sightings]
     frames = [s.frame for s in sightings]
     views = [(q, contour) for q in points]
-    res = measure_over_frames(views, cert, H=H, tolerance=tolerance, model=model, seed=seed, edges=edges,
-                              frames=frames)
+    common = dict(H=H, tolerance=tolerance, model=model, seed=seed, edges=edges, frames=frames)
+    try:
+        res = measure_over_frames(views, cert, **common)
+    except ModelError as exc:
+        # a pose so uncertain that its Monte Carlo draws leave the model's domain (the camera outside the pipe):
+        # the joint was found, so its value stands with the law of propagation's u, but gives no interval to trust
+        res = measure_over_frames(views, cert, **common, monte_carlo=False)
+        res.reasons = tuple(r for r in res.reasons if r != LINEAR_PREVIEW) + (
+            f"no interval: {exc} (the camera's pose is too uncertain here; value and u by the law of propagation)",)
+        res.confident = False
     reasons = list(res.reasons) + unresolved
     if not contour.confident:
         reasons.append("contour untrusted: " + "; ".join(contour.problems))

@@ -119,6 +119,7 @@ def write_case(case: JointCase, cert: Certificate, out_dir: str | os.PathLike, *
     truth = {"case": {k: v for k, v in asdict(case).items()}, "joint_m": case.joint_mm / 1000.0,
              "gap_mm": case.gap_mm, "step_mm": case.step_mm,
              "step_clock": (case.clock + 6.0 - 1.0) % 12.0 + 1.0,       # where the far end stands into the pipe
+             "certificate_id": cert.certificate_id,
              "frames_chainage_m": [round(float(c), 6) for c in chainage]}
     (folder / "truth.json").write_text(json.dumps(truth, indent=2) + "\n", encoding="utf-8")
     return {codec: delivered(video, codec, folder) for codec in codecs}

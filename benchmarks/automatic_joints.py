@@ -152,7 +152,8 @@ def measure_case(video: Path, truth: dict, cert, cache: Path | None = None, kept
                        # each input's contribution |c_i| u(x_i) [mm], summed in quadrature over a label's frames
                        budget=_budget(res))
         except PipegaugeError as exc:
-            row.update(status="not found", reasons=str(exc))
+            row.update(status="found, not measured" if str(exc).startswith("found, not measured") else "not found",
+                       reasons=str(exc))
         row["seconds"] = time.perf_counter() - t0
         rows.append(row)
     return rows
@@ -302,7 +303,8 @@ def main() -> None:
     ap.add_argument("--seed", type=int, default=34)
     ap.add_argument("--work", type=Path, default=Path("/tmp/joint-cases"), help="where the cases' videos are kept")
     ap.add_argument("--json", type=Path, help="write every row here")
-    ap.add_argument("--contours", type=Path, help="keep each video's pose fit here (reruns skip the fits)")
+    ap.add_argument("--contours", type=Path, help="keep each video's pose fit here (reruns skip the fits; a fresh "
+                    "folder after a change to the contour fit: the fits are keyed by the video alone)")
     ap.add_argument("--sightings", type=Path, help="keep each video's joint sightings here (reruns of the measurement "
                     "alone neither decode nor follow the joint)")
     ap.add_argument("--table", type=Path, help="only print the table of rows kept by --json")

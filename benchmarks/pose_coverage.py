@@ -14,7 +14,7 @@ rests on (rings less fitted pose parameters: ``PipeContour.dof``).
 ``--mismatch`` renders with a camera whose intrinsics and distortion are drawn from the certificate's
 covariance (``pipeline.synth.mismatch``) while the fit undistorts with the certificate's estimates.
 
-    python benchmarks/pose_coverage.py [--cases 30] [--seed 3] [--mismatch]
+    python benchmarks/pose_coverage.py [--cases 30] [--seed 3] [--mismatch] [--camera CERTIFICATE]
 """
 
 from __future__ import annotations
@@ -48,8 +48,11 @@ def main() -> None:
     ap.add_argument("--cases", type=int, default=30)
     ap.add_argument("--seed", type=int, default=3)
     ap.add_argument("--mismatch", action="store_true", help="render with a camera drawn from the certificate's u")
+    ap.add_argument("--camera", type=Path, default=SAMPLES / "certificates" / "SYN-720x576.json",
+                    help="the camera's certificate (default: the samples' 720x576 camera; "
+                    "sample_videos/certificates/SYN-1280x720.json is a second one)")
     args = ap.parse_args()
-    cert = load_certificate(SAMPLES / "certificates" / "SYN-720x576.json")
+    cert = load_certificate(args.camera)
     rng = np.random.default_rng(args.seed)
     rows = []
     t0 = time.perf_counter()
@@ -73,8 +76,8 @@ def main() -> None:
         d2 = float(e @ np.linalg.solve(C, e))
         z = np.full(5, np.nan)
         z[free] = e / np.sqrt(np.diag(C))
-        rows.append((z, d2, len(free), len(c.rings), c.dof, c.confident))
         err = c.view.pose - truth
+        rows.append((z, d2, len(free), len(c.rings), c.dof, c.confident, err))
         print(f"case {i + 1}/{args.cases}: rings {len(c.rings)}, nu {c.dof:g}, RMS {c.rms_px:.2f} px, d2 {d2:.2f} "
               f"over {len(free)}, z {np.round(z, 2)}, error ox {100 * err[0]:+.2f} % H, oy {100 * err[1]:+.2f} % H, "
               f"yaw {np.degrees(err[2]):+.2f} deg, pitch {np.degrees(err[3]):+.2f} deg, ring depths "
@@ -97,6 +100,9 @@ def main() -> None:
             if zj.size:
                 print(f"| {name} | {zj.size} | {robust_sd(zj):.2f} | {np.std(zj, ddof=1):.2f} | "
                       f"{100 * np.mean(np.abs(zj) > 3):.0f} % |")
+        err = np.abs(np.array([r[6] for r in mine]))
+        print(f"median |error|: ox {100 * np.median(err[:, 0]):.2f} % of H, oy {100 * np.median(err[:, 1]):.2f} % of H, "
+              f"yaw {np.degrees(np.median(err[:, 2])):.3f} deg, pitch {np.degrees(np.median(err[:, 3])):.3f} deg")
         ratio = np.array([r[1] / stats.chi2.median(r[2]) for r in mine])
         print(f"median d^2 / median chi^2_p: {np.median(ratio):.2f} (1 for a right covariance; the covariance "
               f"scale the data support is its square root: {np.sqrt(np.median(ratio)):.2f} in SD)")

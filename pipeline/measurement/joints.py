@@ -210,7 +210,13 @@ def measure_joint(obs: Observation, sightings: Sequence[JointSighting], contour:
     except ModelError as exc:
         # a pose so uncertain that its Monte Carlo draws leave the model's domain (the camera outside the pipe):
         # the joint was found, so its value stands with the law of propagation's u, but gives no interval to trust
-        res = measure_over_frames(views, cert, **common, monte_carlo=False)
+        try:
+            res = measure_over_frames(views, cert, **common, monte_carlo=False)
+        except ModelError:
+            # not even the points' own derivatives stay in it: ends so far off the pose's wall are no measurement
+            seen = plain_reasons([f"frame {s.frame}: {p}" for s in sightings for p in s.ends.problems])
+            raise MeasurementError("found, not measured: the joint's points leave the measurement model's domain "
+                                   f"({exc})" + "".join(f"; {r}" for r in seen)) from exc
         res.reasons = tuple(r for r in res.reasons if r != LINEAR_PREVIEW) + (
             f"no interval: {exc} (the camera's pose is too uncertain here; value and u by the law of propagation)",)
         res.confident = False

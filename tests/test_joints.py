@@ -183,6 +183,14 @@ def test_a_pose_too_uncertain_for_a_monte_carlo_gives_found_not_measured_with_it
     with pytest.raises(MeasurementError, match=r"^found, not measured: the joint's points leave the measurement"):
         measure_joint(_obs("A"), sightings, contour, cert, H=H, tolerance=0.0, seed=3)
 
+    # nor is a joint whose points the pose puts off the wall (seen: "the marks do not meet the pipe wall")
+    def off_the_wall(*args, **kwargs):
+        raise MeasurementError("BAJ Q1: the marks do not meet the pipe wall with the fitted camera pose")
+
+    monkeypatch.setattr(joints, "measure_over_frames", off_the_wall)
+    with pytest.raises(MeasurementError, match=r"^found, not measured: .*do not meet the pipe wall"):
+        measure_joint(_obs("A"), sightings, contour, cert, H=H, tolerance=0.0, seed=3)
+
 
 def test_a_joint_found_in_one_frame_only_is_not_trusted(joint, cert):
     frames, contour = joint

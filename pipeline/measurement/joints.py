@@ -206,20 +206,21 @@ def measure_joint(obs: Observation, sightings: Sequence[JointSighting], contour:
     views = [(q, contour) for q in points]
     common = dict(H=H, tolerance=tolerance, model=model, seed=seed, edges=edges, frames=frames)
     try:
-        res = measure_over_frames(views, cert, **common)
-    except ModelError as exc:
-        # a pose so uncertain that its Monte Carlo draws leave the model's domain (the camera outside the pipe):
-        # the joint was found, so its value stands with the law of propagation's u, but gives no interval to trust
         try:
+            res = measure_over_frames(views, cert, **common)
+        except ModelError as exc:
+            # a pose so uncertain that its Monte Carlo draws leave the model's domain (the camera outside the pipe):
+            # the joint was found, so its value stands with the law of propagation's u, but gives no interval
             res = measure_over_frames(views, cert, **common, monte_carlo=False)
-        except ModelError:
-            # not even the points' own derivatives stay in it: ends so far off the pose's wall are no measurement
-            seen = plain_reasons([f"frame {s.frame}: {p}" for s in sightings for p in s.ends.problems])
-            raise MeasurementError("found, not measured: the joint's points leave the measurement model's domain "
-                                   f"({exc})" + "".join(f"; {r}" for r in seen)) from exc
-        res.reasons = tuple(r for r in res.reasons if r != LINEAR_PREVIEW) + (
-            f"no interval: {exc} (the camera's pose is too uncertain here; value and u by the law of propagation)",)
-        res.confident = False
+            res.reasons = tuple(r for r in res.reasons if r != LINEAR_PREVIEW) + (
+                f"no interval: {exc} (the camera's pose is too uncertain here; value and u by the law of propagation)",)
+            res.confident = False
+    except (ModelError, MeasurementError) as exc:
+        # the ends found lie where the pose puts no wall (a frame's ends far off the pose's axis, another feature
+        # taken for an end): the joint was found, but its points are no measurement
+        seen = plain_reasons([f"frame {s.frame}: {p}" for s in sightings for p in s.ends.problems])
+        raise MeasurementError("found, not measured: the joint's points leave the measurement model with the "
+                               f"fitted camera pose ({exc})" + "".join(f"; {r}" for r in seen)) from exc
     reasons = list(res.reasons) + unresolved
     if not contour.confident:
         reasons.append("contour untrusted: " + "; ".join(contour.problems))

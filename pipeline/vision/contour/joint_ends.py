@@ -50,11 +50,12 @@ N_ANGLES = 96
 SECTORS = 8
 MIN_DIP = 0.80             # the median profile's dip: at most this share of its baseline [1]
 MIN_EDGES = 0.5            # share of the generators on which both edges are found
-# a frame is searched for the joint's ends when this share of its ring lies in the image. A 16:9 camera sees less
-# of the pipe's height: with the whole ring asked for, the 1280x720 camera's nearest frames at 0.6-0.94 H went
-# unsearched and a joint was found in fewer frames or none (seed 361: 90 % found, 76 % measured at DN >= 200). A
-# circular ring's sides fix its depth and centre; an egg's flatter sides trade its depth against its height, and
-# its ends' rings cut at crown and invert gave consistent wrong gaps (seed 361, two of 41 eggs: z -7.9 and -3.7)
+# a frame is searched for the joint's ends when this share of its ring lies in the image. With the whole ring asked
+# for, the nearest frames, where U95 is smallest, went unsearched: a 16:9 camera holds the pipe's height only from
+# about 0.94 H (1280x720; 720x576 from 0.66 H), and S01's gap came from 1.0 H, 20.60 +- 1.03 mm (truth 20; from
+# 0.67 H now 20.07 +- 0.58). A circular ring's sides fix its depth and centre; an egg's flatter sides trade its depth
+# against its height: its ends' rings cut at crown and invert gave consistent wrong gaps (seed 361 through the
+# 1280x720 camera, two of 41 eggs: z -7.9 and -3.7; docs/measurement.md, "A second camera")
 IN_VIEW_SHARE = {"circular": 0.75, "egg": 1.0}
 MIN_SECTORS = 5            # sectors (of SECTORS) holding edges of both rings (water may hide the invert's)
 GLARE_LEVEL = 250          # grey level of a saturated pixel

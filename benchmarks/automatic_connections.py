@@ -52,9 +52,9 @@ from pipeline.vision.video.pipe_contour import window_span_m
 from pipeline.vision.video.reader import iter_frames
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
+from cameras import DEFAULT_CAMERA, add_camera_argument  # noqa: E402
 from coverage_stats import false_finds, median_interval, robust_sd, robust_sd_interval, wilson  # noqa: E402
 
-SAMPLES = Path(__file__).resolve().parent.parent / "sample_videos"
 KINDS = ("bca", "bbc", "bag")
 DNS = (150, 200, 300, 400, 600, 800, 1000)
 # frames about the nearest measured one for the contour's rings: every 0.1 m within 2 m of it (3 H from DN 667 on),
@@ -141,7 +141,7 @@ def frames_at_depths(kind: str, cases: int, seed: int, shapes: tuple[str, ...], 
     """As ``nearest_frames``, with the frames at each of ``depths`` [H] before the feature (the pose fitted to them
     and the ring frames about the first), through ``codec`` (``FOURCC``'s keys): (index, scene, clock, those
     frames, their contour) each."""
-    cert = load_certificate(SAMPLES / "certificates" / "SYN-720x576.json")
+    cert = load_certificate(DEFAULT_CAMERA)
     rng = np.random.default_rng([seed, KINDS.index(kind), 0])
     for i in range(cases):
         scene, z, _, clock, mount = case(kind, rng, True)
@@ -243,9 +243,7 @@ def main() -> None:
     ap.add_argument("--codec-u", type=float, nargs=2, metavar=("WAS", "NOW"),
                     help="with --table: the rows' codec term in each edge coordinate's u [px] as run, and a trial value "
                          "(the points' u widened or narrowed after the fact, ``rescaled``)")
-    ap.add_argument("--camera", type=Path, default=SAMPLES / "certificates" / "SYN-720x576.json",
-                    help="the camera's certificate the cases are rendered and measured with (default: the samples' "
-                    "720x576 camera; sample_videos/certificates/SYN-1280x720.json is a second one)")
+    add_camera_argument(ap)
     args = ap.parse_args()
     if args.table:
         rows = json.loads(args.table.read_text())

@@ -55,9 +55,9 @@ from pipeline.vision.contour.joint_ends import follow_joint
 from pipeline.vision.video.reader import iter_frames
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
+from cameras import add_camera_argument  # noqa: E402
 from coverage_stats import robust_sd, wilson  # noqa: E402
 
-SAMPLES = Path(__file__).resolve().parent.parent / "sample_videos"
 CODECS = {"mpeg4": None, "h264": "h264"}
 FOURCC = {"mpeg4": "mp4v", "h264": "avc1"}     # what the night reads from each video (``codecs.codec_edge_u``)
 
@@ -314,9 +314,7 @@ def main() -> None:
                     help="only pair the first N cases' sighted frames with the same frames rendered without a codec")
     ap.add_argument("--split", type=Path, help="only print what the frames share and what each adds, from rows kept "
                     "by --json")
-    ap.add_argument("--camera", type=Path, default=SAMPLES / "certificates" / "SYN-720x576.json",
-                    help="the camera's certificate the cases are rendered and measured with (default: the samples' "
-                    "720x576 camera; sample_videos/certificates/SYN-1280x720.json is a second one)")
+    add_camera_argument(ap)
     args = ap.parse_args()
     if args.table:
         print("\n".join(table(json.loads(args.table.read_text()))))
@@ -342,9 +340,9 @@ def main() -> None:
         # the codecs take turns (each case rendered once, delivered in one of them): half the CPU of both
         codec = "h264" if n % 2 == 0 else "mpeg4"
         video = folder / "video.mp4" if codec == "mpeg4" else folder / f"{case.case_id}-h264.mp4"
-        if not video.is_file() or not (folder / "truth.json").is_file() \
-                or read_truth(folder)["case"] != json.loads(json.dumps(asdict(case))) \
-                or read_truth(folder).get("certificate_id", "SYN-720x576") != cert.certificate_id:   # (before 12-05)
+        kept = read_truth(folder) if video.is_file() and (folder / "truth.json").is_file() else None
+        if kept is None or kept["case"] != json.loads(json.dumps(asdict(case))) \
+                or kept.get("certificate_id", "SYN-720x576") != cert.certificate_id:   # (none before 2026-12-05)
             write_case(case, cert, args.work, codecs=(CODECS[codec],))
         truth = read_truth(folder)
         if args.rendered:

@@ -36,7 +36,8 @@ from pipeline.synth.mismatch import drawn_certificate
 from pipeline.synth.scene import Pipe, Scene
 from pipeline.synth.window import render_window
 
-SAMPLES = Path(__file__).resolve().parent.parent / "sample_videos"
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from cameras import add_camera_argument  # noqa: E402
 
 
 def robust_sd(x: np.ndarray) -> float:
@@ -48,9 +49,7 @@ def main() -> None:
     ap.add_argument("--cases", type=int, default=30)
     ap.add_argument("--seed", type=int, default=3)
     ap.add_argument("--mismatch", action="store_true", help="render with a camera drawn from the certificate's u")
-    ap.add_argument("--camera", type=Path, default=SAMPLES / "certificates" / "SYN-720x576.json",
-                    help="the camera's certificate (default: the samples' 720x576 camera; "
-                    "sample_videos/certificates/SYN-1280x720.json is a second one)")
+    add_camera_argument(ap)
     args = ap.parse_args()
     cert = load_certificate(args.camera)
     rng = np.random.default_rng(args.seed)

@@ -41,7 +41,7 @@ from scipy.optimize import least_squares
 from pipeline.maths.profiles import exit_table, profile_polygon, theta_to_clock
 from pipeline.vision.contour.blurred_gap import RHO_INFORMATIVE, blur_from_edges, half_level_width, \
     unblurred_width, width_per_sigma
-from pipeline.vision.contour.view import PipeView
+from pipeline.vision.contour.view import PipeView, in_image
 
 __all__ = ["JointEnds", "JointSighting", "LOG_BEHIND_M", "SEARCH_AHEAD_M", "find_joint_ends", "follow_joint", "joint_depths",
            "ring_in_view", "IN_VIEW_SHARE"]
@@ -170,10 +170,7 @@ def ring_in_view(view: PipeView, t: float, size: tuple[int, int], margin_px: flo
     ring = view.ring(t)
     if not np.all(np.isfinite(ring)):
         return False
-    rows, cols = size
-    inside = (ring[:, 0] >= margin_px) & (ring[:, 1] >= margin_px) & (ring[:, 0] <= cols - 1 - margin_px) \
-        & (ring[:, 1] <= rows - 1 - margin_px)
-    return bool(np.mean(inside) >= share)
+    return bool(np.mean(in_image(ring, size, margin_px)) >= share)
 
 
 def _profiles(gray: np.ndarray, view: PipeView, angles: np.ndarray, inv_t: np.ndarray,

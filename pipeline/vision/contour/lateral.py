@@ -36,7 +36,7 @@ import numpy as np
 from scipy.ndimage import map_coordinates
 
 from pipeline.maths.profiles import clock_to_theta, wall_points
-from pipeline.vision.contour.view import PipeView
+from pipeline.vision.contour.view import PipeView, in_image
 
 __all__ = ["Lateral", "find_lateral", "hidden_share", "rim_definition_u", "rim_on_ray", "wall_map"]
 
@@ -147,9 +147,7 @@ def hidden_share(view: PipeView, size: tuple[int, int], *, clock: float | None, 
     centre = clock_to_theta(clock) if clock is not None else 0.0
     thetas = centre + np.linspace(-half, half, steps[0])
     pts = _wall_image(view, thetas, np.geomspace(depths[0], depths[1], steps[1])).reshape(-1, 2)
-    rows, cols = size
-    inside = np.all(np.isfinite(pts), axis=1) & (pts[:, 0] >= 0) & (pts[:, 0] <= cols - 1) \
-        & (pts[:, 1] >= 0) & (pts[:, 1] <= rows - 1)
+    inside = in_image(pts, size)
     if not inside.any():
         return 0.0
     x, y = pts[inside, 0].round().astype(int), pts[inside, 1].round().astype(int)

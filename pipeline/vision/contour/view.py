@@ -18,7 +18,7 @@ import numpy as np
 from pipeline.maths.profiles import arc_of_hit, profile_polygon, ray_to_wall
 from pipeline.camera.pose import camera_rotation
 
-__all__ = ["PipeView", "POSE_PARAMETERS"]
+__all__ = ["PipeView", "POSE_PARAMETERS", "in_image"]
 
 _ANGLE_STEP = 1e-6     # central difference of the 3 x 3 rotation [rad]: error about 1e-12
 
@@ -180,3 +180,12 @@ class PipeView:
         """Ideal image point (2,) [px] of the pipe axis direction."""
         d = self.R_wc.T @ np.array([0.0, 0.0, 1.0])
         return np.array([self.cx + self.fx * d[0] / d[2], self.cy + self.fy * d[1] / d[2]])
+
+
+def in_image(points, size: tuple[int, int], margin_px: float = 0.0) -> np.ndarray:
+    """Whether image points (..., 2) [px] lie inside an image of ``size`` (rows, cols), at least ``margin_px`` from
+    its edge pixels' centres; False for a point that is not finite."""
+    q = np.asarray(points, float)
+    rows, cols = size
+    return (q[..., 0] >= margin_px) & (q[..., 1] >= margin_px) & (q[..., 0] <= cols - 1 - margin_px) \
+        & (q[..., 1] <= rows - 1 - margin_px)

@@ -33,7 +33,7 @@ import math
 import pickle
 import sys
 import time
-from dataclasses import asdict
+from dataclasses import asdict, replace
 from pathlib import Path
 
 import cv2
@@ -46,8 +46,8 @@ from pipeline.formats.certificate import load_certificate
 from pipeline.measurement.frames import frame_values
 from pipeline.measurement.joints import _px_per_depth, measure_joint
 from pipeline.maths.profiles import clock_to_theta
-from pipeline.synth.joint_cases import JointCase, case_scene, random_case, read_truth, write_case
-from pipeline.synth.render import Renderer
+from pipeline.synth.appearance import Appearance, varied_appearance
+from pipeline.synth.joint_cases import JointCase, case_renderer, random_case, read_truth, write_case
 from pipeline.vision.contour import detect_contour
 from pipeline.vision.contour.detect import wall_u_from_tolerance
 from pipeline.vision.contour import joint_ends
@@ -168,8 +168,7 @@ def rendered_pairs(case: JointCase, video: Path, truth: dict, cert, cache: Path 
     if not sightings or case.step_mm <= 0:
         return []
     und = Undistorter(cert, cert.image_width_px, cert.image_height_px)
-    r = Renderer(case_scene(case), cert, offset_mm=case.offset_mm, yaw=math.radians(case.yaw_deg),
-                 pitch=math.radians(case.pitch_deg), roll=math.radians(case.roll_deg), seed=case.seed)
+    r = case_renderer(case, cert)
     th = clock_to_theta(case.clock)
     along = np.array([math.cos(th), math.sin(th)])
     out = []
@@ -303,6 +302,10 @@ def main() -> None:
     ap.add_argument("--seed", type=int, default=34)
     ap.add_argument("--work", type=Path, default=Path("/tmp/joint-cases"), help="where the cases' videos are kept")
     ap.add_argument("--json", type=Path, help="write every row here")
+    ap.add_argument("--appearance", choices=("default", "varied"), default="default",
+                    help="the video's look: the one the detectors were developed on, or one drawn per case "
+                         "(blur, response, vignetting, the gap's darkness, the socket's face, noise: "
+                         "pipeline.synth.appearance); the cases' geometry is the same either way")
     ap.add_argument("--contours", type=Path, help="keep each video's pose fit here (reruns skip the fits; a fresh "
                     "folder after a change to the contour fit: the fits are keyed by the video alone)")
     ap.add_argument("--sightings", type=Path, help="keep each video's joint sightings here (reruns of the measurement "
@@ -329,6 +332,10 @@ def main() -> None:
     rng = np.random.default_rng(args.seed)
     cases = [random_case(rng, f"J{i:03d}", seed=i) for i in range(args.cases)]
     cases += [random_case(rng, f"E{i:03d}", displaced=False, seed=1000 + i) for i in range(args.empty)]
+    if args.appearance == "varied":
+        # the same cases (the geometry's draws are untouched), each rendered with a look of its own
+        looks = np.random.default_rng([args.seed, 1])
+        cases = [replace(c, noise=float(looks.uniform(0.5, 5.0)), appearance=varied_appearance(looks)) for c in cases]
     rows: list[dict] = []
     t0 = time.perf_counter()
     if args.rendered:
@@ -341,7 +348,9 @@ def main() -> None:
         codec = "h264" if n % 2 == 0 else "mpeg4"
         video = folder / "video.mp4" if codec == "mpeg4" else folder / f"{case.case_id}-h264.mp4"
         kept = read_truth(folder) if video.is_file() and (folder / "truth.json").is_file() else None
-        if kept is None or kept["case"] != json.loads(json.dumps(asdict(case))) \
+        # (cases kept before 2026-12-05 carry no look: theirs was the default)
+        if kept is None or {"noise": 2.0, "appearance": asdict(Appearance()), **kept["case"]} \
+                != json.loads(json.dumps(asdict(case))) \
                 or kept.get("certificate_id", "SYN-720x576") != cert.certificate_id:   # (none before 2026-12-05)
             write_case(case, cert, args.work, codecs=(CODECS[codec],))
         truth = read_truth(folder)
@@ -356,7 +365,8 @@ def main() -> None:
                       f"{raw_gap:+.2f} mm")
             continue
         for row in measure_case(video, truth, cert, args.contours, args.sightings, FOURCC[codec]):
-            rows.append({**row, "codec": codec, "camera": cert.certificate_id})
+            rows.append({**row, "codec": codec, "camera": cert.certificate_id, "noise": case.noise,
+                         "look": asdict(case.appearance)})
         if args.json:                    # kept as it goes: a long run's rows survive an interruption
             args.json.write_text(json.dumps(rows, indent=1, default=str))
         mine = [r for r in rows if r["case"] == case.case_id]

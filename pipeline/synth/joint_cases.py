@@ -22,11 +22,12 @@ import cv2
 import numpy as np
 
 from pipeline.camera import Certificate
+from pipeline.synth.appearance import Appearance
 from pipeline.synth.delivery import delivered
 from pipeline.synth.render import Renderer
 from pipeline.synth.scene import DisplacedJoint, Pipe, Scene
 
-__all__ = ["JointCase", "random_case", "case_scene", "approach_chainages", "write_case", "read_truth", "STEP_M",
+__all__ = ["JointCase", "random_case", "case_scene", "case_renderer", "approach_chainages", "write_case", "read_truth", "STEP_M",
            "NEAR_STEP_M"]
 
 STEP_M = 0.2              # camera travel between frames of the approach [m]
@@ -55,6 +56,8 @@ class JointCase:
     approach_m: float             # the reference frame's camera stands this far before the joint [m]
     displaced: bool = True
     seed: int = 0
+    noise: float = 2.0            # the sensor's noise [grey levels of 255]
+    appearance: Appearance = Appearance()     # the video's look (``synth.appearance``)
 
     @property
     def joint_mm(self) -> float:
@@ -89,6 +92,13 @@ def case_scene(case: JointCase) -> Scene:
     return Scene(pipe, water_percent=case.water_percent, features=joints)
 
 
+def case_renderer(case: JointCase, cert: Certificate) -> Renderer:
+    """The renderer of the case's scene from its camera mount, with its noise and look."""
+    return Renderer(case_scene(case), cert, offset_mm=case.offset_mm, yaw=math.radians(case.yaw_deg),
+                    pitch=math.radians(case.pitch_deg), roll=math.radians(case.roll_deg), seed=case.seed,
+                    noise=case.noise, appearance=case.appearance)
+
+
 def approach_chainages(case: JointCase) -> np.ndarray:
     """Camera chainage of each frame [m]: the reference frame (``approach_m`` before the joint) first, then
     every ``STEP_M`` nearer, and every ``NEAR_STEP_M`` (the contour's window step) over the last ``NEAR_M``,
@@ -105,8 +115,7 @@ def write_case(case: JointCase, cert: Certificate, out_dir: str | os.PathLike, *
     for each codec of ``codecs`` besides None ("h264"); ``truth.json``. Returns {codec: video path}."""
     folder = Path(out_dir) / case.case_id
     folder.mkdir(parents=True, exist_ok=True)
-    r = Renderer(case_scene(case), cert, offset_mm=case.offset_mm, yaw=math.radians(case.yaw_deg),
-                 pitch=math.radians(case.pitch_deg), roll=math.radians(case.roll_deg), seed=case.seed)
+    r = case_renderer(case, cert)
     chainage = approach_chainages(case)
     video = folder / "video.mp4"
     writer = cv2.VideoWriter(str(video), cv2.VideoWriter_fourcc(*"mp4v"), 25.0,

@@ -25,6 +25,7 @@ import numpy as np
 from pipeline.camera import Certificate
 from pipeline.maths.profiles import clock_to_theta, exit_table, perimeter, profile_polygon, segment_height_for_area_fraction, wall_point
 from pipeline.camera.pose import camera_rotation, pixel_rays
+from pipeline.synth.appearance import Appearance
 from pipeline.synth.scene import Connection, Crack, Deformation, Deposit, DisplacedJoint, Marker, Scene
 from pipeline.synth.texture import MATERIALS, TEXEL_MM, wall_texture
 
@@ -33,8 +34,7 @@ __all__ = ["Renderer"]
 S_MAX = 60_000.0        # [mm] rays along the axis end here (black)
 _GAIN = 0.6
 _AMBIENT = 0.015
-_GAMMA = 1 / 1.4
-_TONE_K, _WHITE = 20.0, 6.0
+_WHITE = 6.0
 _LUT_SIZE, _LUT_MAX = 4096, 16.0
 LIP_MM = 20.0                         # width of the socket face seen before each joint gap
 _TEX_PERIOD_MM = 2048 * TEXEL_MM      # a power of two of texels: the z index wraps with a bit mask
@@ -68,11 +68,13 @@ class Renderer:
     offset_mm : (X, Y) of the camera centre in the cross-section [mm]
     yaw, pitch, roll : camera orientation [rad] (see ``rig.camera_rotation``)
     noise : standard deviation of the sensor noise [grey levels of 255]
+    appearance : the optics' blur, the response, vignetting and the joints' look (``synth.appearance``)
     """
 
     def __init__(self, scene: Scene, cert: Certificate, *, offset_mm=(0.0, 0.0), yaw=0.0, pitch=0.0, roll=0.0,
-                 seed: int = 0, noise: float = 2.0):
+                 seed: int = 0, noise: float = 2.0, appearance: Appearance = Appearance()):
         self.scene, self.cert = scene, cert
+        self.look = look = appearance
         self.W, self.H = cert.image_width_px, cert.image_height_px
         self.f = float(cert.focal_px[0])
         self.ox, self.oy = (float(v) for v in offset_mm)
@@ -120,14 +122,20 @@ class Renderer:
         x = (np.arange(_LUT_SIZE, dtype=np.float64) + 0.5) * (_LUT_MAX / _LUT_SIZE)
         # A logarithmic response, like a CCTV camera's auto-exposure and knee: the far wall
         # stays visible for metres before the centre turns black.
-        tone = np.clip(np.log1p(_TONE_K * x) / np.log1p(_TONE_K * _WHITE) + _AMBIENT, 0, 1)
-        self.tone_lut = np.rint(255 * tone**_GAMMA).astype(np.uint8)
+        tone = np.clip(np.log1p(look.tone_k * x) / np.log1p(look.tone_k * _WHITE) + _AMBIENT, 0, 1)
+        self.tone_lut = np.rint(255 * tone**look.gamma).astype(np.uint8)
         levels = np.arange(256, dtype=np.float64)
         # tint_luts[region, channel, brightness] -> display value
-        self.tint_luts = np.rint(levels[None, None, :] * (self.palette[:, :, None] ** _GAMMA)).astype(np.uint8)
+        self.tint_luts = np.rint(levels[None, None, :] * (self.palette[:, :, None] ** look.gamma)).astype(np.uint8)
         bank = np.rint(noise * self.rng.standard_normal((self.H + 16, self.W + 16, 3)))
         self.noise_up = np.clip(bank, 0, 255).astype(np.uint8)
         self.noise_down = np.clip(-bank, 0, 255).astype(np.uint8)
+        self.vignette = None
+        if look.vignette > 0:
+            # the lens's fall-off: the corners lose ``vignette`` of their light, with the square of the radius
+            v, u = np.mgrid[0:self.H, 0:self.W].astype(np.float32)
+            r2 = ((u - 0.5 * (self.W - 1)) ** 2 + (v - 0.5 * (self.H - 1)) ** 2) / (0.25 * (self.W ** 2 + self.H ** 2))
+            self.vignette = (1.0 - look.vignette * r2).ravel()
 
     # -- geometry that does not depend on the camera's Z ----------------------
     def _wall_hits(self, centre: tuple[float, float]) -> _Hits:
@@ -177,14 +185,14 @@ class Renderer:
         amp = np.minimum(2.0 * TEXEL_MM / hits.fp, 1.0)
         albedo = self.tex_mean + (self.tex[iz, hits.iu] - self.tex_mean) * amp
         groove, lip = self._joint_coverage(z, hits.fp)
-        albedo *= 1.0 - 0.85 * groove
+        albedo *= 1.0 - self.look.groove * groove
         region = np.zeros(z.shape, np.uint8)
         self._wall_marks(albedo, region, hits, z)
 
         lum = albedo * hits.light
         # The socket's end face looks at the camera: lit almost head-on, unlike the grazing wall.
         faces = np.nonzero(lip)[0]
-        lum[faces] *= 1.0 + lip[faces] * (np.minimum(0.8 / np.maximum(hits.cos[faces], 0.05), 8.0) - 1.0)
+        lum[faces] *= 1.0 + lip[faces] * (np.minimum(self.look.face_gain / np.maximum(hits.cos[faces], 0.05), 8.0) - 1.0)
         s_cur = hits.s.copy()
         self._deposits(lum, region, s_cur, z_cam)
         self._connections(lum, region, s_cur, z_cam)
@@ -199,6 +207,8 @@ class Renderer:
                 region[water] = _WATER
                 s_cur[water] = sw
 
+        if self.vignette is not None:
+            lum *= self.vignette
         # Tone curve and gamma give an 8-bit brightness; each region's tint then scales it per
         # channel ((lum * tint)^g = lum^g * tint^g), through 256-entry tables.
         idx = np.minimum((lum * (_LUT_SIZE / _LUT_MAX)).astype(np.int32), _LUT_SIZE - 1)
@@ -212,7 +222,8 @@ class Renderer:
         oy, ox = (frame * 7) % 16, (frame * 11 + frame // 16) % 16
         out = cv2.add(out, self.noise_up[oy:oy + self.H, ox:ox + self.W])
         out = cv2.subtract(out, self.noise_down[oy:oy + self.H, ox:ox + self.W])
-        return cv2.GaussianBlur(out, (5, 5), 0.9)
+        k = 2 * round(2.5 * self.look.blur_px) + 1       # 5 x 5 for the default 0.9 px
+        return cv2.GaussianBlur(out, (k, k), self.look.blur_px)
 
     def _segments(self, z_cam: float) -> _Hits:
         """Wall hits for this frame: the first segment, the displaced one beyond its joint, and the step face."""

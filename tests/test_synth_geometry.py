@@ -129,3 +129,35 @@ def test_a_stop_with_a_reversal_backs_up_and_drives_on():
     assert after[turn] == pytest.approx(0.7, abs=0.005)   # backed up 0.3 m
     assert np.all(np.diff(after[:turn + 1]) < 0) and np.all(np.diff(after[turn:]) >= 0)
     assert len(back) > len(plain) and back[-1] == pytest.approx(plain[-1])
+
+
+def test_a_look_changes_how_the_pipe_looks_not_where():
+    """The look (``synth.appearance``) blurs, darkens corners and joints, but moves no wall point: the same scene
+    under two looks has its joint ring in the same place, and each part of the look does what it says."""
+    from pipeline.synth.appearance import Appearance, varied_appearance
+
+    cert = sample_certificate(320, 256)
+    scene = Scene(Pipe("circular", 300.0, "concrete", 1000.0, joint_gap_mm=20.0))
+
+    def frame(**look):
+        return cv2.cvtColor(Renderer(scene, cert, noise=0.0, appearance=Appearance(**look)).render(400.0),
+                            cv2.COLOR_BGR2GRAY).astype(float)
+
+    plain, sharp, blurred = frame(), frame(blur_px=0.5), frame(blur_px=2.0)
+    energy = [float(np.mean(np.abs(np.diff(f, axis=1)))) for f in (sharp, plain, blurred)]
+    assert energy[0] > energy[1] > energy[2]
+    vignetted = frame(vignette=0.4)
+    corner, centre = (slice(0, 40), slice(0, 40)), (slice(108, 148), slice(140, 180))
+    assert vignetted[corner].mean() < 0.95 * plain[corner].mean()     # light lost before the log response
+    assert abs(vignetted[centre].mean() - plain[centre].mean()) < 0.03 * plain[centre].mean() + 1.0
+    # the joint's gap: darker with a deeper groove, at the same place (the darkest ring's row along the centre)
+    shallow, deep = frame(groove=0.5), frame(groove=0.95)
+    column = shallow.shape[1] // 2
+    gap_rows = np.argsort(deep[:, column] - shallow[:, column])[:3]
+    assert np.all(deep[gap_rows, column] < shallow[gap_rows, column] - 2)
+    assert np.argmin(deep[:60, column]) == np.argmin(shallow[:60, column])
+    rng = np.random.default_rng(0)
+    for _ in range(20):
+        varied_appearance(rng)                     # always inside the ranges Appearance accepts
+    with pytest.raises(ValueError, match="blur_px"):
+        Appearance(blur_px=0.0)

@@ -25,7 +25,8 @@ class Appearance:
     gamma : the display exponent after the logarithmic response [-] (brightness = tone ** gamma);
     tone_k : how strongly the logarithmic response compresses the bright near wall [-] (larger: the far pipe
         stays brighter against the near);
-    vignette : share of the brightness lost in the image's corners [-] (falling with the square of the radius);
+    vignette : share of the light lost in the image's corners [-] (with the square of the radius; before the
+        logarithmic response, which compresses it);
     groove : share of the light a joint's gap swallows at its floor [-];
     face_gain : brightness of the socket's end face, lit head-on, against the grazing wall [-].
     """

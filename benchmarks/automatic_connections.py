@@ -33,6 +33,7 @@ import math
 import sys
 import tempfile
 import time
+from dataclasses import asdict
 from pathlib import Path
 
 import cv2
@@ -44,6 +45,7 @@ from pipeline.formats.certificate import load_certificate
 from pipeline.maths.profiles import clock_to_theta, wall_point
 from pipeline.measurement.connections import DEPOSIT_SPAN_H, DEPOSIT_VIEW_H, VIEW_DEPTHS_H, measure_connection, measure_deposit
 from pipeline.measurement.quantity import MC_NOT_CONVERGED
+from pipeline.synth.appearance import Appearance, varied_appearance
 from pipeline.synth.render import Renderer
 from pipeline.synth.scene import Connection, Deposit, Pipe, Scene
 from pipeline.vision.contour import detect_contour
@@ -114,12 +116,14 @@ def _r_eq(shape: str, H: float) -> float:
     return perimeter(shape, H) / (2 * math.pi)
 
 
-def frames_of(scene: Scene, z: float, cert, mount, depths, seed: int, codec: str, tmp: Path):
+def frames_of(scene: Scene, z: float, cert, mount, depths, seed: int, codec: str, tmp: Path,
+              look: tuple[float, Appearance] = (2.0, Appearance())):
     """Ideal BGR frames: one at each of ``depths`` [H] before z, then those of ``ring_offsets_mm`` about the first
-    (the night fits the pose to the frames within 2 m, or 3 H, either side)."""
+    (the night fits the pose to the frames within 2 m, or 3 H, either side); ``look``: the sensor's noise [grey
+    levels] and the video's look (``synth.appearance``)."""
     H = scene.pipe.height_mm
     r = Renderer(scene, cert, offset_mm=mount["offset_mm"], yaw=mount["yaw"], pitch=mount["pitch"], roll=mount["roll"],
-                 seed=seed)
+                 seed=seed, noise=look[0], appearance=look[1])
     zs = [z - t * H for t in depths] + [z - depths[0] * H + dz for dz in ring_offsets_mm(H)]
     raw = [r.render(float(zc), 0.0, i) for i, zc in enumerate(zs)]
     if codec != "none":
@@ -172,15 +176,17 @@ def _through_codec(raw, codec: str, tmp: Path, cert):
     return out
 
 
-def run_case(kind: str, i: int, rng, cert, codec: str, with_feature: bool, tmp: Path) -> dict:
+def run_case(kind: str, i: int, rng, cert, codec: str, with_feature: bool, tmp: Path,
+             look: tuple[float, Appearance] = (2.0, Appearance())) -> dict:
     scene, z, truth, clock, mount = case(kind, rng, with_feature)
     H, shape = scene.pipe.height_mm, scene.pipe.shape
     depths = DEPOSIT_VIEW_H if kind == "bbc" else VIEW_DEPTHS_H
-    frames, K = frames_of(scene, z, cert, mount, depths, i, codec, tmp)
+    frames, K = frames_of(scene, z, cert, mount, depths, i, codec, tmp, look)
     contour = detect_contour([cv2.cvtColor(f, cv2.COLOR_BGR2GRAY) for f in frames], K, shape,
                              wall_u=wall_u_from_tolerance(H, 0.0))
     row = dict(kind=kind, dn=round(H, -1), shape=shape, codec=codec, camera=cert.certificate_id, feature=with_feature,
-               truth=truth, found=False, measured=False, value=None, u=None, U95=None, low=None, high=None, reason="")
+               truth=truth, found=False, measured=False, value=None, u=None, U95=None, low=None, high=None, reason="",
+               noise=look[0], look=asdict(look[1]))
     try:
         if kind in ("bca", "bag"):
             views = [(contour, frames[k], t) for k, t in enumerate(depths)]
@@ -243,6 +249,9 @@ def main() -> None:
     ap.add_argument("--codec-u", type=float, nargs=2, metavar=("WAS", "NOW"),
                     help="with --table: the rows' codec term in each edge coordinate's u [px] as run, and a trial value "
                          "(the points' u widened or narrowed after the fact, ``rescaled``)")
+    ap.add_argument("--appearance", choices=("default", "varied"), default="default",
+                    help="the video's look: the one the detectors were developed on, or one drawn per case "
+                         "(blur, response, vignetting, the joints' look, noise: pipeline.synth.appearance)")
     add_camera_argument(ap)
     args = ap.parse_args()
     if args.table:
@@ -258,8 +267,12 @@ def main() -> None:
         for kind in kinds:
             for codec in codecs:
                 rng = np.random.default_rng([args.seed, KINDS.index(kind), codecs.index(codec)])
+                # the same cases either way (the geometry's draws are untouched), each with a look of its own
+                looks = np.random.default_rng([args.seed, KINDS.index(kind), codecs.index(codec), 1])
                 for i in range(args.cases + empty):
-                    r = run_case(kind, i, rng, cert, codec, i < args.cases, Path(tmp))
+                    look = (float(looks.uniform(0.5, 5.0)), varied_appearance(looks)) if args.appearance == "varied" \
+                        else (2.0, Appearance())
+                    r = run_case(kind, i, rng, cert, codec, i < args.cases, Path(tmp), look)
                     rows.append(r)
                     print(f"{kind} {codec} {i + 1}/{args.cases + empty}: DN {r['dn']:.0f} {r['shape']}, feature "
                           f"{r['feature']}, truth {r['truth']:.1f}, value {r['value']}, U95 {r['U95']}, "

@@ -94,3 +94,20 @@ def test_the_worked_examples_in_the_docstrings():
 
     failed, tried = doctest.testmod(blurred_gap)
     assert tried and not failed
+
+
+def test_a_shallow_gap_beside_a_dim_far_wall_is_read_from_its_own_dip():
+    """A gap that swallows less light than the far pipe loses to its distance (a flat response, a bright floor) is
+    not the darkest part of its profile: the darkest-sample reading finds no gap there, the dip's own reading
+    finds its two edges where they are."""
+    w, sigma = 16.0, 1.3
+    x = np.arange(-40.0, 40.0, 0.25)
+    dip = ndtr((x + w / 2) / sigma) - ndtr((x - w / 2) / sigma)
+    wall = 0.6 * np.exp(np.minimum(x + w / 2 + 5.0, 0.0) / 8.0)      # the far wall fades with depth beyond the gap
+    grey = 255.0 * (wall * (1.0 - 0.5 * dip)) ** (1.0 / joint_ends.RESPONSE_GAMMA)
+    assert grey[0] < grey[len(x) // 2]                                                 # the deep end is darker
+    assert joint_ends._edges(grey) is None
+    e_near, e_far, _, _ = joint_ends._edges(grey, by_dip=True)
+    centre = len(x) // 2
+    assert (e_near - e_far) * 0.25 == pytest.approx(w, abs=0.3)
+    assert 0.25 * (0.5 * (e_near + e_far) - centre) == pytest.approx(0.0, abs=0.5)

@@ -451,9 +451,10 @@ def _generator_step(s0: float, lo_light: float, hi_light: float, x: np.ndarray) 
     light, the generator's display response, then its optical blur (Gaussian, 0.9 px)."""
     from scipy.ndimage import gaussian_filter1d
 
-    from pipeline.synth.render import _GAMMA
+    from pipeline.synth.appearance import Appearance
+    look = Appearance()
     light = lo_light + (hi_light - lo_light) * np.clip(x - s0 + 0.5, 0.0, 1.0)
-    return gaussian_filter1d(255.0 * light ** _GAMMA, 0.9)
+    return gaussian_filter1d(255.0 * light ** look.gamma, look.blur_px)
 
 
 @pytest.mark.parametrize("s0", [0.0, 0.25, 0.5])

@@ -387,3 +387,24 @@ def test_generators_the_far_ring_does_not_meet_are_outliers_not_a_crash(joint, m
     monkeypatch.setattr(joint_ends, "_far_u", lost)
     fitted, _ = joint_ends._fit_far(view, walls, far_u, (1.0, 0.0, 0.0), 1.05, radius)
     assert fitted[0] == pytest.approx(1.05, rel=1e-3) and np.hypot(*fitted[1:3]) < 1e-3
+
+
+def test_a_joint_under_a_flat_response_and_a_bright_gap_is_found_in_its_nearest_frames(cert):
+    """A look the detectors were not developed on (``synth.appearance``: the gap swallowing 60 % of the light,
+    not 85 %, under a flatter response): the gap is not the darkest part of most generators' profiles in one of
+    the nearest frames, which the generators' own dips then find; the joint is seen in its three nearest frames
+    and its gap and step hold the truth."""
+    from pipeline.synth.appearance import Appearance
+
+    scene = Scene(Pipe("circular", H, "concrete", 1000.0 * JOINT_M), features=(DisplacedJoint("j", 1, GAP, STEP, clock=6),))
+    r = Renderer(scene, cert, offset_mm=(8.0, -15.0), seed=3,
+                 appearance=Appearance(groove=0.6, gamma=0.5, tone_k=31.0, blur_px=1.1))
+    und = Undistorter(cert, cert.image_width_px, cert.image_height_px)
+    chainage = [JOINT_M - d for d in TRAVEL]
+    grays = [cv2.cvtColor(und.frame(r.render(1000.0 * c, 0.0, i)), cv2.COLOR_BGR2GRAY) for i, c in enumerate(chainage)]
+    contour = detect_contour(grays, und.K, "circular", wall_u=wall_u_from_tolerance(H, 0.0))
+    sightings, _ = follow_joint([(i, g, c) for i, (g, c) in enumerate(zip(grays, chainage))], contour.view, H)
+    assert len(sightings) == 3
+    for char1, truth in (("A", GAP), ("B", STEP)):
+        _, res = measure_joint(_obs(char1), sightings, contour, cert, H=H, tolerance=0.0)
+        assert res.low <= truth <= res.high

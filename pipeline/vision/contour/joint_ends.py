@@ -36,6 +36,7 @@ from dataclasses import dataclass
 
 import cv2
 import numpy as np
+from scipy.signal import find_peaks
 from scipy.optimize import least_squares
 
 from pipeline.maths.profiles import exit_table, profile_polygon, theta_to_clock
@@ -220,7 +221,7 @@ def joint_depths(gray: np.ndarray, view: PipeView, t_range: tuple[float, float],
     return found
 
 
-def _edges(p: np.ndarray) -> tuple[float, float, float, float] | None:
+def _edges(p: np.ndarray, by_dip: bool = False) -> tuple[float, float, float, float] | None:
     """The gap's two edges in one generator's profile (index positions, near first: the profile runs from far
     to near, 1 / t growing) and the width of each edge's ramp, from a quarter to three quarters of the way from
     the floor to that side's plateau [samples]; or None.
@@ -231,26 +232,38 @@ def _edges(p: np.ndarray) -> tuple[float, float, float, float] | None:
     far edge where it, coming from the far wall (the deepest quarter of the profile), first falls below half-way
     between that wall's level and the floor. A far pipe's end face, lit inside the gap where that pipe stands
     into the flow, lies between the two and does not move them.
+
+    ``by_dip``: the gap is the profile's most prominent dip instead (``_gap_basin``), each edge sought from the
+    top of the dip's side and half-way between that top and the floor; for frames where the darkest sample
+    does not find the gap (``find_joint_ends``).
     """
     if not np.isfinite(p).all():
         return None
     n = len(p)
-    i = int(np.argmin(p))
-    if i < 3 or i > n - 4:
-        return None
-    floor = p[i]
-    near_level = float(p[i + 1:].max())
-    far_level = float(np.median(p[:max(3, i // 3)]))
+    tops: tuple[int, int] | None = None              # (far, near) tops of the dip's sides, by_dip
+    if by_dip:
+        basin = _gap_basin(p)
+        if basin is None:
+            return None
+        i, tops = basin[0], (basin[1], basin[2])
+    else:
+        i = int(np.argmin(p))
+        if i < 3 or i > n - 4:
+            return None
+    floor, (near_level, far_level) = p[i], _side_levels(p, i, tops)
     if min(near_level, far_level) - floor < max(MIN_CONTRAST, 0.1 * max(near_level, far_level)):
         return None                                 # no edge: a flat profile
     # the edges are found in linear light: a blurred edge covers half of a pixel in the scene's light, and a
     # camera's response is concave (a gamma, a knee), so half-way between the grey levels lies on the dark side
     # of the edge: both edges moved into the gap, the gap found short (by 0.4 px at its nearest frames)
     p = _linear(p)
-    floor, near_level, far_level = p[i], float(p[i + 1:].max()), float(np.median(p[:max(3, i // 3)]))
+    floor, (near_level, far_level) = p[i], _side_levels(p, i, tops)
     half_near, half_far = 0.5 * (floor + near_level), 0.5 * (floor + far_level)
-    j = int(np.nonzero(p < half_near)[0].max())     # the nearest sample below: the edge lies between j and j + 1
-    k = int(np.nonzero(p < half_far)[0].min())      # the farthest sample below: the edge lies between k - 1 and k
+    # the near edge lies between j and j + 1, the far one between k - 1 and k: the samples below half-way nearest
+    # the camera and deepest (by the dip: nearest each side's top)
+    lo, hi = (tops[0], tops[1] + 1) if tops else (0, n)
+    j = lo + int(np.nonzero(p[lo:hi] < half_near)[0].max())
+    k = lo + int(np.nonzero(p[lo:hi] < half_far)[0].min())
     if j + 1 >= n or k < 1 or k > j:
         return None
     # the levels again from the plateaus just beyond each edge (the far wall darkens with depth, so the deep
@@ -276,6 +289,35 @@ def _edges(p: np.ndarray) -> tuple[float, float, float, float] | None:
             return None
         (e_near, e_far), ramps = found, _ramps(p, i, floor, near_level, far_level)
     return float(e_near), float(e_far), float(ramps[0]), float(ramps[1])
+
+
+def _side_levels(p: np.ndarray, i: int, tops) -> tuple[float, float]:
+    """The levels of the gap's near and far side in profile p with its floor at i: the brightest sample nearer
+    and the deepest third's median; or, given the dip's (far, near) tops, theirs."""
+    if tops is None:
+        return float(p[i + 1:].max()), float(np.median(p[:max(3, i // 3)]))
+    return float(p[tops[1]]), float(p[tops[0]])
+
+
+def _gap_basin(p: np.ndarray) -> tuple[int, int, int] | None:
+    """The profile's most prominent dip: (its darkest sample, the top of its far side, the top of its near side)
+    [index], or None without a dip clear of the profile's ends.
+
+    Each side's top is its brightest sample before the profile falls below the dip's floor (the dip's
+    prominence, as ``scipy.signal.peak_prominences`` defines it). Not the profile's darkest sample and the far
+    wall's level: a gap that swallows less of the light than the far pipe's fall-off does (a bright-floored gap
+    under a flat response) is then not the darkest part of its profile, and the deep wall's level lies under
+    the gap's own plateau (with a varied look, seed 354: 62 of 192 generators of one frame had their darkest
+    sample at the profile's deep end, 97 too little contrast against the deep wall).
+    """
+    dips, props = find_peaks(-p, prominence=0.0)
+    if not len(dips):
+        return None
+    best = int(np.argmax(props["prominences"]))
+    i = int(dips[best])
+    if i < 3 or i > len(p) - 4:
+        return None
+    return i, int(props["left_bases"][best]), int(props["right_bases"][best])
 
 
 def _half_crossings(p: np.ndarray, j: int, k: int, floor: float, near_level: float,
@@ -396,10 +438,13 @@ def _far_u(view: PipeView, walls: np.ndarray, t_far: float, centre, radius) -> n
         return np.hypot(p[:, 0], p[:, 1]) - radius(np.arctan2(p[:, 1], p[:, 0]))
 
     u = np.full(len(walls), 1.0 / t_far)
-    for _ in range(4):
-        du = 1e-6 * u
-        slope = (g(u + du) - g(u - du)) / (2 * du)
-        u = u - g(u) / slope
+    # a generator along which the ring does not change (a flat slope) or that leaves it goes to inf or nan: an
+    # outlier of the far fit (``_far_residual``), not a warning
+    with np.errstate(divide="ignore", invalid="ignore"):
+        for _ in range(4):
+            du = 1e-6 * u
+            slope = (g(u + du) - g(u - du)) / (2 * du)
+            u = u - g(u) / slope
     return u
 
 
@@ -490,6 +535,11 @@ def find_joint_ends(gray: np.ndarray, view: PipeView, depth: float, *, mask: np.
     angles = np.linspace(-np.pi, np.pi, 2 * N_ANGLES, endpoint=False)
     vals, pts = _profiles(gray, view, angles, inv_t, mask)
     found = [(a, e) for a, e in enumerate(map(_edges, vals)) if e is not None]
+    if len(found) < MIN_EDGES * len(angles) / 2:
+        # the darkest sample is not the gap in most generators (a gap that swallows less light than the far pipe
+        # loses to its distance, under a flat response): the generators' most prominent dip instead. Only then:
+        # where both find the gap, the darkest sample's edges are those validated (docs/measurement.md)
+        found = [(a, e) for a, e in enumerate(_edges(v, by_dip=True) for v in vals) if e is not None]
     blur, resolved, shift, u_blur = _blur(found, pts)
     near, far, kept, near_u, far_u = [], [], [], [], []
     glare, deeper, du_px = [], [], []                  # per edge: the generator's image direction away from the

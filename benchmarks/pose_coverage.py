@@ -14,7 +14,9 @@ rests on (rings less fitted pose parameters: ``PipeContour.dof``).
 ``--mismatch`` renders with a camera whose intrinsics and distortion are drawn from the certificate's
 covariance (``pipeline.synth.mismatch``) while the fit undistorts with the certificate's estimates.
 
-    python benchmarks/pose_coverage.py [--cases 30] [--seed 3] [--mismatch] [--camera CERTIFICATE]
+``--appearance varied`` renders each scene with a look of its own (``pipeline.synth.appearance``).
+
+    python benchmarks/pose_coverage.py [--cases 30] [--seed 3] [--mismatch] [--camera CERTIFICATE] [--appearance varied]
 """
 
 from __future__ import annotations
@@ -32,6 +34,7 @@ from pipeline.formats.certificate import load_certificate
 from pipeline.vision.contour import detect_contour
 from pipeline.vision.contour.detect import wall_u_from_tolerance
 from pipeline.vision.contour.view import POSE_PARAMETERS
+from pipeline.synth.appearance import Appearance, varied_appearance
 from pipeline.synth.mismatch import drawn_certificate
 from pipeline.synth.scene import Pipe, Scene
 from pipeline.synth.window import render_window
@@ -49,10 +52,14 @@ def main() -> None:
     ap.add_argument("--cases", type=int, default=30)
     ap.add_argument("--seed", type=int, default=3)
     ap.add_argument("--mismatch", action="store_true", help="render with a camera drawn from the certificate's u")
+    ap.add_argument("--appearance", choices=("default", "varied"), default="default",
+                    help="the video's look: the one the detectors were developed on, or one drawn per case "
+                         "(pipeline.synth.appearance; the same scenes either way)")
     add_camera_argument(ap)
     args = ap.parse_args()
     cert = load_certificate(args.camera)
     rng = np.random.default_rng(args.seed)
+    looks = np.random.default_rng([args.seed, 1])
     rows = []
     t0 = time.perf_counter()
     for i in range(args.cases):
@@ -61,8 +68,10 @@ def main() -> None:
         yaw, pitch = float(rng.uniform(-2, 2)), float(rng.uniform(-2, 2))
         scene = Scene(Pipe("circular", H, "vitrified clay", 1000.0))
         render_cert = drawn_certificate(cert, rng) if args.mismatch else None
+        noise, look = (float(looks.uniform(0.5, 5.0)), varied_appearance(looks)) if args.appearance == "varied" \
+            else (2.0, Appearance())
         frames, K = render_window(scene, cert, 2000.0, offset_mm=offset, yaw_deg=yaw, pitch_deg=pitch, seed=i,
-                                  render_cert=render_cert)
+                                  render_cert=render_cert, noise=noise, appearance=look)
         c = detect_contour([cv2.cvtColor(f, cv2.COLOR_BGR2GRAY) for f in frames], K, "circular",
                            wall_u=wall_u_from_tolerance(H, 0.0))
         truth = np.array([offset[0] / H, offset[1] / H, np.radians(yaw), np.radians(pitch), 0.0])

@@ -45,7 +45,7 @@ from pipeline.formats.certificate import load_certificate
 from pipeline.maths.profiles import clock_to_theta, wall_point
 from pipeline.measurement.connections import DEPOSIT_SPAN_H, DEPOSIT_VIEW_H, VIEW_DEPTHS_H, measure_connection, measure_deposit
 from pipeline.measurement.quantity import MC_NOT_CONVERGED
-from pipeline.synth.appearance import Appearance, varied_appearance
+from pipeline.synth.appearance import SENSOR_NOISE, Appearance
 from pipeline.synth.render import Renderer
 from pipeline.synth.scene import Connection, Deposit, Pipe, Scene
 from pipeline.vision.contour import detect_contour
@@ -55,6 +55,7 @@ from pipeline.vision.video.reader import iter_frames
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from cameras import DEFAULT_CAMERA, add_camera_argument  # noqa: E402
+from looks import add_appearance_argument, look_of  # noqa: E402
 from coverage_stats import false_finds, median_interval, robust_sd, robust_sd_interval, wilson  # noqa: E402
 
 KINDS = ("bca", "bbc", "bag")
@@ -117,7 +118,7 @@ def _r_eq(shape: str, H: float) -> float:
 
 
 def frames_of(scene: Scene, z: float, cert, mount, depths, seed: int, codec: str, tmp: Path,
-              look: tuple[float, Appearance] = (2.0, Appearance())):
+              look: tuple[float, Appearance] = (SENSOR_NOISE, Appearance())):
     """Ideal BGR frames: one at each of ``depths`` [H] before z, then those of ``ring_offsets_mm`` about the first
     (the night fits the pose to the frames within 2 m, or 3 H, either side); ``look``: the sensor's noise [grey
     levels] and the video's look (``synth.appearance``)."""
@@ -177,7 +178,7 @@ def _through_codec(raw, codec: str, tmp: Path, cert):
 
 
 def run_case(kind: str, i: int, rng, cert, codec: str, with_feature: bool, tmp: Path,
-             look: tuple[float, Appearance] = (2.0, Appearance())) -> dict:
+             look: tuple[float, Appearance] = (SENSOR_NOISE, Appearance())) -> dict:
     scene, z, truth, clock, mount = case(kind, rng, with_feature)
     H, shape = scene.pipe.height_mm, scene.pipe.shape
     depths = DEPOSIT_VIEW_H if kind == "bbc" else VIEW_DEPTHS_H
@@ -249,9 +250,7 @@ def main() -> None:
     ap.add_argument("--codec-u", type=float, nargs=2, metavar=("WAS", "NOW"),
                     help="with --table: the rows' codec term in each edge coordinate's u [px] as run, and a trial value "
                          "(the points' u widened or narrowed after the fact, ``rescaled``)")
-    ap.add_argument("--appearance", choices=("default", "varied"), default="default",
-                    help="the video's look: the one the detectors were developed on, or one drawn per case "
-                         "(blur, response, vignetting, the joints' look, noise: pipeline.synth.appearance)")
+    add_appearance_argument(ap)
     add_camera_argument(ap)
     args = ap.parse_args()
     if args.table:
@@ -270,9 +269,7 @@ def main() -> None:
                 # the same cases either way (the geometry's draws are untouched), each with a look of its own
                 looks = np.random.default_rng([args.seed, KINDS.index(kind), codecs.index(codec), 1])
                 for i in range(args.cases + empty):
-                    look = (float(looks.uniform(0.5, 5.0)), varied_appearance(looks)) if args.appearance == "varied" \
-                        else (2.0, Appearance())
-                    r = run_case(kind, i, rng, cert, codec, i < args.cases, Path(tmp), look)
+                    r = run_case(kind, i, rng, cert, codec, i < args.cases, Path(tmp), look_of(args.appearance, looks))
                     rows.append(r)
                     print(f"{kind} {codec} {i + 1}/{args.cases + empty}: DN {r['dn']:.0f} {r['shape']}, feature "
                           f"{r['feature']}, truth {r['truth']:.1f}, value {r['value']}, U95 {r['U95']}, "

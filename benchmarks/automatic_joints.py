@@ -46,7 +46,7 @@ from pipeline.formats.certificate import load_certificate
 from pipeline.measurement.frames import frame_values
 from pipeline.measurement.joints import _px_per_depth, measure_joint
 from pipeline.maths.profiles import clock_to_theta
-from pipeline.synth.appearance import Appearance, varied_appearance
+from pipeline.synth.appearance import SENSOR_NOISE, Appearance
 from pipeline.synth.joint_cases import JointCase, case_renderer, random_case, read_truth, write_case
 from pipeline.vision.contour import detect_contour
 from pipeline.vision.contour.detect import wall_u_from_tolerance
@@ -56,6 +56,7 @@ from pipeline.vision.video.reader import iter_frames
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from cameras import add_camera_argument  # noqa: E402
+from looks import add_appearance_argument, look_of  # noqa: E402
 from coverage_stats import robust_sd, wilson  # noqa: E402
 
 CODECS = {"mpeg4": None, "h264": "h264"}
@@ -302,10 +303,6 @@ def main() -> None:
     ap.add_argument("--seed", type=int, default=34)
     ap.add_argument("--work", type=Path, default=Path("/tmp/joint-cases"), help="where the cases' videos are kept")
     ap.add_argument("--json", type=Path, help="write every row here")
-    ap.add_argument("--appearance", choices=("default", "varied"), default="default",
-                    help="the video's look: the one the detectors were developed on, or one drawn per case "
-                         "(blur, response, vignetting, the gap's darkness, the socket's face, noise: "
-                         "pipeline.synth.appearance); the cases' geometry is the same either way")
     ap.add_argument("--contours", type=Path, help="keep each video's pose fit here (reruns skip the fits; a fresh "
                     "folder after a change to the contour fit: the fits are keyed by the video alone)")
     ap.add_argument("--sightings", type=Path, help="keep each video's joint sightings here (reruns of the measurement "
@@ -318,6 +315,7 @@ def main() -> None:
     ap.add_argument("--split", type=Path, help="only print what the frames share and what each adds, from rows kept "
                     "by --json")
     add_camera_argument(ap)
+    add_appearance_argument(ap)
     args = ap.parse_args()
     if args.table:
         print("\n".join(table(json.loads(args.table.read_text()))))
@@ -332,10 +330,11 @@ def main() -> None:
     rng = np.random.default_rng(args.seed)
     cases = [random_case(rng, f"J{i:03d}", seed=i) for i in range(args.cases)]
     cases += [random_case(rng, f"E{i:03d}", displaced=False, seed=1000 + i) for i in range(args.empty)]
-    if args.appearance == "varied":
-        # the same cases (the geometry's draws are untouched), each rendered with a look of its own
-        looks = np.random.default_rng([args.seed, 1])
-        cases = [replace(c, noise=float(looks.uniform(0.5, 5.0)), appearance=varied_appearance(looks)) for c in cases]
+    # the same cases either way (the geometry's draws are untouched), each rendered with its look
+    looks = np.random.default_rng([args.seed, 1])
+    for k, c in enumerate(cases):
+        noise, look = look_of(args.appearance, looks)
+        cases[k] = replace(c, noise=noise, appearance=look)
     rows: list[dict] = []
     t0 = time.perf_counter()
     if args.rendered:
@@ -349,7 +348,7 @@ def main() -> None:
         video = folder / "video.mp4" if codec == "mpeg4" else folder / f"{case.case_id}-h264.mp4"
         kept = read_truth(folder) if video.is_file() and (folder / "truth.json").is_file() else None
         # (cases kept before 2026-12-05 carry no look: theirs was the default)
-        if kept is None or {"noise": 2.0, "appearance": asdict(Appearance()), **kept["case"]} \
+        if kept is None or {"noise": SENSOR_NOISE, "appearance": asdict(Appearance()), **kept["case"]} \
                 != json.loads(json.dumps(asdict(case))) \
                 or kept.get("certificate_id", "SYN-720x576") != cert.certificate_id:   # (none before 2026-12-05)
             write_case(case, cert, args.work, codecs=(CODECS[codec],))

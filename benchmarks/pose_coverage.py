@@ -34,13 +34,13 @@ from pipeline.formats.certificate import load_certificate
 from pipeline.vision.contour import detect_contour
 from pipeline.vision.contour.detect import wall_u_from_tolerance
 from pipeline.vision.contour.view import POSE_PARAMETERS
-from pipeline.synth.appearance import Appearance, varied_appearance
 from pipeline.synth.mismatch import drawn_certificate
 from pipeline.synth.scene import Pipe, Scene
 from pipeline.synth.window import render_window
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from cameras import add_camera_argument  # noqa: E402
+from looks import add_appearance_argument, look_of  # noqa: E402
 
 
 def robust_sd(x: np.ndarray) -> float:
@@ -52,9 +52,7 @@ def main() -> None:
     ap.add_argument("--cases", type=int, default=30)
     ap.add_argument("--seed", type=int, default=3)
     ap.add_argument("--mismatch", action="store_true", help="render with a camera drawn from the certificate's u")
-    ap.add_argument("--appearance", choices=("default", "varied"), default="default",
-                    help="the video's look: the one the detectors were developed on, or one drawn per case "
-                         "(pipeline.synth.appearance; the same scenes either way)")
+    add_appearance_argument(ap)
     add_camera_argument(ap)
     args = ap.parse_args()
     cert = load_certificate(args.camera)
@@ -68,8 +66,7 @@ def main() -> None:
         yaw, pitch = float(rng.uniform(-2, 2)), float(rng.uniform(-2, 2))
         scene = Scene(Pipe("circular", H, "vitrified clay", 1000.0))
         render_cert = drawn_certificate(cert, rng) if args.mismatch else None
-        noise, look = (float(looks.uniform(0.5, 5.0)), varied_appearance(looks)) if args.appearance == "varied" \
-            else (2.0, Appearance())
+        noise, look = look_of(args.appearance, looks)
         frames, K = render_window(scene, cert, 2000.0, offset_mm=offset, yaw_deg=yaw, pitch_deg=pitch, seed=i,
                                   render_cert=render_cert, noise=noise, appearance=look)
         c = detect_contour([cv2.cvtColor(f, cv2.COLOR_BGR2GRAY) for f in frames], K, "circular",

@@ -14,7 +14,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["Appearance", "varied_appearance"]
+__all__ = ["Appearance", "varied_appearance", "varied_look", "SENSOR_NOISE"]
+
+SENSOR_NOISE = 2.0      # the renderer's sensor noise [grey levels of 255] unless said
 
 
 @dataclass(frozen=True)
@@ -55,3 +57,9 @@ def varied_appearance(rng: np.random.Generator) -> Appearance:
                       tone_k=float(np.exp(rng.uniform(np.log(5.0), np.log(80.0)))),
                       vignette=float(rng.uniform(0.0, 0.4)), groove=float(rng.uniform(0.6, 0.95)),
                       face_gain=float(rng.uniform(0.4, 1.4)))
+
+
+def varied_look(rng: np.random.Generator) -> tuple[float, Appearance]:
+    """A sensor noise (0.5-5 grey levels of 255) and a look (``varied_appearance``) drawn together, in that order:
+    what the benchmarks' ``--appearance varied`` renders each case with."""
+    return float(rng.uniform(0.5, 5.0)), varied_appearance(rng)

@@ -22,7 +22,7 @@ import cv2
 import numpy as np
 
 from pipeline.camera import Certificate
-from pipeline.synth.appearance import Appearance
+from pipeline.synth.appearance import SENSOR_NOISE, Appearance
 from pipeline.synth.delivery import delivered
 from pipeline.synth.render import Renderer
 from pipeline.synth.scene import DisplacedJoint, Pipe, Scene
@@ -56,7 +56,7 @@ class JointCase:
     approach_m: float             # the reference frame's camera stands this far before the joint [m]
     displaced: bool = True
     seed: int = 0
-    noise: float = 2.0            # the sensor's noise [grey levels of 255]
+    noise: float = SENSOR_NOISE   # the sensor's noise [grey levels of 255]
     appearance: Appearance = Appearance()     # the video's look (``synth.appearance``)
 
     @property

@@ -25,7 +25,7 @@ import numpy as np
 from pipeline.camera import Certificate
 from pipeline.maths.profiles import clock_to_theta, exit_table, perimeter, profile_polygon, segment_height_for_area_fraction, wall_point
 from pipeline.camera.pose import camera_rotation, pixel_rays
-from pipeline.synth.appearance import Appearance
+from pipeline.synth.appearance import SENSOR_NOISE, Appearance
 from pipeline.synth.scene import Connection, Crack, Deformation, Deposit, DisplacedJoint, Marker, Scene
 from pipeline.synth.texture import MATERIALS, TEXEL_MM, wall_texture
 
@@ -72,7 +72,7 @@ class Renderer:
     """
 
     def __init__(self, scene: Scene, cert: Certificate, *, offset_mm=(0.0, 0.0), yaw=0.0, pitch=0.0, roll=0.0,
-                 seed: int = 0, noise: float = 2.0, appearance: Appearance = Appearance()):
+                 seed: int = 0, noise: float = SENSOR_NOISE, appearance: Appearance = Appearance()):
         self.scene, self.cert = scene, cert
         self.look = look = appearance
         self.W, self.H = cert.image_width_px, cert.image_height_px

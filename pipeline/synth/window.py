@@ -11,7 +11,7 @@ import numpy as np
 
 from pipeline.camera import Certificate
 from pipeline.camera.undistort import Undistorter
-from pipeline.synth.appearance import Appearance
+from pipeline.synth.appearance import SENSOR_NOISE, Appearance
 from pipeline.synth.render import Renderer
 from pipeline.synth.scene import Scene
 
@@ -20,7 +20,7 @@ __all__ = ["render_window"]
 
 def render_window(scene: Scene, cert: Certificate, z_cam_mm: float, *, offset_mm=(0.0, 0.0), yaw_deg: float = 0.0,
                   pitch_deg: float = 0.0, roll_deg: float = 0.0, back_mm: float = 1200.0, step_mm: float = 100.0,
-                  seed: int = 0, render_cert: Certificate | None = None, noise: float = 2.0,
+                  seed: int = 0, render_cert: Certificate | None = None, noise: float = SENSOR_NOISE,
                   appearance: Appearance = Appearance()) -> tuple[list[np.ndarray], np.ndarray]:
     """Ideal BGR frames: the camera at ``z_cam_mm`` first, then every ``step_mm`` over the ``back_mm`` before it;
     and the ideal camera matrix K (3, 3) [px]. ``render_cert``: the camera the frames are rendered with when it

@@ -291,7 +291,7 @@ def _edges(p: np.ndarray, by_dip: bool = False) -> tuple[float, float, float, fl
     return float(e_near), float(e_far), float(ramps[0]), float(ramps[1])
 
 
-def _side_levels(p: np.ndarray, i: int, tops) -> tuple[float, float]:
+def _side_levels(p: np.ndarray, i: int, tops: tuple[int, int] | None) -> tuple[float, float]:
     """The levels of the gap's near and far side in profile p with its floor at i: the brightest sample nearer
     and the deepest third's median; or, given the dip's (far, near) tops, theirs."""
     if tops is None:

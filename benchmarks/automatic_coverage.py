@@ -7,9 +7,14 @@ and the deformations are measured both as A (height) and B (width);
 the pose is fitted to their rings, and the quantity is measured from the
 frame with ``pipeline.measurement.automatic`` in both models. Prints the
 share of true values inside the reported U95 interval (target 93-98 %), the
-median |error| / U95 and the median U95, per quantity and model.
+median |error| / U95, the median U95 and the standardised errors z = (value - truth) / u (their median and
+robust SD), per quantity and model.
+
+``--appearance varied`` renders each case with a look of its own (``pipeline.synth.appearance``); ``--camera`` another
+certificate.
 
     python benchmarks/automatic_coverage.py [--cases 30] [--seed 5] [--kind water_level|deformation|deformation_B]
+                                            [--appearance varied] [--camera CERTIFICATE]
 """
 
 from __future__ import annotations
@@ -31,7 +36,11 @@ from pipeline.measurement.automatic import measure_automatic
 from pipeline.synth.scene import Deformation, Pipe, Scene
 from pipeline.synth.window import render_window
 
-SAMPLES = Path(__file__).resolve().parent.parent / "sample_videos"
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from cameras import add_camera_argument  # noqa: E402
+from coverage_stats import robust_sd, wilson  # noqa: E402
+from looks import add_appearance_argument, look_of  # noqa: E402
+
 KINDS = ("water_level", "deformation", "deformation_B")
 
 
@@ -56,16 +65,20 @@ def main() -> None:
     ap.add_argument("--cases", type=int, default=30, help="cases per quantity (default 30)")
     ap.add_argument("--seed", type=int, default=5)
     ap.add_argument("--kind", choices=KINDS, action="append", help="only this quantity (repeatable; default both)")
+    add_appearance_argument(ap)
+    add_camera_argument(ap)
     args = ap.parse_args()
-    cert = load_certificate(SAMPLES / "certificates" / "SYN-720x576.json")
+    cert = load_certificate(args.camera)
     rows = []
     t0 = time.perf_counter()
     kinds = args.kind or KINDS
     for kind in kinds:
         rng = np.random.default_rng([args.seed, KINDS.index(kind)])
+        looks = np.random.default_rng([args.seed, KINDS.index(kind), 1])    # its own stream: the same geometry
         for i in range(args.cases):
             scene, z, mount, truth, code = case(kind, rng, cert)
-            frames, K = render_window(scene, cert, z, seed=i, **mount)
+            noise, look = look_of(args.appearance, looks)
+            frames, K = render_window(scene, cert, z, seed=i, noise=noise, appearance=look, **mount)
             H = scene.pipe.height_mm
             contour = detect_contour([cv2.cvtColor(f, cv2.COLOR_BGR2GRAY) for f in frames], K, "circular",
                                      wall_u=wall_u_from_tolerance(H, 0.0))
@@ -75,9 +88,10 @@ def main() -> None:
                 try:
                     _, res = measure_automatic(obs, contour, frames[0], cert, H=H, tolerance=0.0, model=model, seed=i)
                 except PipegaugeError as exc:
-                    rows.append((kind, model, truth, None, None, None, False, str(exc)))
+                    rows.append((kind, model, truth, None, None, None, False, str(exc), None))
                     continue
-                rows.append((kind, model, truth, res.value, res.low, res.high, res.confident, "; ".join(res.reasons)))
+                rows.append((kind, model, truth, res.value, res.low, res.high, res.confident, "; ".join(res.reasons),
+                             res.u))
             print(f"{kind} {i + 1}/{args.cases}: truth {truth:.2f} %, perspective {rows[-2][3]}, "
                   f"orthographic {rows[-1][3]}", file=sys.stderr)
     print(f"{len(rows) // 2} cases in {time.perf_counter() - t0:.0f} s")
@@ -89,10 +103,14 @@ def main() -> None:
             inside = [r[4] <= r[2] <= r[5] for r in done]
             ratio = [abs(r[3] - r[2]) / max(r[5] - r[3], r[3] - r[4]) for r in done]
             U = [max(r[5] - r[3], r[3] - r[4]) for r in done]
+            held = sum(r[4] <= r[2] <= r[5] for r in conf)
+            lo, hi = wilson(held, len(conf))
+            z = np.array([(r[3] - r[2]) / r[8] for r in conf if r[8]])
             print(f"{kind:12s} {model:12s}: measured {len(done)}/{len(mine)} (confident {len(conf)}), "
                   f"inside U95 {100 * np.mean(inside):.1f} % (confident only "
-                  f"{100 * np.mean([r[4] <= r[2] <= r[5] for r in conf]) if conf else float('nan'):.1f} %), "
-                  f"median |error|/U95 {np.median(ratio):.2f}, median U95 {np.median(U):.2f} %")
+                  f"{100 * held / len(conf) if conf else float('nan'):.1f} %, Wilson {100 * lo:.1f}-{100 * hi:.1f} %), "
+                  f"median |error|/U95 {np.median(ratio):.2f}, median U95 {np.median(U):.2f} %; confident: median z "
+                  f"{np.median(z) if z.size else float('nan'):+.2f}, robust SD z {robust_sd(z):.2f}")
             for r in mine:
                 if r[3] is None or not r[4] <= r[2] <= r[5]:
                     print(f"    miss: truth {r[2]:.2f}, value {r[3]}, interval "

@@ -15,6 +15,7 @@ import numpy as np
 __all__ = ["dark_centre", "ridge_points", "edge_points", "static_overlay_mask"]
 
 DARK_FLOOR = 16.0   # grey levels added before the log: compression banding in the dark far pipe is not a ring
+RIDGE_FLOOR = 3.0   # a ridge stands out at least this much [32 ln grey: about 10 % contrast] where the noise is lower
 NOISE_RAYS = 4      # the ridges' noise level is estimated on every 4th ray (about 10^5 samples of a 720x576 frame)
 
 
@@ -67,20 +68,23 @@ def _blur_at(gray: np.ndarray, sigma: float, r0: int, r1: int, c0: int, c1: int)
 
 
 def ridge_points(gray: np.ndarray, centre, *, n_angles: int = 720, min_radius: float = 8.0,
-                 k_noise: float = 4.0, mask: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Sub-pixel ridge points (n, 2) (x, y) [px], their strengths (n,), and their curve labels (n,).
+                 k_noise: float = 4.0, mask: np.ndarray | None = None, floor: float = RIDGE_FLOOR,
+                 signed: bool = False) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Sub-pixel ridge points (n, 2) (x, y) [px], their strengths (n,), and their curve labels (n,); with
+    ``signed``, a dark ridge's strength negative (a joint's gap) and a bright one's positive (a socket's face).
 
     Points that continue one another from ray to ray (radius changing by at
     most one pixel) share a curve label; a ring is one long curve.
 
     centre : (x, y) [px] of the polar unwrap; a ridge must exceed ``k_noise``
-    robust standard deviations of the detrended polar image; ``mask``
-    (rows, cols), non-zero where points are allowed (e.g. off the overlay).
+    robust standard deviations of the detrended polar image, and ``floor``
+    [32 ln grey]; ``mask`` (rows, cols), non-zero where points are allowed
+    (e.g. off the overlay).
     """
     polar, valid = _log_polar(gray, centre, n_angles)
     ridge = polar - cv2.GaussianBlur(polar, (0, 0), sigmaX=6, sigmaY=2)
     # bright socket faces and dark joint gaps alike
-    return _peaks(np.abs(ridge), ridge, valid, centre, gray.shape, n_angles, min_radius, k_noise, mask)
+    return _peaks(np.abs(ridge), ridge, valid, centre, gray.shape, n_angles, min_radius, k_noise, mask, floor, signed)
 
 
 def edge_points(gray: np.ndarray, centre, *, n_angles: int = 720, min_radius: float = 8.0,
@@ -119,15 +123,16 @@ def _inside(x0: float, y0: float, rows: int, cols: int, reach: int, n_angles: in
 
 
 def _peaks(ridge: np.ndarray, signed: np.ndarray, valid: np.ndarray, centre, shape, n_angles: int, min_radius: float,
-           k_noise: float, mask) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+           k_noise: float, mask, floor: float = RIDGE_FLOOR,
+           with_sign: bool = False) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Sub-pixel radial maxima of a polar response above k_noise robust sigmas of its signed form, as image
-    points, strengths and curve labels."""
+    points, strengths (carrying the signed form's sign ``with_sign``) and curve labels."""
     x0, y0 = float(centre[0]), float(centre[1])
     rows, cols = shape[:2]
     # the noise level from every NOISE_RAYS-th ray: a median and a MAD of some 10^5 samples, a quarter of the work
     inside = signed[::NOISE_RAYS][valid[::NOISE_RAYS]]
     mad = np.median(np.abs(inside - np.median(inside)))
-    threshold = max(3.0, k_noise * 1.4826 * mad)
+    threshold = max(floor, k_noise * 1.4826 * mad)
     centre_v, left, right = ridge[:, 1:-1], ridge[:, :-2], ridge[:, 2:]
     peak = (centre_v > left) & (centre_v >= right) & (centre_v > threshold) & valid[:, 1:-1] & valid[:, :-2] & valid[:, 2:]
     peak_map = np.zeros(ridge.shape, np.uint8)
@@ -144,7 +149,7 @@ def _peaks(ridge: np.ndarray, signed: np.ndarray, valid: np.ndarray, centre, sha
     radius = r_idx + np.clip(shift, -0.5, 0.5)   # one polar column per pixel of radius
     theta = 2 * np.pi * a_idx / n_angles
     pts = np.stack([x0 + radius * np.cos(theta), y0 + radius * np.sin(theta)], axis=1)
-    strength = y_c
+    strength = y_c * np.sign(signed[a_idx, r_idx]) if with_sign else y_c
     if mask is not None:
         xi = np.clip(np.round(pts[:, 0]).astype(int), 0, cols - 1)
         yi = np.clip(np.round(pts[:, 1]).astype(int), 0, rows - 1)

@@ -173,9 +173,9 @@ def _one_polarity(view: PipeView, pts: np.ndarray, strength: np.ndarray, curves:
     found, the one its points lie closest to (RMS distance from its ellipse in its plane [H]).
 
     A joint whose gap and socket face both show is two rings a little apart (in depth and size); an ellipse over both
-    settles on parts of each, its invert off the ring's and its height and width apart (varied looks: 13 of 60 cases
-    of ``benchmarks/automatic_coverage.py --kind deformation --seed 6 --appearance varied``), and lies farther from
-    its points than the ring of one polarity does.
+    settles on parts of each, its invert off the ring's and its height and width apart (under varied looks:
+    ``benchmarks/automatic_coverage.py --appearance varied``, docs/measurement.md), and lies farther from its points
+    than the ring of one polarity does.
     """
     best, closest = None, np.inf
     for on in (np.ones(len(pts), bool), strength < 0, strength > 0):

@@ -119,3 +119,22 @@ def test_which_logged_observations_the_image_alone_measures():
 
     assert measurable_automatically(_obs("BDD")) and measurable_automatically(_obs("BAA", "A"))
     assert measurable_automatically(_obs("BAA", "B")) and not measurable_automatically(_obs("BAB", "B"))
+
+
+@pytest.mark.slow
+def test_in_the_night_an_untrusted_result_from_the_image_alone_is_found_not_measured(sample_night):
+    """A water level or deformation from the image alone that is not confident is stored as every quantity from the
+    image alone is (issue 34): found, not measured, with no value, log check or grade. S01's deformation from the image
+    alone lies where its pose is not trusted (no ring seen all round)."""
+    from pipeline.store import read_table
+
+    m = read_table(sample_night / "dataset", "measurements")
+    auto = m[m.source == "contour"]
+    assert (auto[auto.status == "ok"].confident == True).all()  # noqa: E712  (a column of booleans)
+    baa = auto[(auto.inspection_id == "S01-circular-clean") & (auto.code == "BAA")].iloc[0]
+    assert baa.status == "unmeasured" and baa.error.startswith("found, not measured") and "pose" in baa.error
+    assert baa.value is None or np.isnan(baa.value)
+    assert baa.log_check in (None, "not checked") or (isinstance(baa.log_check, float) and np.isnan(baa.log_check))
+    o = read_table(sample_night / "dataset", "observations")
+    row6 = o[(o.inspection_id == "S01-circular-clean") & (o.row == 6)].iloc[0]
+    assert row6.grade_source == "Q1 marks"

@@ -262,9 +262,17 @@ def measure_package(folder: str | os.PathLike, *, certificates: str | os.PathLik
                                        tolerance=header.height_tolerance_mm, model=model, mask=mask,
                                        seed=quantity_seed(manifest.package_id, r, "Q1 contour"), edges=edges(obs, "Q1"))
             t_measure += time.perf_counter() - t0
-            row.update(quantity_fields(res), u_mark_px=q.u_a)
-            _check_distance(row)
-            result.thumbnails.append(thumbnail(found, q, r, "contour"))
+            if not res.confident:
+                # as every quantity from the image alone: one not trusted (the contour at its plane, or the water
+                # line or ring found) is found, not measured, and feeds no grade and no log check; the feature
+                # found may not be the one logged, which widening its u would not cover
+                row.update(status="unmeasured", confident=False, warnings="; ".join(res.reasons) or None,
+                           error="found, not measured: " + "; ".join(doubts(res)), a_x_px=q.a[0], a_y_px=q.a[1],
+                           b_x_px=q.b[0], b_y_px=q.b[1], u_mark_px=q.u_a)
+            else:
+                row.update(quantity_fields(res), u_mark_px=q.u_a)
+                _check_distance(row)
+                result.thumbnails.append(thumbnail(found, q, r, "contour"))
         except PipegaugeError as exc:
             row.update(status="error", error=str(exc))
         result.measurements.append(row)

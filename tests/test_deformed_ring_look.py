@@ -26,10 +26,10 @@ def cert():
     return load_certificate(SAMPLES / "certificates" / "SYN-720x576.json")
 
 
-def _seen(cert, H: float, percent: float, z: float, offset_mm, noise: float, look: Appearance, seed: int):
+def _seen(cert, H: float, percent: float, z: float, offset_mm, noise: float, look: Appearance, seed: int, **tilt):
     scene = Scene(Pipe("circular", H, "concrete", 1000.0),
                   features=(Deformation("d", JOINT_MM - 400.0, JOINT_MM + 600.0, percent),))
-    frames, K = render_window(scene, cert, z, offset_mm=offset_mm, seed=seed, noise=noise, appearance=look)
+    frames, K = render_window(scene, cert, z, offset_mm=offset_mm, seed=seed, noise=noise, appearance=look, **tilt)
     return frames, detect_contour([cv2.cvtColor(f, cv2.COLOR_BGR2GRAY) for f in frames], K, "circular")
 
 
@@ -68,3 +68,22 @@ def test_an_undeformed_joint_under_the_faint_look_is_not_taken_for_a_deformation
     frames, contour = _seen(cert, **case)
     ring = find_deformed_ring(frames[0], contour)
     assert ring is None or not ring.confident, ring
+
+
+@pytest.mark.slow
+def test_a_ring_far_out_of_the_profile_is_not_taken_for_a_deformation():
+    """Through the 1280x720 camera, a dim face and a weak response: the deformed joint's ring is not found, and a
+    small ring near the far pipe's centre (a height 80-90 % under the profile's) was taken for it, confident:
+    89.5 % for a true 8.0 % (``benchmarks/automatic_coverage.py --seed 7 --appearance varied --camera ...``)."""
+    hd = load_certificate(SAMPLES / "certificates" / "SYN-1280x720.json")
+    case = dict(H=432.141, percent=8.026, z=1769.137, offset_mm=(-1.564, 9.591), noise=1.393, seed=18,
+                look=Appearance(blur_px=1.5772, gamma=0.8715, tone_k=8.6532, vignette=0.0180, groove=0.9165,
+                                face_gain=0.4420), yaw_deg=1.0725, pitch_deg=1.0932)
+    frames, contour = _seen(hd, **case)
+    assert contour.confident, contour.problems
+    ring = find_deformed_ring(frames[0], contour)
+    if ring is not None:
+        assert abs(1.0 - ring.height) < 0.35 and abs(1.0 - ring.width) < 0.35, ring
+        _, res = measure_automatic(_obs(), contour, frames[0], hd, H=case["H"], tolerance=0.0, model="perspective",
+                                   seed=1)
+        assert not res.confident or res.low <= case["percent"] <= res.high, (res.value, res.low, res.high)

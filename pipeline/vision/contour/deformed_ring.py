@@ -52,6 +52,7 @@ FAINT_MIN_ARC_DEG = 330.0    # and the least arc of a ring taken from it [deg]
 SEED_CURVES = 8              # the longest ridge curves that start a ring's search when the invert's depths give none
 MIN_SEED_POINTS = 30
 SEED_GATE_H = 0.04           # the points this near a curve's own ellipse join its ring [H]
+MAX_DEPARTURE = 0.35         # a ring departing more is another feature (a pipe that far out of shape has collapsed, BAC)
 MIN_DEPARTURE = 0.01         # the ring's height or width departs from the profile's by at least this [1]
 
 
@@ -109,7 +110,7 @@ def find_deformed_ring(ideal_bgr: np.ndarray, contour: PipeContour, *,
     u_px = sector_jackknife(ring, fit[0], lambda p: extents(fit_ellipse(p))[1]) * px_per_h / np.sqrt(2.0)
     u_side_px = sector_jackknife(ring, fit[0], lambda p: extents(fit_ellipse(p))[0]) * px_per_h / np.sqrt(2.0)
     problems = []
-    departure = max(abs(1.0 - height), abs(1.0 - width / profile_width(view.shape, 1.0)))
+    departure = _departure(view, height, width)
     if departure < MIN_DEPARTURE:
         problems.append(f"the ring departs from the profile by {100 * departure:.1f} % only: "
                         "it may be an undeformed joint")
@@ -118,6 +119,11 @@ def find_deformed_ring(ideal_bgr: np.ndarray, contour: PipeContour, *,
     return DeformedRing(depth, height, width, (float(crown[0]), float(crown[1])), (float(invert[0]), float(invert[1])),
                         max(u_px, 0.1), (float(left[0]), float(left[1])), (float(right[0]), float(right[1])),
                         max(u_side_px, 0.1), int(keep.sum()), arc, tuple(problems))
+
+
+def _departure(view: PipeView, height: float, width: float) -> float:
+    """How far a ring of ``height`` and ``width`` [H] departs from the profile: the larger share [1]."""
+    return max(abs(1.0 - height), abs(1.0 - width / profile_width(view.shape, 1.0)))
 
 
 def _start_depths(view: PipeView, pts: np.ndarray) -> list[float]:
@@ -226,6 +232,8 @@ def _best_of(view: PipeView, pts: np.ndarray, starts, min_arc: float):
         depth, fit, keep = found
         arc = arc_coverage_deg(points_in_plane(view, pts, depth)[keep], fit[0])
         width, height = extents(fit)
+        if _departure(view, height, width) > MAX_DEPARTURE:
+            continue
         score = (abs(1.0 - height), int(keep.sum()))
         if keep.sum() >= MIN_POINTS and arc >= min_arc and (best is None or score > best[0]):
             best = (score, depth, fit, keep, arc, height, width)

@@ -39,7 +39,7 @@ from pipeline.maths.profiles import profile_width
 from pipeline.vision.contour.result import PipeContour
 from pipeline.vision.contour.ridges import RIDGE_FLOOR, dark_centre, ridge_points
 from pipeline.vision.contour.section_shape import (arc_coverage_deg, ellipse_distance, extents, fit_ellipse, fit_section,
-                                                   points_in_plane, sector_jackknife)
+                                                   near_axis, points_in_plane, sector_jackknife)
 from pipeline.vision.contour.view import PipeView
 
 __all__ = ["DeformedRing", "find_deformed_ring"]
@@ -88,11 +88,10 @@ def find_deformed_ring(ideal_bgr: np.ndarray, contour: PipeContour, *,
     gray = cv2.cvtColor(ideal_bgr, cv2.COLOR_BGR2GRAY) if ideal_bgr.ndim == 3 else ideal_bgr
     view = contour.view
     centre = dark_centre(gray)
-    best, pts = None, np.empty((0, 2))
     # A faint ring (a dim socket face, a wide blur, a flat response) may stand under the ridges' floor that the pose's
     # rings need; here the pose is known and one ring is sought, so a fainter reading is tried when the usual finds
     # none, and a ring is taken from it only when closed: texture's ridges, many more there, can complete a partial arc
-    # of another ring (docs/measurement.md, "Deformations under a varied look").
+    # of another ring (docs/measurement.md, "Water levels and deformations under a varied look").
     for floor, min_arc in ((RIDGE_FLOOR, MIN_ARC_DEG), (FAINT_FLOOR, FAINT_MIN_ARC_DEG)):
         pts, strength, curves = ridge_points(gray, centre, mask=mask, floor=floor, signed=True)
         best = _one_polarity(view, pts, strength, curves, min_arc)
@@ -126,9 +125,9 @@ def _departure(view: PipeView, height: float, width: float) -> float:
     return max(abs(1.0 - height), abs(1.0 - width / profile_width(view.shape, 1.0)))
 
 
-def _start_depths(view: PipeView, pts: np.ndarray) -> list[float]:
-    """First guesses of a ring's depth t [H]: where the ridge points near the invert pile up in depth."""
-    xy, t = view.wall_hits(pts)
+def _start_depths(xy: np.ndarray, t: np.ndarray) -> list[float]:
+    """First guesses of a ring's depth t [H]: where the ridge points near the invert pile up in depth (xy (n, 2) and
+    t (n,): where the points' rays meet the wall, ``PipeView.wall_hits``)."""
     lower = np.isfinite(t) & (xy[:, 1] < LOWER_ARC_H)
     if lower.sum() < 10:
         return []
@@ -148,7 +147,7 @@ def _settled(view: PipeView, pts: np.ndarray, depth: float, seed: np.ndarray | N
     chosen = None
     for _ in range(3):
         plane = points_in_plane(view, pts, depth)
-        start = _near_axis(plane)
+        start = near_axis(plane)
         if seed is not None:
             if chosen is None:
                 first = start & seed
@@ -165,13 +164,9 @@ def _settled(view: PipeView, pts: np.ndarray, depth: float, seed: np.ndarray | N
             return None
         depth *= (-0.5 - view.oy) / (bottom - view.oy)
     plane = points_in_plane(view, pts, depth)
-    start = _near_axis(plane) if chosen is None else _near_axis(plane) & chosen
+    start = near_axis(plane) if chosen is None else near_axis(plane) & chosen
     fit, keep = fit_section(plane, MIN_POINTS, keep=start)
     return None if fit is None else (depth, fit, keep)
-
-
-def _near_axis(plane: np.ndarray) -> np.ndarray:
-    return np.all(np.isfinite(plane), axis=1) & (np.hypot(plane[:, 0], plane[:, 1]) < 1.0)
 
 
 def _one_polarity(view: PipeView, pts: np.ndarray, strength: np.ndarray, curves: np.ndarray, min_arc: float):
@@ -184,7 +179,9 @@ def _one_polarity(view: PipeView, pts: np.ndarray, strength: np.ndarray, curves:
     than the ring of one polarity does.
     """
     best, closest = None, np.inf
-    for on in (np.ones(len(pts), bool), strength < 0, strength > 0):
+    for k, on in enumerate((np.ones(len(pts), bool), strength < 0, strength > 0)):
+        if k > 0 and (on.all() or not on.any()):
+            continue               # every point one polarity: the first pass saw exactly these
         found = _deepest_departure(view, pts[on], curves[on], min_arc)
         if found is None:
             continue
@@ -207,11 +204,11 @@ def _deepest_departure(view: PipeView, pts: np.ndarray, curves: np.ndarray, min_
     """
     if len(pts) < MIN_POINTS:
         return None
-    best = _best_of(view, pts, [(d, None) for d in _start_depths(view, pts)], min_arc)
+    xy, t = view.wall_hits(pts)
+    best = _best_of(view, pts, [(d, None) for d in _start_depths(xy, t)], min_arc)
     if best is None:
         ids, sizes = np.unique(curves, return_counts=True)
         order = np.argsort(sizes)[::-1][:SEED_CURVES]
-        _, t = view.wall_hits(pts)
         seeds = []
         for cid in ids[order][sizes[order] >= MIN_SEED_POINTS]:
             on = curves == cid

@@ -18,7 +18,7 @@ import numpy as np
 from pipeline.maths.profiles import profile_polygon
 from pipeline.vision.contour.view import PipeView
 
-__all__ = ["points_in_plane", "fit_ellipse", "ellipse_distance", "fit_section", "extents", "sector_jackknife",
+__all__ = ["points_in_plane", "near_axis", "fit_ellipse", "ellipse_distance", "fit_section", "extents", "sector_jackknife",
            "arc_coverage_deg", "profile_aspect", "INLIER_H"]
 
 INLIER_H = 0.012             # gate on a point's distance from the fitted ellipse in its plane [H]
@@ -31,6 +31,11 @@ def points_in_plane(view: PipeView, pts: np.ndarray, t: float) -> np.ndarray:
     with np.errstate(divide="ignore", invalid="ignore"):
         s = np.where(d[:, 2] > 1e-9, t / d[:, 2], np.nan)
     return np.column_stack([view.ox + s * d[:, 0], view.oy + s * d[:, 1]])
+
+
+def near_axis(xy: np.ndarray) -> np.ndarray:
+    """(n,) bool: the finite points (n, 2) [H] of a plane within 1 H of the pipe's axis, where a ring's points lie."""
+    return np.all(np.isfinite(xy), axis=1) & (np.hypot(xy[:, 0], xy[:, 1]) < 1.0)
 
 
 def fit_ellipse(points: np.ndarray):
@@ -51,7 +56,7 @@ def ellipse_distance(xy: np.ndarray, fit) -> np.ndarray:
 def fit_section(xy: np.ndarray, min_points: int, keep: np.ndarray | None = None):
     """Ellipse fitted to points (n, 2) [H] in a plane, points off it dropped in steps down to INLIER_H:
     (ellipse or None, inliers (n,))."""
-    keep = np.all(np.isfinite(xy), axis=1) & (np.hypot(xy[:, 0], xy[:, 1]) < 1.0) if keep is None else keep.copy()
+    keep = near_axis(xy) if keep is None else keep.copy()
     fit = None
     for gate in (0.1, 0.04, INLIER_H, INLIER_H):
         if keep.sum() < min_points:

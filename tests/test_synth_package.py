@@ -93,6 +93,27 @@ def test_ground_truth_matches_the_files(tiny):
     assert water["quantities"][0]["true_value"] == 20.0
 
 
+def test_a_package_is_rendered_in_its_spec_s_look_and_its_truth_names_that_look(tiny, tmp_path):
+    """``PackageSpec.appearance`` reaches the renderer (``benchmarks/night_look.py`` renders the samples in drawn
+    looks); a package in the look the detectors were developed on names none, so the samples' truth is unchanged."""
+    from dataclasses import replace
+
+    from pipeline.synth.appearance import Appearance
+    from pipeline.synth.package import renderer_for
+
+    look = Appearance(blur_px=1.6, gamma=0.6, tone_k=8.0, vignette=0.3, groove=0.65, face_gain=0.5)
+    spec = replace(tiny_spec(), noise=3.5, appearance=look)
+    cert = sample_certificate(720, 576)
+    assert renderer_for(spec, cert).look == look and renderer_for(tiny_spec(), cert).look == Appearance()
+    assert "look" not in json.loads((tiny / "truth" / "truth.json").read_text())
+    other = build_package(spec, cert, tmp_path)
+    truth = json.loads((other / "truth" / "truth.json").read_text())
+    assert truth["look"] == {"noise": 3.5, "blur_px": 1.6, "gamma": 0.6, "tone_k": 8.0, "vignette": 0.3,
+                             "groove": 0.65, "face_gain": 0.5}
+    first = [decode_all(p / "video.mp4")[0].astype(float) for p in (tiny, other)]
+    assert np.mean(np.abs(first[1] - first[0])) > 2.0     # the same scene, another look (grey levels)
+
+
 @pytest.mark.slow
 def test_regeneration_is_deterministic_whatever_the_number_of_workers(tiny, tmp_path):
     again = build_package(tiny_spec(), sample_certificate(720, 576), tmp_path, workers=2)

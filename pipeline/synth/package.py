@@ -35,6 +35,7 @@ from pipeline.synth.overlay import Overlay, chainage_text
 from pipeline.maths.profiles import (
     chord_at_height, clock_to_theta, perimeter, segment_height_for_area_fraction, theta_to_clock, wall_point,
 )
+from pipeline.synth.appearance import Appearance
 from pipeline.synth.render import Renderer
 from pipeline.camera.pose import CameraPose, ideal_project_points, project_points
 from pipeline.synth.scene import Connection, Crack, Deformation, Deposit, DisplacedJoint, Scene
@@ -91,6 +92,7 @@ class PackageSpec:
     fps: float = 25.0
     noise: float = 2.0
     end_margin_m: float = 0.8
+    appearance: Appearance = field(default_factory=Appearance)   # the video's look (``synth.appearance``)
     extra_stops: tuple[Stop, ...] = field(default_factory=tuple)
 
 
@@ -244,7 +246,8 @@ def renderer_for(spec: PackageSpec, cert: Certificate) -> Renderer:
     """The renderer of a package's scene seen from its camera mount."""
     m = spec.mount
     return Renderer(spec.scene, cert, offset_mm=m.offset_mm, yaw=math.radians(m.yaw_deg),
-                    pitch=math.radians(m.pitch_deg), roll=math.radians(m.roll_deg), seed=spec.seed, noise=spec.noise)
+                    pitch=math.radians(m.pitch_deg), roll=math.radians(m.roll_deg), seed=spec.seed, noise=spec.noise,
+                    appearance=spec.appearance)
 
 
 _WORKER: dict = {}
@@ -380,6 +383,9 @@ def build_package(spec: PackageSpec, cert: Certificate, out_dir: str | os.PathLi
             "features": [{"type": type(f).__name__, **asdict(f)} for f in scene.features],
             "observations": truth_obs,
         }
+        if spec.appearance != Appearance():
+            # the samples keep the look the detectors were developed on; another look is part of the truth
+            truth["look"] = {"noise": spec.noise, **asdict(spec.appearance)}
         (work / "truth" / "truth.json").write_text(json.dumps(truth, indent=2) + "\n")
         _replace_dir(work, out_dir / spec.package_id)
     except BaseException:

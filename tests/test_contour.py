@@ -427,3 +427,26 @@ def test_a_large_pipe_s_pose_window_spans_three_pipe_heights_a_small_one_s_two_m
         chosen = window_frames(track, 2000, span_m=window_span_m(height_mm))
         reach = np.abs(values[chosen] - values[2000])
         assert reach.max() == pytest.approx(span, abs=0.01) and len(chosen) == 2 * round(span / 0.1) + 1
+
+
+@pytest.mark.parametrize("yaw, pitch, trusted", [(2.0, -2.0, True), (0.0, -7.0, False)])
+def test_a_pose_turning_the_camera_far_off_the_pipe_s_axis_is_fitted_but_not_trusted(yaw, pitch, trusted):
+    """A crawler's camera looks along the pipe within a few degrees; a fit beyond ``MAX_TILT_DEG`` (6) is kept and
+    said not trusted, with the angle (``benchmarks/night_look.py``: a lateral's rings drew S03's pose to 14-17
+    degrees under a dim look, and its marked connection read 509 mm for 192). Here the camera is truly pitched 7
+    degrees: the fit finds it, and still does not trust it, as it cannot tell it from a wrong one (and beyond a
+    few degrees of yaw the fit itself drifts along the offset-for-tilt valley: 5.5 and -5.5 read 5.0 and -5.0)."""
+    from pipeline.synth.scene import Pipe, Scene
+    from pipeline.synth.window import render_window
+    from pipeline.vision.contour.detect import MAX_TILT_DEG, camera_tilt_deg
+
+    cert = load_certificate(SAMPLES / "certificates" / "SYN-720x576.json")
+    frames, K = render_window(Scene(Pipe("circular", 300.0, "concrete", 1000.0)), cert, 2000.0,
+                              yaw_deg=yaw, pitch_deg=pitch, seed=1)
+    c = detect_contour([cv2.cvtColor(f, cv2.COLOR_BGR2GRAY) for f in frames], K, "circular")
+    true_tilt = math.degrees(math.acos(math.cos(math.radians(yaw)) * math.cos(math.radians(pitch))))
+    assert camera_tilt_deg(c.view) == pytest.approx(true_tilt, abs=0.2)
+    tilted = [p for p in c.problems if "off the pipe's axis" in p]
+    assert c.confident is trusted and bool(tilted) is (true_tilt > MAX_TILT_DEG)
+    if tilted:
+        assert f"{true_tilt:.0f} degrees" in tilted[0]

@@ -15,8 +15,9 @@ from pipeline.camera.undistort import Undistorter
 from pipeline.core.errors import MeasurementError, ModelError
 from pipeline.domain.records import Observation
 from pipeline.formats.certificate import load_certificate
-from pipeline.measurement.joints import (ANGULAR_NOT_MEASURED, found_not_measured, frames_disagree, joint_points,
-                                        measure_joint, plain_reasons)
+from pipeline.measurement.quantity import found_not_measured
+from pipeline.measurement.joints import (ANGULAR_NOT_MEASURED, frames_disagree, joint_points, measure_joint,
+                                        plain_reasons)
 from pipeline.synth.joint_cases import JointCase, approach_chainages, case_scene
 from pipeline.synth.render import Renderer
 from pipeline.synth.scene import DisplacedJoint, Pipe, Scene

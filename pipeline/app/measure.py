@@ -37,10 +37,11 @@ from pipeline.measurement.automatic import measurable_automatically, measure_aut
 from pipeline.measurement.frames import measure_over_frames
 from pipeline.measurement.connections import (CONNECTION_CODES, DEPOSIT_SPAN_H, DEPOSIT_VIEW_H, FEATURE_CODES, VIEW_DEPTHS_H,
                                               validation_doubt, find_connection, measure_connection, measure_deposit)
-from pipeline.measurement.joints import (ANGULAR_NOT_MEASURED, found_not_measured, joint_search_m, measurable_joint,
-                                         measure_joint, step_clock)
+from pipeline.measurement.joints import (ANGULAR_NOT_MEASURED, joint_search_m, measurable_joint, measure_joint,
+                                         step_clock)
 from pipeline.measurement.marked import marked_quantity
-from pipeline.measurement.quantity import LINEAR_PREVIEW, MODELS, MarkedQuantity, QuantityResult, doubts, measure_quantity
+from pipeline.measurement.quantity import (LINEAR_PREVIEW, MODELS, MarkedQuantity, QuantityResult, found_not_measured,
+                                           measure_quantity)
 from pipeline.measurement.wall import contour_under
 from pipeline.core.numeric import finite_number
 from pipeline.judgement.grading import class_edges, scheme as grading_scheme
@@ -266,9 +267,8 @@ def measure_package(folder: str | os.PathLike, *, certificates: str | os.PathLik
                 # as every quantity from the image alone: one not trusted (the contour at its plane, or the water
                 # line or ring found) is found, not measured, and feeds no grade and no log check; the feature
                 # found may not be the one logged, which widening its u would not cover
-                row.update(status="unmeasured", confident=False, warnings="; ".join(res.reasons) or None,
-                           error="found, not measured: " + "; ".join(doubts(res)), a_x_px=q.a[0], a_y_px=q.a[1],
-                           b_x_px=q.b[0], b_y_px=q.b[1], u_mark_px=q.u_a)
+                row.update(_untrusted_fields(res), a_x_px=q.a[0], a_y_px=q.a[1], b_x_px=q.b[0], b_y_px=q.b[1],
+                           u_mark_px=q.u_a)
             else:
                 row.update(quantity_fields(res), u_mark_px=q.u_a)
                 _check_distance(row)
@@ -528,8 +528,7 @@ def _measure_feature(obs: Observation, views: list[tuple[int, float]], track, mo
                b_x_px=q.b[0], b_y_px=q.b[1], u_mark_px=q.u_a)
     if not auto.measured:
         # as a joint found but not trusted: unmeasured (no grade, no log check), the reasons said
-        row.update(status="unmeasured", confident=False, warnings="; ".join(res.reasons) or None,
-                   error="found, not measured: " + "; ".join(doubts(res)))
+        row.update(_untrusted_fields(res))
         return row
     # the frame stands before the feature on purpose: its chainage is not compared with the logged distance
     row.update(quantity_fields(res))
@@ -537,6 +536,13 @@ def _measure_feature(obs: Observation, views: list[tuple[int, float]], track, mo
     thumbnails.append(thumbnail(frame, q, obs.row, "contour") if thumbnail is not None
                       else _thumbnail(ideal(frame), contours[frame], q, obs.row, frame, "contour"))
     return row
+
+
+def _untrusted_fields(res: QuantityResult) -> dict:
+    """A measurement row's fields for a quantity from the image alone found but not trusted: unmeasured, no value,
+    its reasons said (no grade, no log check)."""
+    return dict(status="unmeasured", confident=False, warnings="; ".join(res.reasons) or None,
+                error=found_not_measured(res))
 
 
 def _chainage_at(track, frame: int | None) -> tuple[float, float]:

@@ -34,13 +34,13 @@ from pipeline.core.errors import MeasurementError, ModelError
 from pipeline.domain.records import Observation
 from pipeline.measurement.codecs import LARGEST_CODEC_EDGE_U_PX, codec_edge_u
 from pipeline.measurement.frames import beyond_agreement, chi_square_with_covariance, frame_covariance, measure_over_frames
-from pipeline.measurement.quantity import LINEAR_PREVIEW, MarkedQuantity, QuantityResult, doubts
+from pipeline.measurement.quantity import LINEAR_PREVIEW, MarkedQuantity, QuantityResult
 from pipeline.vision.contour import PipeContour
 from pipeline.vision.contour.joint_ends import LOG_BEHIND_M, SEARCH_AHEAD_M, JointEnds, JointSighting, _wall
 from pipeline.vision.contour.view import PipeView
 
 __all__ = ["JOINT_CHARS", "ORIGIN", "ANGULAR_NOT_MEASURED", "joint_points", "edge_u", "measure_joint", "joint_search_m",
-           "measurable_joint", "found_not_measured", "step_clock", "frames_disagree", "plain_reasons"]
+           "measurable_joint", "step_clock", "frames_disagree", "plain_reasons"]
 
 JOINT_CHARS = {"A": "axial", "B": "step"}
 ORIGIN = "joint ends fit"
@@ -304,10 +304,6 @@ def plain_reasons(reasons: Sequence[str]) -> tuple[str, ...]:
         said.append(f"frame{'s' if len(found) > 1 else ''} {_and(sorted(found, key=int))}: {text}")
     return tuple(said)
 
-
-def found_not_measured(res: QuantityResult) -> str | None:
-    """Why a joint found is not a measurement (stored "found, not measured": no grade, no log check), or None."""
-    return None if res.confident else "found, not measured: " + "; ".join(doubts(res))
 
 
 def step_clock(sightings: Sequence[JointSighting]) -> float:

@@ -77,8 +77,8 @@ from pipeline.measurement.rays import marked_points
 from pipeline.domain.results import BudgetLine
 
 __all__ = ["MarkedQuantity", "QuantityResult", "BudgetEntry", "measure_quantity", "certificate_scale_u", "MODELS",
-           "INPUT_DESCRIPTIONS", "RESOLUTION_PX", "MC_NOT_CONVERGED", "LINEAR_PREVIEW", "doubts", "INPUT_UNITS",
-           "input_unit"]
+           "INPUT_DESCRIPTIONS", "RESOLUTION_PX", "MC_NOT_CONVERGED", "LINEAR_PREVIEW", "doubts", "found_not_measured",
+           "FOUND_NOT_MEASURED", "INPUT_UNITS", "input_unit"]
 
 MODELS = ("orthographic", "perspective")
 POSE_LABELS = ("ox", "oy", "yaw", "pitch", "roll")
@@ -87,6 +87,7 @@ SHARED_LABELS = ("certificate", "H", "wall_x", "wall_y", "edge")   # the same qu
 CERTIFICATE_DRAWS = 200
 MAX_TRIALS = 400_000    # cap of the adaptive Monte Carlo: a run stopped by it is stated as not converged
 MC_NOT_CONVERGED = "Monte Carlo not converged"   # a reason that states the interval's last digit, not a doubt
+FOUND_NOT_MEASURED = "found, not measured: "      # an image-alone result's error when it is not trusted
 # a result of the law of propagation alone says so among its reasons (the reviewer's preview)
 LINEAR_PREVIEW = "linear preview: the Monte Carlo result replaces it"
 RESOLUTION_PX = 2.0     # an extent under about 2 px is not resolved: a blurred edge spreads over 1-2 px
@@ -199,6 +200,12 @@ def doubts(res: "QuantityResult") -> tuple[str, ...]:
     """The reasons of a result that bear on trusting it: all but the Monte Carlo's convergence, which says only
     that the interval's last digit is uncertain (a result found but not trusted is stored with these)."""
     return tuple(r for r in res.reasons if not r.startswith(MC_NOT_CONVERGED))
+
+
+def found_not_measured(res: "QuantityResult") -> str | None:
+    """Why a quantity found from the image alone is not a measurement (stored "found, not measured": no grade, no
+    log check), or None when it is trusted."""
+    return None if res.confident else FOUND_NOT_MEASURED + "; ".join(doubts(res))
 
 
 def certificate_scale_u(cert: Certificate, K: np.ndarray, ideal_points: np.ndarray, reference: np.ndarray,

@@ -11,6 +11,8 @@ from __future__ import annotations
 import re
 from typing import Iterable, Mapping
 
+from pipeline.measurement.quantity import FOUND_NOT_MEASURED
+
 __all__ = ["plain_warnings", "measurement_warnings"]
 
 INDICATIVE = "treat the value as indicative"
@@ -108,9 +110,6 @@ def measurement_warnings(measurements: Iterable[Mapping], describe) -> list[str]
             out.append(f"Row {row}, {e['name']} ({_join(labels)}): not measured ({error}). Action: mark it on a "
                        "clearer frame (pipegauge review), or measure it on site.")
     return out
-
-
-FOUND_NOT_MEASURED = "found, not measured: "
 
 
 def _plain_error(error: str) -> str:

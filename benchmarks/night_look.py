@@ -143,6 +143,11 @@ def main() -> None:
     ap.add_argument("--work", type=Path, help="keep the rendered packages here (default: a temporary folder)")
     ap.add_argument("--json", type=Path, help="write the rows (one per quantity) to this file")
     args = ap.parse_args()
+    known = [spec.package_id for spec, _ in sample_specs()]
+    if unknown := sorted(set(args.sample) - set(known)):
+        ap.error(f"--sample: no sample package {', '.join(unknown)}; the samples are {', '.join(known)}")
+    if args.looks < 1:
+        ap.error(f"--looks: at least 1 (got {args.looks})")
     with tempfile.TemporaryDirectory() as tmp:
         work = args.work or Path(tmp)
         rows = []

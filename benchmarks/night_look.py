@@ -11,7 +11,9 @@ Prints, per look and package, each quantity from the image alone (``source`` con
 status, value with U95 and the truth, and z = (value - truth) / u; then, per source, how many were measured
 (confident), found but not measured, not found; how many measured ones hold the truth in their interval, with
 its Wilson interval; and every measured value whose interval misses the truth, which is what a utility would be
-misled by. A package that fails as a whole is listed with its error.
+misled by. A package that fails as a whole is listed with its error. ``--poses`` also lists every window's fitted
+camera pose against the truth's mount (its tilt off the pipe's axis, and how far its yaw and pitch lie from the
+mount's), trusted or not, and sums them up on either side of ``detect.MAX_TILT_DEG``.
 
     nice -n 10 python benchmarks/night_look.py --looks 4 --seed 1 [--without-marks] [--work /tmp/night-look]
 """
@@ -20,6 +22,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import sys
 import tempfile
 import time
@@ -28,11 +31,13 @@ from pathlib import Path
 
 import numpy as np
 
+import pipeline.app.measure as conductor
 from pipeline.app.measure import measure_package
 from pipeline.formats.certificate import save_certificate
 from pipeline.synth.appearance import varied_look
 from pipeline.synth.package import build_package
 from pipeline.synth.samples import sample_certificate, sample_specs
+from pipeline.vision.contour.detect import MAX_TILT_DEG, camera_tilt_deg
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from coverage_stats import wilson  # noqa: E402
@@ -59,8 +64,26 @@ def _state(m) -> str:
     return "not measured"
 
 
-def night(look_index: int, seed: int, only: list[str], work: Path, without_marks: bool, workers: int) -> list[dict]:
-    """Render the samples in one look drawn from (seed, look_index), measure them, and return a row per quantity."""
+def _pose_rows(contours: dict, package: Path, head: dict) -> list[dict]:
+    """A row per window's fitted pose: its tilt [deg], and its yaw and pitch against the truth's mount [deg]."""
+    mount = json.loads((package / "truth" / "truth.json").read_text())["camera"]
+    rows = []
+    for frame, c in sorted(contours.items()):
+        if not np.all(np.isfinite(c.covariance)):
+            continue                                   # no pose fitted: nothing to compare
+        yaw, pitch = math.degrees(c.view.yaw), math.degrees(c.view.pitch)
+        rows.append(dict(head, pose_frame=frame, trusted=c.confident, tilt=camera_tilt_deg(c.view), yaw=yaw,
+                         pitch=pitch, off=math.hypot(yaw - mount["yaw_deg"], pitch - mount["pitch_deg"])))
+        print(f"  pose at frame {frame}: {'trusted' if c.confident else 'not trusted'}, tilt {rows[-1]['tilt']:.1f} "
+              f"deg, yaw {yaw:.1f} pitch {pitch:.1f} (mount {mount['yaw_deg']:.1f}, {mount['pitch_deg']:.1f}), "
+              f"{rows[-1]['off']:.1f} deg off", flush=True)
+    return rows
+
+
+def night(look_index: int, seed: int, only: list[str], work: Path, without_marks: bool, workers: int,
+          poses: bool = False) -> list[dict]:
+    """Render the samples in one look drawn from (seed, look_index), measure them, and return a row per quantity
+    (and, with ``poses``, one per window's fitted pose)."""
     noise, look = varied_look(np.random.default_rng([seed, look_index]))
     folder = work / f"look{look_index}"
     rows = []
@@ -74,7 +97,21 @@ def night(look_index: int, seed: int, only: list[str], work: Path, without_marks
         if without_marks:
             _drop_marks(package)
         t1 = time.perf_counter()
-        result = measure_package(package, certificates=folder / "certificates")
+        fitted: dict = {}
+        if poses:
+            # the conductor's own contours, kept as it fits them (as long_inspection.py times them)
+            fit = conductor.contours_at_frames
+
+            def kept(*args, **kwargs):
+                found = fit(*args, **kwargs)
+                fitted.update(found)
+                return found
+            conductor.contours_at_frames = kept
+        try:
+            result = measure_package(package, certificates=folder / "certificates")
+        finally:
+            if poses:
+                conductor.contours_at_frames = fit
         t2 = time.perf_counter()
         truths = _truths(package)
         head = dict(look=look_index, noise=noise, appearance=asdict(look), package=spec.package_id)
@@ -82,6 +119,7 @@ def night(look_index: int, seed: int, only: list[str], work: Path, without_marks
             rows.append(dict(head, failed=result.inspection.error or result.inspection.status))
         print(f"look {look_index} (noise {noise:.1f}, {look}) {spec.package_id}: rendered {t1 - t0:.0f} s, "
               f"measured {t2 - t1:.0f} s, status {result.inspection.status}", flush=True)
+        rows += _pose_rows(fitted, package, head)
         for m in result.measurements:
             truth = truths.get((m.row, m.quantity))
             row = dict(head, row=m.row, quantity=m.quantity, code=m.code, char1=m.char1, source=m.source,
@@ -99,6 +137,14 @@ def night(look_index: int, seed: int, only: list[str], work: Path, without_marks
 
 def summary(rows: list[dict]) -> list[str]:
     out = []
+    poses = [r for r in rows if "pose_frame" in r]
+    for beyond in (False, True):
+        side = [r for r in poses if (r["tilt"] > MAX_TILT_DEG) is beyond]
+        if side:
+            off = np.array([r["off"] for r in side])
+            out.append(f"poses {'beyond' if beyond else 'within'} {MAX_TILT_DEG:.0f} deg of tilt: {len(side)} "
+                       f"({sum(r['trusted'] for r in side)} trusted); off the mount's yaw and pitch by "
+                       f"{off.min():.1f}-{off.max():.1f} deg, {int(np.sum(off <= 0.5))} within 0.5")
     for failed in (r for r in rows if "failed" in r):
         out.append(f"look {failed['look']} {failed['package']}: FAILED: {failed['failed']}")
     for source in ("contour", "marks"):
@@ -140,6 +186,7 @@ def main() -> None:
     ap.add_argument("--sample", action="append", default=[], help="only this sample package id (repeatable)")
     ap.add_argument("--without-marks", action="store_true", help="deliver the packages without their marks")
     ap.add_argument("--workers", type=int, default=1, help="processes rendering the frames (default 1)")
+    ap.add_argument("--poses", action="store_true", help="also list every window's fitted pose against the mount")
     ap.add_argument("--work", type=Path, help="keep the rendered packages here (default: a temporary folder)")
     ap.add_argument("--json", type=Path, help="write the rows (one per quantity) to this file")
     args = ap.parse_args()
@@ -152,7 +199,7 @@ def main() -> None:
         work = args.work or Path(tmp)
         rows = []
         for k in range(args.first, args.first + args.looks):
-            rows += night(k, args.seed, args.sample, work, args.without_marks, args.workers)
+            rows += night(k, args.seed, args.sample, work, args.without_marks, args.workers, args.poses)
     if args.json:
         args.json.write_text(json.dumps(rows, indent=1) + "\n")
     print("\n".join(summary(rows)))

@@ -199,3 +199,19 @@ def test_a_point_beyond_the_distortion_models_fold_has_no_ideal_position():
     assert np.all(np.isfinite(und.points([[360.0, 288.0], [100.0, 288.0]])))
     with pytest.raises(MeasurementError, match=r"\(0\.0, 0\.0\) px .* no inverse.*nearer the centre"):
         ideal_point_and_u(und, (0.0, 0.0), 0.7, 0.1)
+
+
+def test_a_monte_carlo_failing_on_an_untrusted_pose_still_says_why_the_pose_was_not_trusted():
+    # a pose far off the axis sends a share of the trials' rays past the wall and the Monte Carlo gives up; the
+    # error it raised used to be all the row said, hiding the tilt that made the result untrusted to begin with
+    truth, cert, und, view = _truth("S02-circular-water-offset")
+    obs = next(o for o in truth["observations"] if o["code"] == "BDD")
+    marked = _marked(und, obs["quantities"][0], "BDD", "A")
+    loose = (0.2, 0.2, 0.05, 0.05, 0.05)          # offsets of 0.2 H: some trials put the camera outside the pipe
+    untrusted = _contour(view, loose)
+    untrusted.problems.append("the pose turns the camera 9 degrees off the pipe's axis (more than 6)")
+    with pytest.raises(MeasurementError) as err:
+        measure_quantity(marked, untrusted, cert, H=400.0, tolerance=4.0, seed=11)
+    message = str(err.value)
+    assert message.startswith("found, not measured: the pose turns the camera 9 degrees")
+    assert "its Monte Carlo could not be run" in message and "outside the model's domain" in message

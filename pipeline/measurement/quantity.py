@@ -67,7 +67,7 @@ import numpy as np
 from pipeline.camera import Certificate
 from pipeline.vision.contour import PipeContour
 from pipeline.vision.contour.detect import wall_u_from_tolerance
-from pipeline.core.errors import MeasurementError
+from pipeline.core.errors import MeasurementError, PipegaugeError
 from pipeline.maths.metrology import (InputSet, JointNormal, Normal, Rectangular, StudentT, propagate_linear, propagate_monte_carlo,
                                       validate_linear)
 from pipeline.maths.profiles import level_tables, wall_point
@@ -504,10 +504,18 @@ def _result(fn, inputs: InputSet, *, value_at_estimates: float, v_ortho: float, 
     # significant digits), not to two of u, which asked a digit more than printed where u's leading digit is 5-9
     # a t-distributed input (the pose's nu) has tails that can put a marked ray past the wall: those trials are drawn
     # again (the inputs truncated to the model's domain); without one nothing changes
-    mc = propagate_monte_carlo(fn, inputs, seed=seed, name=q.quantity, max_trials=MAX_TRIALS, keep_samples=bool(edges),
-                               interval="shortest" if model == "perspective" else "symmetric",
-                               redraw_outside=any(math.isfinite(m.dof) for m in inputs.members),
-                               tolerance_of="interval")
+    try:
+        mc = propagate_monte_carlo(fn, inputs, seed=seed, name=q.quantity, max_trials=MAX_TRIALS,
+                                   keep_samples=bool(edges), interval="shortest" if model == "perspective" else "symmetric",
+                                   redraw_outside=any(math.isfinite(m.dof) for m in inputs.members),
+                                   tolerance_of="interval")
+    except PipegaugeError as exc:
+        if confident:
+            raise
+        # an untrusted pose (turned far off the axis, say) sends many trials' rays past the wall, and the Monte
+        # Carlo gives up; its failure must not hide why the result was not trusted in the first place
+        raise MeasurementError(FOUND_NOT_MEASURED + "; ".join(dict.fromkeys(
+            [*reasons, *model_reasons, f"its Monte Carlo could not be run ({exc})"]))) from exc
     edges_cdf = [float(np.mean(mc.samples < e)) for e in edges] if mc.samples is not None else []
     check = validate_linear(lin, mc)
     bound_low, bound_high = method.domain

@@ -36,9 +36,34 @@ def test_real_frames_chainage_read_exactly(reader, name, expected):
 
 
 @pytest.mark.parametrize("text, value", [("5.52m", 5.52), ("24.5 M", 24.5), ("12,34 m", 12.34), ("0.00m", 0.0),
-                                         ("5.52", None), ("abc", None), ("-1.00m", None), ("99999.0m", None)])
+                                         ("5.52", None), ("abc", None), ("-1.00m", None), ("99999.0m", None),
+                                         # other cameras' labels, signs and direction marks
+                                         ("Dist: 12.34 m", 12.34), ("DIST 12.34M", 12.34), ("Entf. 12,34 m", 12.34),
+                                         ("Station 12.34m", 12.34), ("Distance:0012.34m", 12.34), ("+7.74m", 7.74),
+                                         ("7.74m->", 7.74), ("7.74m ▲", 7.74), ("Ch12.34m", 12.34),
+                                         # a length or a size is not the distance travelled
+                                         ("Länge 45.20m", None), ("L=45.20m", None), ("DN300 12.34m", None),
+                                         ("Dist:-1.00m", None), ("40.5 ft", None)])
 def test_chainage_forms(text, value):
     assert parse_chainage(text) == value
+
+
+@pytest.mark.slow
+def test_a_labelled_chainage_overlay_is_found_read_and_tracked(reader, tmp_path):
+    # another camera writes "Dist: 1.23 m": the box was not found at all ("no chainage reading ... in the first
+    # frames"), so the whole video failed
+    frames = []
+    for k in range(40):
+        frame = cv2.resize(cv2.imread(str(REAL / "1.045-1.040_0002.jpg")), (720, 576))
+        frame[:40, 560:] = 0                            # the real frame's own counter blanked
+        frames.append(Overlay(720, 576, ["SECTION"], chainage_form="Dist: {:.2f} m").apply(frame, 1.0 + 0.02 * k))
+    avi = tmp_path / "labelled.avi"
+    _write_video(avi, frames, "MJPG")
+    ingest = ingest_chainage(avi, reader)
+    assert {r.text for r in ingest.reads if r.value is not None} >= {"Dist: 1.00 m"}
+    read = max(r.frame for r in ingest.reads)           # every 4th frame is read: the track holds after the last
+    truth = 1.0 + 0.02 * np.arange(read + 1)
+    assert np.abs(ingest.track.values[:read + 1] - truth).max() < 0.005
 
 
 @pytest.mark.slow

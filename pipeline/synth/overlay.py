@@ -16,16 +16,22 @@ __all__ = ["Overlay", "chainage_text"]
 _FONT = cv2.FONT_HERSHEY_DUPLEX
 
 
-def chainage_text(counter_m: float) -> str:
-    """The displayed counter reading, e.g. 12.34m (two decimals, as real displays show)."""
-    return f"{counter_m:.2f}m"
+CHAINAGE_FORM = "{:.2f}m"
+
+
+def chainage_text(counter_m: float, form: str = CHAINAGE_FORM) -> str:
+    """The displayed counter reading, e.g. 12.34m (two decimals, as real displays show); ``form`` another camera's
+    way of writing it, e.g. "Dist: {:.2f} m"."""
+    return form.format(counter_m)
 
 
 class Overlay:
     """Burns the header lines and the chainage into frames of a given size."""
 
-    def __init__(self, width: int, height: int, header_lines: list[str], *, alpha: float = 0.6):
+    def __init__(self, width: int, height: int, header_lines: list[str], *, alpha: float = 0.6,
+                 chainage_form: str = CHAINAGE_FORM):
         self.W, self.H = width, height
+        self.chainage_form = chainage_form
         self.scale = width / 1100.0
         self.thick = max(1, int(round(2 * self.scale)))
         self.alpha = alpha
@@ -37,7 +43,8 @@ class Overlay:
         band_w = max(cv2.getTextSize(t, _FONT, self.scale, self.thick)[0][0] for t in header_lines) + 3 * self.margin
         self.band = (0, top, min(band_w, width), top + band_h)
         self.header_lines = header_lines
-        box_w = cv2.getTextSize("000.00m", _FONT, self.scale, self.thick)[0][0] + 3 * self.margin
+        widest = chainage_text(0.0, chainage_form).replace("0.00", "000.00", 1)      # "000.00m" by default
+        box_w = cv2.getTextSize(widest, _FONT, self.scale, self.thick)[0][0] + 3 * self.margin
         self.box = (width - box_w, 0, width, self.line_h + 2 * self.margin)
 
     def _darken(self, frame: np.ndarray, box: tuple[int, int, int, int]) -> None:
@@ -53,7 +60,7 @@ class Overlay:
             cv2.putText(frame, line, (x0 + self.margin, y0 + (i + 1) * self.line_h - self.margin // 2),
                         _FONT, self.scale, (255, 255, 255), self.thick, cv2.LINE_AA)
         self._darken(frame, self.box)
-        text = chainage_text(counter_m)
+        text = chainage_text(counter_m, self.chainage_form)
         tw = cv2.getTextSize(text, _FONT, self.scale, self.thick)[0][0]
         cv2.putText(frame, text, (self.W - tw - self.margin, self.line_h + self.margin // 2),
                     _FONT, self.scale, (255, 255, 255), self.thick, cv2.LINE_AA)

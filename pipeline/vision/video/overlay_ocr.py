@@ -16,15 +16,28 @@ import numpy as np
 
 from pipeline.core.errors import OverlayError
 
-__all__ = ["parse_chainage", "OverlayReader", "OverlayRead", "CHAINAGE_PATTERN", "ocr_logging"]
+__all__ = ["parse_chainage", "OverlayReader", "OverlayRead", "CHAINAGE_PATTERN", "CHAINAGE_LABELS", "ocr_logging"]
 
-# Forms seen in real overlays: "5.52m", "24.5 M", "12,34 m" (decimal comma), "0.00m".
-CHAINAGE_PATTERN = re.compile(r"^\s*(\d{1,4})\s*[.,]\s*(\d{1,3})\s*[mM]\s*$")
+# Forms seen in real overlays: "5.52m", "24.5 M", "12,34 m" (decimal comma), "0.00m". Other cameras and generators
+# label the reading ("Dist: 12.34 m", "Entf. 12,34 m", "Station 12.34m"), sign it ("+12.34m") or show the direction
+# of travel after it ("12.34m ->", "12.34m ▲"). Only labels that name a distance travelled are taken: an overlay may
+# also print the section's length ("Länge 45.20m"), which does not change as the camera drives.
+CHAINAGE_LABELS = ("distance", "distanz", "dist", "entfernung", "entf", "abstand", "station", "stat", "chainage",
+                   "chain", "ch", "position", "pos", "meter", "lfm")
+CHAINAGE_PATTERN = re.compile(
+    r"^\s*(?:(?:" + "|".join(CHAINAGE_LABELS) + r")\.?\s*[:=]?\s*)?\+?\s*(\d{1,4})\s*[.,]\s*(\d{1,3})\s*[mM]"
+    r"\s*[-=<>^|/\\→←↑↓▲▼►◄]*\s*$", re.IGNORECASE)
 MAX_CHAINAGE_M = 2000.0
 
 
 def parse_chainage(text: str) -> float | None:
-    """Chainage [m] written in ``text``, or None when it is not a chainage reading."""
+    """Chainage [m] written in ``text``, or None when it is not a chainage reading.
+
+    >>> parse_chainage("12,34 m"), parse_chainage("Dist: 12.34 m"), parse_chainage("+7.74m ->")
+    (12.34, 12.34, 7.74)
+    >>> parse_chainage("Länge 45.20m") is None
+    True
+    """
     m = CHAINAGE_PATTERN.match(text.replace(" ", "") if text.count(" ") <= 2 else text)
     if not m:
         return None

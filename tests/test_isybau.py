@@ -112,6 +112,8 @@ HOSTILE = {
                            "more than 500,000 XML elements"),
     "malformed": (HEAD + b"<Identifikation><Version>2013-02</Identifikation>", "not well-formed XML"),
     "not-isybau": (HEAD + b"<Something/>", "root element Something; an ISYBAU XML file's root is Identifikation"),
+    "multi-byte-encoding": (JOB_2013.read_bytes().replace(b'encoding="ISO-8859-1"', b'encoding="Shift_JIS"'),
+                            "declares an encoding pipegauge cannot read (multi-byte encodings are not supported)"),
 }
 
 

@@ -59,6 +59,19 @@ def test_delivery_json_is_validated_naming_the_field(tmp_path):
         load_delivery_manifest(d)
 
 
+def test_a_name_no_file_system_takes_is_no_file_of_the_delivery(tmp_path):
+    # a part over 255 bytes raised OSError (ENAMETOOLONG) out of find_file: in delivery.json's 'file' or a video
+    d = write_delivery(_inbox(tmp_path) / "JOB1", TWO[:1], videos=False)
+    long = "v" * 300 + ".mp4"
+    (d / "delivery.json").write_text(json.dumps({"file": long}))
+    with pytest.raises(PackageError) as err:
+        load_delivery_manifest(d)
+    assert str(err.value) == f"{d / 'delivery.json'}: field 'file': {long!r} is not a file inside the delivery folder"
+    (d / "delivery.json").write_text(json.dumps({"certificate_id": "SYN-720x576", "sections": {"S01": {"video": long}}}))
+    _, why = section_manifest(d, "S01")
+    assert why == f"no video delivered for section S01: {long} is not in {d}"
+
+
 def test_a_video_named_with_another_case_is_found(tmp_path):
     d = write_delivery(_inbox(tmp_path) / "JOB1", TWO[:1], marks=False)
     (d / "MPEG").rename(d / "mpeg")

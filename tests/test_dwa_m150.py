@@ -239,6 +239,10 @@ HOSTILE = {
     "truncated": (lambda: JOB[:len(JOB) // 2], "not well-formed XML (no element found"),
     "wrong-charset": (lambda: JOB.replace('encoding="ISO-8859-1"', 'encoding="UTF-8"'),
                       "not well-formed XML (not well-formed (invalid token): line 6"),
+    # expat takes no multi-byte codec but UTF-8 and UTF-16: it raised a bare ValueError
+    "multi-byte-charset": (lambda: JOB.replace('encoding="ISO-8859-1"', 'encoding="UTF-32"'),
+                           "declares an encoding pipegauge cannot read (multi-byte encodings are not supported); "
+                           "save it as UTF-8 or ISO-8859-1"),
 }
 
 

@@ -251,6 +251,14 @@ HOSTILE = {
                         "#A1='KLINGON-8' is not a character set pipegauge knows"),
     "wide-charset": (lambda: JOB.replace("#A1=ISO-8859-1", "#A1=UTF-16"), "latin-1",
                      "#A1='UTF-16' is not ASCII-compatible; save the file as ISO-8859-1 or UTF-8"),
+    # Python codecs that are no character set (hex, rot13...: LookupError on use) or no codec name (a NUL:
+    # ValueError) escaped raw before
+    "codec-not-charset": (lambda: JOB.replace("#A1=ISO-8859-1", "#A1=hex"), "latin-1",
+                          "#A1='hex' is not a character set pipegauge knows; declare the file's character set"),
+    "nul-in-charset": (lambda: JOB.replace("#A1=ISO-8859-1", "#A1=ISO\x008859"), "latin-1",
+                       "#A1='ISO\\x008859' is not a character set pipegauge knows"),
+    "idna-charset": (lambda: "#A1=IDNA\n#B01=AAA\nS1\n#C=I;A;F\n0;BCD;a.xn--b\n#Z\n", "latin-1",   # a.xn--b: a
+                     "#A1='IDNA' is not a character set pipegauge knows"),                # bare UnicodeError before
     "bad-separator": (lambda: JOB.replace("#A3=;", "#A3=;;"), "latin-1",
                       "#A3=';;' is not a field separator (one character)"),
     "no-inspection": (lambda: "#A1=UTF-8\nnot a transfer\n" * 1000, "utf-8",

@@ -259,6 +259,12 @@ HOSTILE = {
                     "basket of model 'DM01AVCH24LV95D'; pipegauge reads VSA-KEK transfers of VSA_KEK_2019_LV95 or VSA_KEK_2020_1_LV95"),
     "malformed": (lambda: _HEAD + '<VSA_KEK_2019_LV95.KEK.Untersuchung TID="u1"><Bezeichnung>S1</Untersuchung>',
                   "not well-formed XML (mismatched tag: line 2"),
+    # an encoding Python does not know, one expat cannot take: a bare LookupError and ValueError before
+    "unknown-encoding": (lambda: _HEAD.replace('"UTF-8"', '"KLINGON-8"') + _TAIL,
+                         "declares an encoding pipegauge cannot read (unknown encoding: KLINGON-8)"),
+    "multi-byte-encoding": (lambda: _HEAD.replace('"UTF-8"', '"UTF-32"') + _TAIL,
+                            "declares an encoding pipegauge cannot read (multi-byte encodings are not supported); an "
+                            "INTERLIS 2 transfer is UTF-8"),
 }
 
 

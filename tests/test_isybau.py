@@ -102,6 +102,21 @@ def test_an_older_coding_system_is_refused_row_by_row(tmp_path):
     assert all(any("coded in ISYBAU 1996, not EN 13508-2" in p.message for p in o.problems) for o in section.observations)
 
 
+def test_numbers_int_cannot_take_are_problems_of_their_row(tmp_path):
+    # str.isdigit let these through to int() and a float: a 400-digit Frame (OverflowError), a 5,000-digit Offset
+    # (ValueError: int() takes at most 4,300 digits), a StreckenschadenLfdNr '²' (ValueError: isdigit, not int())
+    text = (JOB_2013.read_bytes().replace(b"<Frame>4520</Frame>", b"<Frame>" + b"9" * 400 + b"</Frame>")
+            .replace(b"<TcFrameNr>4500</TcFrameNr>", b"<TcFrameNr>" + b"9" * 5000 + b"</TcFrameNr>")
+            .replace(b"<StreckenschadenLfdNr>1</StreckenschadenLfdNr>",
+                     "<StreckenschadenLfdNr>²</StreckenschadenLfdNr>".encode("latin-1"), 1))
+    path = tmp_path / "digits.xml"
+    path.write_bytes(text)
+    problems = read_isybau(path).all_problems()
+    assert "digits.xml row 3, field 'Streckenschaden': 'S²' is not a continuous-defect marker (S01...S99 start, " \
+           "F01...F99 finish)" in problems
+    assert f"digits.xml row 1, field 'Timecode': {'9' * 200!r} is not a video reference hh:mm:ss.ss" in problems
+
+
 HEAD = b'<?xml version="1.0"?>\n'
 HOSTILE = {
     "entity-expansion": (HEAD + b'<!DOCTYPE Identifikation [<!ENTITY a "aaaaaaaaaa"><!ENTITY b "&a;&a;&a;&a;&a;&a;">]>'
@@ -112,6 +127,8 @@ HOSTILE = {
                            "more than 500,000 XML elements"),
     "malformed": (HEAD + b"<Identifikation><Version>2013-02</Identifikation>", "not well-formed XML"),
     "not-isybau": (HEAD + b"<Something/>", "root element Something; an ISYBAU XML file's root is Identifikation"),
+    "multi-byte-encoding": (JOB_2013.read_bytes().replace(b'encoding="ISO-8859-1"', b'encoding="Shift_JIS"'),
+                            "declares an encoding pipegauge cannot read (multi-byte encodings are not supported)"),
 }
 
 

@@ -88,6 +88,18 @@ def test_a_manifest_nobody_may_read_is_a_package_error_naming_the_file(tmp_path,
         load_manifest(tmp_path / "P")
 
 
+@pytest.mark.parametrize("name, why", [("v" * 300 + ".mp4", "File name too long"), ("video\x00.mp4", "embedded null byte")])
+def test_a_file_name_no_file_system_takes_is_a_package_error_naming_the_field(tmp_path, name, why):
+    # a name over 255 bytes raised OSError (ENAMETOOLONG), a NUL ValueError, out of load_manifest
+    from pipeline.formats.manifest import load_manifest
+
+    path = _manifest(tmp_path / "P", video=name)
+    with pytest.raises(PackageError) as err:
+        load_manifest(tmp_path / "P")
+    assert str(err.value).startswith(f"{path}: field 'video': ") and f"is not a file name ({why}); name a file " \
+        "inside the package folder" in str(err.value), str(err.value)
+
+
 def test_digit_groups_are_not_numbers():
     from pipeline.core.numeric import finite_number, whole_number
 

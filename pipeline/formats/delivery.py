@@ -87,10 +87,10 @@ def find_file(folder: Path, relative: str) -> Path | None:
     here = folder
     for part in parts:
         exact = here / part
-        if exact.exists():
-            here = exact
-            continue
         try:
+            if exact.exists():     # OSError for a part no file system takes (over 255 bytes: ENAMETOOLONG)
+                here = exact
+                continue
             match = next((c for c in here.iterdir() if c.name.lower() == part.lower()), None)
         except OSError:
             return None

@@ -309,10 +309,17 @@ def _settings(path: Path, raw: dict[str, str], problem) -> _Settings:
     charset = values["charset"].strip()
     try:
         codec = codecs.lookup(charset)
-    except LookupError:
+        # a character set: Python's other codecs (hex, rot13, zlib...) raise LookupError when used as one
+        _ASCII.encode(codec.name)
+    except (LookupError, ValueError):        # ValueError: a NUL in the name
         raise TransferError(f"{path}: #A1={charset!r} is not a character set pipegauge knows; declare the file's "
                             "character set, e.g. ISO-8859-1 or UTF-8") from None
-    if "#=;\n".encode(codec.name) != b"#=;\n":
+    try:
+        # every ASCII byte read as itself: not UTF-16 or UTF-7, whose lines would fail with a bare UnicodeError
+        ascii_compatible = bytes(range(128)).decode(codec.name) == _ASCII
+    except UnicodeError:
+        ascii_compatible = False
+    if not ascii_compatible:
         raise TransferError(f"{path}: #A1={charset!r} is not ASCII-compatible; save the file as ISO-8859-1 or UTF-8")
     separator = values["separator"] if not values["separator"].strip() else values["separator"].strip()
     separator = _NAMED_SEPARATORS.get(separator.upper(), separator)
@@ -329,6 +336,7 @@ def _settings(path: Path, raw: dict[str, str], problem) -> _Settings:
 
 
 _SINGLE_BYTE = {"iso8859-1", "cp1252", "iso8859-15", "latin-1"}     # codecs.lookup's names
+_ASCII = "".join(map(chr, range(128)))
 
 
 def _utf8(data: bytes) -> bool:

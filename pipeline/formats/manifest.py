@@ -14,6 +14,7 @@ from pathlib import Path
 
 from pipeline.core.atomic import atomic_path
 from pipeline.core.errors import PackageError
+from pipeline.formats.csvfile import clip
 from pipeline.formats.jsonfile import read_json
 
 __all__ = ["PackageManifest", "load_manifest", "certificate_path", "manifest_document", "write_manifest", "FORMAT_NAME",
@@ -104,16 +105,22 @@ def load_manifest(folder: str | os.PathLike) -> PackageManifest:
         if key == "marks" and (data.get(key, "") is None or (key not in data and not (folder / default).is_file())):
             continue                                # a package without marks
         name = data.get(key, default)
-        target = (folder / str(name)).resolve()
-        if not isinstance(name, str) or folder.resolve() not in target.parents:
-            problems.append(f"field {key!r}: {name!r} must name a file inside the package folder")
-        elif target.exists() and not target.is_file():
-            problems.append(f"field {key!r}: {name!r} is not a regular file (a folder, pipe or device); nothing was "
-                            "read from it: deliver the file itself")
-        elif not target.is_file():
-            problems.append(f"field {key!r}: the file {name!r} is missing from the package"
-                            + ("; a package without marks leaves the field out (or sets it to null)"
-                               if key == "marks" else ""))
+        try:
+            target = (folder / str(name)).resolve()
+            if not isinstance(name, str) or folder.resolve() not in target.parents:
+                problems.append(f"field {key!r}: {name!r} must name a file inside the package folder")
+            elif target.exists() and not target.is_file():
+                problems.append(f"field {key!r}: {name!r} is not a regular file (a folder, pipe or device); nothing "
+                                "was read from it: deliver the file itself")
+            elif not target.is_file():
+                problems.append(f"field {key!r}: the file {name!r} is missing from the package"
+                                + ("; a package without marks leaves the field out (or sets it to null)"
+                                   if key == "marks" else ""))
+        except (OSError, ValueError) as exc:
+            # a name no file system takes: a part longer than 255 bytes (ENAMETOOLONG), a NUL (ValueError)
+            why = exc.strerror if isinstance(exc, OSError) and exc.strerror else str(exc)
+            problems.append(f"field {key!r}: {clip(repr(name), 80)} is not a file name ({why}); name a file inside "
+                            "the package folder")
         files[key] = folder / str(name)
     if problems:
         raise PackageError(f"{path}: " + "; ".join(problems))

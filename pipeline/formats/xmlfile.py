@@ -158,6 +158,11 @@ def _feed(path: Path, target, encoding: str | None, what: str):
         raise TransferError(f"{path}: not well-formed XML ({exc}); check that the {what} is complete") from None
     except (UnicodeDecodeError, LookupError) as exc:
         raise TransferError(f"{path}: the {what} cannot be decoded ({exc}); save it in the encoding it declares") from None
+    except ValueError as exc:
+        # expat takes no multi-byte codec but its own UTF-8 and UTF-16: a file declaring UTF-32, Shift_JIS, Big5...
+        # makes the parser raise a bare ValueError ("multi-byte encodings are not supported")
+        raise TransferError(f"{path}: the {what} declares an encoding pipegauge cannot read ({exc}); save it as "
+                            "UTF-8 or ISO-8859-1 and declare that encoding") from None
 
 
 def child_text(e: Element | None, *path: str) -> str:

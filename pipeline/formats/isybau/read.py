@@ -41,7 +41,10 @@ FIELD_NAMES = {"distance_m": "Station", "code": "InspektionsKode", "char1": "Cha
                "char2": "Charakterisierung2", "q1": "Quantifizierung1Numerisch", "q2": "Quantifizierung2Numerisch",
                "clock_from": "PositionVon", "clock_to": "PositionBis", "at_joint": "Verbindung",
                "continuous": "Streckenschaden", "video_time": "Timecode", "photo": "Fotodatei", "remark": "Kommentar"}
-_TIMECODE = re.compile(r"^\d{1,8}$")
+_TIMECODE = re.compile(r"^[0-9]{1,8}$")
+# a frame number, an offset or a continuous defect's number: ASCII digits (str.isdigit also takes '²', which int()
+# refuses), at most 9 of them (int() refuses over 4,300 digits; a frame number of 400 digits overflows a float)
+_WHOLE = re.compile(r"^[0-9]{1,9}$")
 _UNBOUNDED = 10_000.0              # a section without Inspektionslaenge: distances checked against no length [m]
 
 
@@ -55,7 +58,7 @@ class Film:
         self.fps = finite_number(child_text(e, "Frame", "fps"))
         self.offsets = sorted((int(a), int(b)) for a, b in
                               ((child_text(o, "TcFrameNr"), child_text(o, "MPEGFrameNr"))
-                               for o in e.iterfind("Offsets/Offset")) if a.isdigit() and b.isdigit())
+                               for o in e.iterfind("Offsets/Offset")) if _WHOLE.fullmatch(a) and _WHOLE.fullmatch(b))
         self.objects = [(child_text(o, "Objektbezeichnung"), child_text(o, "Typ"), child_text(o, "Inspektionsrichtung"))
                         for o in e.iterfind("FilmObjekte/FilmObjekt")]
         self.line = int(e.get("_line", "0"))
@@ -277,8 +280,8 @@ def _video_time(z: Element, film: Film | None) -> str:
             return tc
         frames = film.video_frame(round(((h * 60 + m) * 60 + s) * fps + f))
     else:
-        if not frame.isdigit():
-            return frame
+        if not _WHOLE.fullmatch(frame):
+            return frame           # the log's check names it
         frames = int(frame)
     seconds = frames / fps
     hours, rest = divmod(seconds, 3600)
@@ -292,7 +295,7 @@ def _pipe_row(n: int, z: Element, film: Film | None, coding: str) -> tuple[str, 
     remark = child_text(z, "Kommentar")
     continuous = ""
     kind, number = child_text(z, "Streckenschaden").upper(), child_text(z, "StreckenschadenLfdNr")
-    if kind in CONTINUOUS and number.isdigit():
+    if kind in CONTINUOUS and _WHOLE.fullmatch(number):
         continuous = f"{CONTINUOUS[kind]}{int(number):02d}"
     elif kind in CONTINUOUS:
         continuous = f"{CONTINUOUS[kind]}{number}"       # the log's check says what is wrong with the number

@@ -83,6 +83,11 @@ def read_transfer(path: str | os.PathLike) -> Transfer:
                             "are never read)") from None
     except ParseError as exc:
         raise TransferError(f"{path}: not well-formed XML ({exc}); check the file is a complete INTERLIS 2 transfer") from None
+    except (UnicodeDecodeError, LookupError, ValueError) as exc:
+        # an encoding Python does not know (LookupError) or expat cannot take (UTF-32, Shift_JIS...: a bare
+        # ValueError "multi-byte encodings are not supported"), declared in the XML declaration
+        raise TransferError(f"{path}: the transfer declares an encoding pipegauge cannot read ({exc}); an INTERLIS 2 "
+                            "transfer is UTF-8: save it so and declare encoding=\"UTF-8\"") from None
     if not reader.basket:
         raise TransferError(f"{path}: no basket in DATASECTION; an INTERLIS 2 transfer of VSA-KEK holds one")
     model = reader.basket.split(".")[0]

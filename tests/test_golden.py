@@ -24,7 +24,7 @@ def test_every_stored_field_and_report_text_of_the_samples_is_unchanged(sample_n
 def test_the_comparison_finds_a_changed_value():
     expected = json.loads(GOLDEN.read_text(encoding="utf-8"))
     changed = json.loads(json.dumps(expected))
-    changed["dataset"]["measurements"][0]["U95"] *= 1 + 1e-6
+    changed["dataset"]["measurements"][0]["U95"] *= 1 + 1e-3
     changed["reports"]["summary.pdf"][0] = changed["reports"]["summary.pdf"][0].replace("ok", "okay", 1)
     found = differences(expected, changed)
     assert [f.split(":")[0] for f in found] == ["/dataset/measurements[0]/U95", "/reports/summary.pdf[0]"]

@@ -215,3 +215,21 @@ def test_a_monte_carlo_failing_on_an_untrusted_pose_still_says_why_the_pose_was_
     message = str(err.value)
     assert message.startswith("found, not measured: the pose turns the camera 9 degrees")
     assert "its Monte Carlo could not be run" in message and "outside the model's domain" in message
+
+
+def test_an_input_known_exactly_has_no_sensitivity_in_the_budget():
+    # the pipe's shift with no tolerance left to it is an input of u EXACT_U (every frame's model keeps the same
+    # inputs); its difference quotient over that step is rounding, which printed 66.6 or 341 in the reports
+    from pipeline.measurement.quantity import EXACT_U
+    truth, cert, und, view = _truth("S02-circular-water-offset")
+    obs = next(o for o in truth["observations"] if o["code"] == "BDD")
+    marked = _marked(und, obs["quantities"][0], "BDD", "A")
+    loose = measure_quantity(marked, _contour(view), cert, H=400.0, tolerance=4.0, seed=11)
+    from dataclasses import replace
+    exact = measure_quantity(marked, replace(_contour(view), wall_u=0.0), cert, H=400.0, tolerance=0.0, seed=11)
+    wall = {b.label: b for b in loose.budget if b.label in ("wall_x", "wall_y")}
+    assert all(b.u > EXACT_U and b.sensitivity != 0 for b in wall.values()), wall
+    known = [b for b in exact.budget if b.u <= EXACT_U]
+    assert {b.label for b in known} >= {"wall_x", "wall_y"}
+    assert all((b.sensitivity, b.contribution, b.share) == (0.0, 0.0, 0.0) for b in known)
+    assert sum(b.share for b in exact.budget) == pytest.approx(1.0, abs=0.05)

@@ -87,6 +87,10 @@ SHARED_LABELS = ("certificate", "H", "wall_x", "wall_y", "edge")   # the same qu
 CERTIFICATE_DRAWS = 200
 MAX_TRIALS = 400_000    # cap of the adaptive Monte Carlo: a run stopped by it is stated as not converged
 MC_NOT_CONVERGED = "Monte Carlo not converged"   # a reason that states the interval's last digit, not a doubt
+# the u an input known exactly is given, so that every frame's model keeps the same inputs (the pipe's shift where
+# no tolerance is left to it, a certificate without u): its sensitivity, a difference quotient over a step of this
+# size, is rounding (it printed 66.6, 341 or 0 in the reports, by the libraries' last bits), so its budget line says 0
+EXACT_U = 1e-12
 FOUND_NOT_MEASURED = "found, not measured: "      # an image-alone result's error when it is not trusted
 # a result of the law of propagation alone says so among its reasons (the reviewer's preview)
 LINEAR_PREVIEW = "linear preview: the Monte Carlo result replaces it"
@@ -261,8 +265,11 @@ def _description(label: str, origin: str, suffixes: dict[str, str] | None = None
 
 
 def _budget(lin, origin: str = "marking", suffixes: dict[str, str] | None = None) -> list[BudgetEntry]:
+    """The linear propagation's budget lines, described; an input known exactly (``EXACT_U``) with no sensitivity."""
     return [BudgetEntry(line.label, _description(line.label, origin, suffixes), line.estimate, line.u,
-                        line.distribution, line.sensitivity, line.contribution, line.share) for line in lin.budget]
+                        line.distribution, *((line.sensitivity, line.contribution, line.share) if line.u > EXACT_U
+                                             else (0.0, 0.0, 0.0)))
+            for line in lin.budget]
 
 
 def _image_direction(view, method: str, a: np.ndarray, b: np.ndarray) -> np.ndarray | None:
@@ -449,7 +456,7 @@ def _frame_model(q: MarkedQuantity, contour: PipeContour, cert: Certificate, *, 
     if not (math.isfinite(v_persp) and math.isfinite(v_ortho)):
         raise MeasurementError(f"{q.code} {q.quantity}: the marks do not meet the pipe wall with the fitted camera pose")
 
-    common = {"certificate": Normal(1.0, max(u_cert, 1e-12)), "H": _h_input(H, tolerance) if method.scales_with_H else H}
+    common = {"certificate": Normal(1.0, max(u_cert, EXACT_U)), "H": _h_input(H, tolerance) if method.scales_with_H else H}
     if q.u_edge > 0:
         common["edge"] = Normal(0.0, q.u_edge)
     cov = contour.covariance
@@ -458,9 +465,9 @@ def _frame_model(q: MarkedQuantity, contour: PipeContour, cert: Certificate, *, 
     fixed = {n: v for n, v in pose.items() if n not in names}
     perspective_independent = {
         "xa": Normal(a[0], q.u_a), "ya": Normal(a[1], q.u_a), "xb": Normal(b[0], q.u_b),
-        "yb": Normal(b[1], q.u_b), "wall_x": Normal(0.0, max(contour.wall_u, 1e-12)),
-        "wall_y": Normal(0.0, max(contour.wall_u, 1e-12)),
-        **{k: Normal(v, max(q.u_anchor, 1e-12)) for k, v in anchored.items()}, **fixed, **common}
+        "yb": Normal(b[1], q.u_b), "wall_x": Normal(0.0, max(contour.wall_u, EXACT_U)),
+        "wall_y": Normal(0.0, max(contour.wall_u, EXACT_U)),
+        **{k: Normal(v, max(q.u_anchor, EXACT_U)) for k, v in anchored.items()}, **fixed, **common}
     perspective_joint = [JointNormal(names, [pose[n] for n in names], cov[np.ix_(free, free)], dof=contour.dof)
                          ] if names else []
     nuisance: tuple | None
@@ -469,7 +476,7 @@ def _frame_model(q: MarkedQuantity, contour: PipeContour, cert: Certificate, *, 
         p_H_input = (StudentT(plane.p_H, plane.u_p_H, plane.dof) if math.isfinite(plane.dof) and plane.u_p_H > 0
                      else Normal(plane.p_H, plane.u_p_H))
         independent = {"xa": Normal(a[0], q.u_a), "ya": Normal(a[1], q.u_a), "xb": Normal(b[0], q.u_b),
-                       "yb": Normal(b[1], q.u_b), **{k: Normal(v, max(q.u_anchor, 1e-12)) for k, v in anchored.items()},
+                       "yb": Normal(b[1], q.u_b), **{k: Normal(v, max(q.u_anchor, EXACT_U)) for k, v in anchored.items()},
                        "p_H": p_H_input, "approximation": Normal(0.0, delta_ortho) if delta_ortho > 0 else 0.0, **common}
         joint: list = []
         fn = orthographic

@@ -81,18 +81,22 @@ def _pose_rows(contours: dict, package: Path, head: dict) -> list[dict]:
 
 
 def night(look_index: int, seed: int, only: list[str], work: Path, without_marks: bool, workers: int,
-          poses: bool = False) -> list[dict]:
+          poses: bool = False, size: tuple[int, int] | None = None, default_look: bool = False) -> list[dict]:
     """Render the samples in one look drawn from (seed, look_index), measure them, and return a row per quantity
-    (and, with ``poses``, one per window's fitted pose)."""
+    (and, with ``poses``, one per window's fitted pose). size : (width, height) [px] of the synthetic camera
+    (``samples.sample_certificate``) instead of each sample's own; default_look : the samples' own look and noise
+    instead of one drawn."""
     noise, look = varied_look(np.random.default_rng([seed, look_index]))
     folder = work / f"look{look_index}"
     rows = []
     for spec, (w, h) in sample_specs():
         if only and spec.package_id not in only:
             continue
-        cert = sample_certificate(w, h)
+        cert = sample_certificate(*(size or (w, h)))
         save_certificate(cert, folder / "certificates" / f"{cert.certificate_id}.json")
         t0 = time.perf_counter()
+        if default_look:
+            noise, look = spec.noise, spec.appearance
         package = build_package(replace(spec, noise=noise, appearance=look), cert, folder, workers=workers)
         if without_marks:
             _drop_marks(package)
@@ -189,7 +193,18 @@ def main() -> None:
     ap.add_argument("--poses", action="store_true", help="also list every window's fitted pose against the mount")
     ap.add_argument("--work", type=Path, help="keep the rendered packages here (default: a temporary folder)")
     ap.add_argument("--json", type=Path, help="write the rows (one per quantity) to this file")
+    ap.add_argument("--size", help="render through the synthetic camera of this size, WIDTHxHEIGHT (e.g. 1920x1080), "
+                    "instead of each sample's own")
+    ap.add_argument("--default-look", action="store_true", help="the samples' own look, not one drawn")
     args = ap.parse_args()
+    size = None
+    if args.size:
+        try:
+            size = tuple(int(v) for v in args.size.lower().split("x"))
+            if len(size) != 2 or min(size) < 64:
+                raise ValueError
+        except ValueError:
+            ap.error(f"--size: WIDTHxHEIGHT in px, each at least 64, e.g. 1920x1080 (got {args.size!r})")
     known = [spec.package_id for spec, _ in sample_specs()]
     if unknown := sorted(set(args.sample) - set(known)):
         ap.error(f"--sample: no sample package {', '.join(unknown)}; the samples are {', '.join(known)}")
@@ -199,7 +214,8 @@ def main() -> None:
         work = args.work or Path(tmp)
         rows = []
         for k in range(args.first, args.first + args.looks):
-            rows += night(k, args.seed, args.sample, work, args.without_marks, args.workers, args.poses)
+            rows += night(k, args.seed, args.sample, work, args.without_marks, args.workers, args.poses, size,
+                          args.default_look)
     if args.json:
         args.json.write_text(json.dumps(rows, indent=1) + "\n")
     print("\n".join(summary(rows)))

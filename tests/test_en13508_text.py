@@ -198,6 +198,18 @@ def test_the_same_section_twice_gets_a_key_of_its_own_and_a_missing_end_is_said(
     assert after.problems == [f"{tmp_path / 'after.txt'} line 22: text after #Z (line 21) is not read"]
 
 
+@pytest.mark.parametrize("line_end", ["\n", "\r"])
+def test_lines_ending_in_lf_or_cr_alone_read_as_crlf(tmp_path, line_end):
+    # a file saved by classic Mac OS ends its lines in CR alone: read as one line, it was refused for its #A1
+    twin = read_log_file(write(tmp_path))
+    path = tmp_path / "other-ends.txt"
+    path.write_bytes(JOB.replace("\n", line_end).encode("latin-1"))
+    job = read_log_file(path)
+    assert job.problems == twin.problems == []
+    assert [(s.key, s.line, s.header_fields, rows(s)) for s in job.sections] == \
+        [(s.key, s.line, s.header_fields, rows(s)) for s in twin.sections]
+
+
 def test_a_utf8_file_without_settings_is_read_with_the_defaults_and_said(tmp_path):
     plain = "#B01=AAA,ABH\n12-3,Jürgen\n#C=I,A\n0.0,BCD\n#Z\n"
     job = read_log(write(tmp_path, plain, "plain.txt", "utf-8"))

@@ -159,8 +159,32 @@ def read_log(path: str | os.PathLike) -> ExchangeFile:
     return exchange
 
 
+class _CarriageReturnLines:
+    """A binary file whose lines end in CR alone (as classic Mac OS wrote text), read line by line as if they ended
+    in LF; at most ``limit`` bytes and one block are held."""
+
+    def __init__(self, fh):
+        self.fh, self.buf = fh, b""
+
+    def readline(self, limit: int) -> bytes:
+        while b"\r" not in self.buf[:limit] and len(self.buf) < limit:
+            block = self.fh.read(1 << 16)
+            if not block:
+                break
+            self.buf += block
+        i = self.buf.find(b"\r", 0, limit)
+        n = i + 1 if i >= 0 else min(limit, len(self.buf))
+        line, self.buf = self.buf[:n], self.buf[n:]
+        return line[:-1] + b"\n" if line.endswith(b"\r") else line
+
+
 def _lines(fh) -> Iterator[tuple[int, bytes, bool]]:
-    """(line number, bytes without the line end, whether the line was longer than MAX_LINE_BYTES and cut)."""
+    """(line number, bytes without the line end, whether the line was longer than MAX_LINE_BYTES and cut); lines end
+    in LF, CR LF, or CR alone (read as a whole file of one line, it was refused for its #A1)."""
+    head = fh.read(MAX_LINE_BYTES)
+    fh.seek(0)
+    if b"\r" in head and b"\n" not in head:
+        fh = _CarriageReturnLines(fh)
     number = 0
     while True:
         chunk = fh.readline(MAX_LINE_BYTES + 1)

@@ -42,6 +42,9 @@ def xml_root_name(path: str | os.PathLike, head_bytes: int = 1 << 16) -> str | N
     """
     with Path(path).open("rb") as fh:
         head = fh.read(head_bytes)
+    if head[:2] in (b"\xff\xfe", b"\xfe\xff"):
+        # UTF-16, which XML allows and the parser reads by its byte-order mark: named in ASCII like the rest
+        head = head[:len(head) // 2 * 2].decode("utf-16", "replace").encode("utf-8", "replace")
     head = head.lstrip(b"\xef\xbb\xbf")
     head = re.sub(rb"<\?.*?\?>|<!--.*?-->|<!DOCTYPE[^\[>]*(?:\[.*?\])?\s*>", b"", head, flags=re.S)
     m = _ROOT.search(head)

@@ -72,6 +72,16 @@ def test_a_name_no_file_system_takes_is_no_file_of_the_delivery(tmp_path):
     assert why == f"no video delivered for section S01: {long} is not in {d}"
 
 
+def test_a_section_key_no_file_can_be_named_after_has_no_marks_file(tmp_path):
+    # marks/<key>.csv of a key over 255 bytes raised a bare OSError ("File name too long") where the marks were
+    # looked for; such a section can have no marks file, so it has none
+    d = write_delivery(_inbox(tmp_path) / "JOB1", TWO[:1], videos=False)
+    delivery = load_delivery_manifest(d)
+    assert delivery.marks_of("S01") == d / "marks" / "S01.csv"
+    assert delivery.marks_of("S" * 300) is None and delivery.marks_of("S01\0") is None
+    assert delivery.marks_of("12/3") == d / "marks" / "12" / "3.csv"
+
+
 def test_a_video_named_with_another_case_is_found(tmp_path):
     d = write_delivery(_inbox(tmp_path) / "JOB1", TWO[:1], marks=False)
     (d / "MPEG").rename(d / "mpeg")

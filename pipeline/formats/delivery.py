@@ -57,7 +57,12 @@ class DeliveryManifest:
         own = {k: v for k, v in self.sections.get(key, {}).items() if k not in _SECTION_KEYS}
         return {**self.section_defaults, **own}
 
-    def marks_of(self, key: str) -> Path:
+    def marks_of(self, key: str) -> Path | None:
+        """``marks/<key>.csv``; None (no marks) for a key no file can be named after: a NUL in it, or a part over
+        255 bytes (looking for such a file raised a bare OSError, "File name too long")."""
+        parts = f"{key}.csv".split("/")
+        if "\0" in key or any(len(part.encode("utf-8", "surrogateescape")) > 255 for part in parts):
+            return None
         return self.folder / MARKS_FOLDER / f"{key}.csv"
 
 

@@ -65,6 +65,8 @@ def main() -> None:
     ap.add_argument("--cases", type=int, default=30, help="cases per quantity (default 30)")
     ap.add_argument("--seed", type=int, default=5)
     ap.add_argument("--kind", choices=KINDS, action="append", help="only this quantity (repeatable; default both)")
+    ap.add_argument("--roll", type=float, default=0.0, help="the camera's roll drawn uniformly within this many "
+                    "degrees either way (default 0; a circular pipe's pose does not show it: the water line must)")
     add_appearance_argument(ap)
     add_camera_argument(ap)
     args = ap.parse_args()
@@ -75,8 +77,10 @@ def main() -> None:
     for kind in kinds:
         rng = np.random.default_rng([args.seed, KINDS.index(kind)])
         looks = np.random.default_rng([args.seed, KINDS.index(kind), 1])    # its own stream: the same geometry
+        rolls = np.random.default_rng([args.seed, KINDS.index(kind), 2])    # and the roll's: the same otherwise
         for i in range(args.cases):
             scene, z, mount, truth, code = case(kind, rng, cert)
+            mount["roll_deg"] = float(rolls.uniform(-args.roll, args.roll))
             noise, look = look_of(args.appearance, looks)
             frames, K = render_window(scene, cert, z, seed=i, noise=noise, appearance=look, **mount)
             H = scene.pipe.height_mm

@@ -138,3 +138,20 @@ def test_in_the_night_an_untrusted_result_from_the_image_alone_is_found_not_meas
     o = read_table(sample_night / "dataset", "observations")
     row6 = o[(o.inspection_id == "S01-circular-clean") & (o.row == 6)].iloc[0]
     assert row6.grade_source == "Q1 marks"
+
+
+@pytest.mark.parametrize("size", [(720, 576), (1920, 1080)])
+def test_a_rolled_camera_s_water_line_is_found_through_a_larger_camera(size):
+    # a circular pipe's rings do not show the camera's roll, so the pose says 0 and the water line lies off its
+    # predicted place by the roll, in proportion to the focal length: the search's pixel reach, set on the
+    # 720x576 camera, found no line through a 1920x1080 one (S02 in the night: contrast 5 levels against 28)
+    from pipeline.synth.samples import sample_certificate
+    from pipeline.vision.contour.view import PipeView
+    cam = sample_certificate(*size)
+    frames, K = render_window(Scene(Pipe("circular", 400.0, "concrete", 2500.0), water_percent=30.0), cam, 1500.0,
+                              offset_mm=(35.0, -40.0), yaw_deg=3.0, pitch_deg=2.0, roll_deg=1.5, back_mm=0.0)
+    fitted = PipeView("circular", K[0, 0], K[1, 1], K[0, 2], K[1, 2], 35.0 / 400, -40.0 / 400,
+                      *np.radians([3.0, 2.0, 0.0]))                 # the roll is not fitted
+    line = find_water_line(frames[0], fitted)
+    assert line is not None and line.confident, line
+    assert abs(line.level - 0.30) < 0.01

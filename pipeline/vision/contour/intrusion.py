@@ -27,6 +27,7 @@ point's u in the image.
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass
 
 import cv2
@@ -71,7 +72,10 @@ def _base_depth(m: np.ndarray, col: int, j: int, ts: np.ndarray) -> float | None
     """Depth [H] where the grey level of the wall map ``m`` (depths, thetas) at columns about ``col`` crosses
     half-way from the wall's level before row ``j`` (the region's first row) to the tube's after it; None when
     the map there is out of view."""
-    with np.errstate(invalid="ignore"):
+    with warnings.catch_warnings():
+        # a row out of view is all nan: its mean is nan, which the test below takes for "out of view" (NumPy's
+        # "Mean of empty slice" warning went to the night's log as noise)
+        warnings.simplefilter("ignore", RuntimeWarning)
         column = np.nanmean(m[:, max(col - 2, 0):col + 3], axis=1)
     column = np.convolve(column, np.array([0.25, 0.5, 0.25]), mode="same")
     wall = column[max(j - 10, 1):max(j - 3, 2)]

@@ -123,23 +123,24 @@ def _scale(view: PipeView) -> float:
     return max(1.0, 0.5 * (view.fx + view.fy) / REFERENCE_FOCAL_PX)
 
 
-def _contrast(image: np.ndarray, view: PipeView, level: float, depths: np.ndarray, mask,
-              chromatic: bool = False, side: int | None = None) -> tuple[float, int]:
-    """The median colour difference across the water lines at ``level`` (one of them: ``side`` 0 left, 1 right)
-    [8-bit levels], and the number of usable points."""
+def _side_contrasts(image: np.ndarray, view: PipeView, level: float, depths: np.ndarray, mask,
+                    chromatic: bool = False) -> tuple[float, float]:
+    """The median colour difference across each water line at ``level`` (left, right) [8-bit levels]; 0 for a
+    line with fewer than MIN_EDGE_POINTS usable points. Both lines from one projection."""
     pts, normals, _ = _line_points(view, level, depths)
-    if side is not None:
-        pts, normals = pts[side:side + 1], normals[side:side + 1]
     k = _scale(view)
     ok = _usable(pts, image.shape[:2], mask, k * SEARCH_PX + 2)
-    if ok.sum() < MIN_EDGE_POINTS:
-        return 0.0, int(ok.sum())
-    p, n = pts[ok], normals[ok]
-    above, below = _sample(image, p + k * SIDE_OFFSET_PX * n), _sample(image, p - k * SIDE_OFFSET_PX * n)
-    if chromatic and image.shape[-1] == 3:
-        above, below = _chroma(above), _chroma(below)
-    diff = above - below
-    return float(np.median(np.linalg.norm(diff, axis=-1))), int(ok.sum())
+    out = []
+    for side in (0, 1):
+        if ok[side].sum() < MIN_EDGE_POINTS:
+            out.append(0.0)
+            continue
+        p, n = pts[side][ok[side]], normals[side][ok[side]]
+        above, below = _sample(image, p + k * SIDE_OFFSET_PX * n), _sample(image, p - k * SIDE_OFFSET_PX * n)
+        if chromatic and image.shape[-1] == 3:
+            above, below = _chroma(above), _chroma(below)
+        out.append(float(np.median(np.linalg.norm(above - below, axis=-1))))
+    return out[0], out[1]
 
 
 def _edges(image: np.ndarray, points: np.ndarray, normals: np.ndarray,
@@ -181,7 +182,7 @@ def find_water_line(ideal_bgr: np.ndarray, view: PipeView, *, depths: tuple[floa
     # horizontal, up on one side and down on the other (a common level for both missed a roll of 3 degrees in 10 of
     # 40 cases and read 7 of the rest outside their U95: benchmarks/automatic_coverage.py --roll 3); the two sides'
     # levels are averaged below, which takes the roll out to first order
-    scores = np.array([[_contrast(image, view, h, t, mask, chromatic, side)[0] for h in LEVELS] for side in (0, 1)])
+    scores = np.array([_side_contrasts(image, view, h, t, mask, chromatic) for h in LEVELS]).T     # (side, level)
     if not np.any(scores > 0):
         return None
     reach = int(round(2 * SIDE_SPLIT_H / (LEVELS[1] - LEVELS[0])))

@@ -409,3 +409,40 @@ def test_a_joint_under_a_flat_response_and_a_bright_gap_is_found_in_its_nearest_
     for char1, truth in (("A", GAP), ("B", STEP)):
         _, res = measure_joint(_obs(char1), sightings, contour, cert, H=H, tolerance=0.0)
         assert res.low <= truth <= res.high
+
+
+def test_a_trusted_sighting_outranks_an_untrusted_one_whatever_step_it_reads(joint, monkeypatch):
+    """Of the joints an approach shows, the displaced one is chosen by the gap and step of its nearest sighting; an
+    untrusted sighting's step is what it is not trusted for. S02 through a 1920x1080 camera: a plain joint's far
+    ring, fitted in 4 of 8 sectors, read a 34 mm step and was taken for the displaced joint (which its frames
+    then disagreed on), and asking for one sighting returned the nearest, untrusted, before a trusted one behind it.
+    Here a phantom joint 0.15 m before the real one is seen in every frame, and found in the nearest ones with a
+    huge step but not trusted: the real joint is still chosen, from the same frames as without the phantom."""
+    from pipeline.vision.contour import joint_ends
+
+    frames, contour = joint
+    expected, _ = follow_joint(frames, contour.view, H)
+    chainage = {id(g): c for _, g, c in frames}
+    phantom_m = JOINT_M - 0.15
+    real_depths, real_find = joint_ends.joint_depths, joint_ends.find_joint_ends
+
+    def depths(gray, view, t_range, *, mask=None):
+        t = (phantom_m - chainage[id(gray)]) / (H / 1000.0)
+        return real_depths(gray, view, t_range, mask=mask) + ([(t, 0.1)] if t_range[0] <= t <= t_range[1] else [])
+
+    def find(gray, view, depth, *, mask=None, window=0.15):
+        if abs(chainage[id(gray)] + depth * H / 1000.0 - phantom_m) > 0.03:
+            return real_find(gray, view, depth, mask=mask, window=window)
+        e = expected[0].ends
+        return dataclasses.replace(e, near_depth=depth - 0.03, far_depth=depth + 0.03, far_centre=(0.15, 0.0),
+                                   problems=("the gap's edges were found in 4 of 8 sectors around the pipe only",))
+
+    monkeypatch.setattr(joint_ends, "joint_depths", depths)
+    monkeypatch.setattr(joint_ends, "find_joint_ends", find)
+    sightings, _ = follow_joint(frames, contour.view, H)
+    assert [s.frame for s in sightings] == [s.frame for s in expected]
+    # one sighting asked for: the nearest trusted one, not the nearer untrusted one
+    z = JOINT_M
+    first = joint_ends._sightings(frames, contour.view, phantom_m, H / 1000.0, frames[0][1].shape, 1, None)
+    assert len(first) == 1 and not first[0].ends.confident           # the phantom: nothing trusted to prefer
+    assert joint_ends._sightings(frames, contour.view, z, H / 1000.0, frames[0][1].shape, 1, None)[0].ends.confident

@@ -717,7 +717,7 @@ def follow_joint(frames, view: PipeView, height_mm: float, *,
             groups.append([z])
     groups.sort(key=len, reverse=True)
     if len(groups) == 1:
-        best = (0.0, float(np.median(groups[0])))
+        best = ((True, 0.0), float(np.median(groups[0])))
     else:
         best = None
     for g in groups[:3] if len(groups) > 1 else ():
@@ -726,7 +726,10 @@ def follow_joint(frames, view: PipeView, height_mm: float, *,
         if not sightings:
             continue
         e = sightings[0].ends
-        score = (e.far_depth - e.near_depth) + 3.0 * float(np.hypot(*e.step))
+        # a trusted sighting before any untrusted one: an untrusted one's step is what it is not trusted for (a
+        # plain joint's far ring fitted in half its sectors read a 34 mm step and outscored the displaced joint,
+        # S02 through a 1920x1080 camera, whose nearest frames hold its ring in 4 of 8 sectors)
+        score = (e.confident, (e.far_depth - e.near_depth) + 3.0 * float(np.hypot(*e.step)))
         if best is None or score > best[0]:
             best = (score, z)
     if best is None:
@@ -740,8 +743,8 @@ def _sightings(frames, view, z_m, scale, size, n, mask, notes=None) -> list[Join
     """The joint at ``z_m`` [m] found in the ``n`` nearest frames with its whole ring in view, nearest first.
 
     A frame whose ends are not trusted (``JointEnds.problems``) is passed over for a farther one (at most two
-    more tried); when fewer than two trusted frames are found, the untrusted ones stay, so that the result says
-    why it is not trusted."""
+    more tried); when fewer than two trusted frames are found (of one asked for: none), the untrusted ones stay,
+    so that the result says why it is not trusted."""
     near = sorted(((z_m - c) / scale, fid, gray) for fid, gray, c in frames if (z_m - c) / scale > 0.5)
     good: list[JointSighting] = []
     doubtful: list[JointSighting] = []
@@ -761,6 +764,6 @@ def _sightings(frames, view, z_m, scale, size, n, mask, notes=None) -> list[Join
         (good if ends.confident else doubtful).append(JointSighting(fid, 0.5 * (ends.near_depth + ends.far_depth), ends))
         if len(good) == n:
             break
-    if len(good) >= 2:
+    if len(good) >= min(2, n):
         return good
     return sorted(good + doubtful, key=lambda s: s.depth)[:n]

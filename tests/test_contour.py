@@ -163,6 +163,41 @@ def test_an_untrusted_window_borrows_the_pose_of_a_trusted_overlapping_one():
     assert alone[1002] is partial
 
 
+def test_a_window_alone_against_every_other_over_its_stretch_is_replaced_whatever_its_rms():
+    """A window's frames are the first at each 0.1 m of chainage, so two observation frames a few frames apart can
+    pick none of the same frames (S03 through an 800x600 camera: a fit 4.6 degrees off the seven others, trusted,
+    never compared, its RMS higher). A window that disagrees grossly with every other trusted window over its
+    stretch (two at least, agreeing with each other) is replaced, even with the lowest RMS; one that disagrees with
+    some and agrees with others is left as it is, and so is a window beyond the stretch."""
+    from pipeline.vision.contour.consensus import reconcile_windows
+
+    sd = [0.002, 0.004, 0.001, 0.002, 0.0]
+    good = [0.0, -0.157, 0.002, 0.023, 0.0]
+    wrong = _fit([0.005, -0.027, -0.003, 0.103, 0.0], sd, rms=0.50)          # offset traded for pitch, lower RMS
+    contours = {107: wrong, 112: _fit(good, sd, rms=0.67), 118: _fit(good, sd, rms=0.66)}
+    windows = {107: list(range(0, 250, 20)), 112: list(range(5, 255, 20)), 118: list(range(12, 262, 20))}
+    out = reconcile_windows(contours, windows)                                   # no two share a frame
+    assert np.allclose(out[107].view.pose, good) and not out[107].confident and out[107].pose_frame == 118
+    assert "disagrees grossly with every other fit over the same stretch" in out[107].problems[-1]
+    assert out[112].confident and out[118].confident
+    # alone against one window only: not decided here
+    assert reconcile_windows({107: wrong, 112: contours[112]}, windows)[107] is wrong
+    # one that another window over the stretch agrees with is not alone (S03 through its own camera: two windows
+    # 0.2 degrees off the rest, beyond 10 sigma of their narrow covariances, agreeing with each other): left as is
+    twin = _fit([0.005, -0.027, -0.003, 0.103, 0.0], sd, rms=0.52)
+    mixed = reconcile_windows({**contours, 130: twin}, {**windows, 130: list(range(15, 265, 20))})
+    assert mixed[107] is wrong and mixed[130] is twin
+    # an untrusted window borrows over the same stretch too
+    untrusted = _fit([0.005, -0.027, -0.003, 0.103, 0.0], sd, rms=0.5)
+    untrusted.problems.append("no ring is seen over more than 130 degrees: partial arcs do not fix the pose")
+    out = reconcile_windows({105: untrusted, 112: contours[112]}, {105: windows[107], 112: windows[112]})
+    assert np.allclose(out[105].view.pose, good) and out[105].pose_frame == 112
+    # beyond the stretch (the ranges overlap by less than half the shorter): each keeps its own fit
+    out = reconcile_windows(contours, {107: list(range(0, 250, 20)), 112: list(range(140, 390, 20)),
+                                       118: list(range(147, 397, 20))})
+    assert out[107] is wrong
+
+
 @pytest.mark.slow
 def test_a_single_still_gives_the_ring_of_its_visible_joint_face():
     """One rendered still, camera on the axis: the ring found lies within the joint's band (from the socket

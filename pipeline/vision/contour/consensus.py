@@ -73,10 +73,12 @@ def reconcile_windows(contours: dict[int, PipeContour], windows: dict[int, list[
     sets = {f: set(windows.get(f, [f])) for f in frames}
 
     def overlapping(f: int) -> list[int]:
-        return [g for g in frames if g != f and len(sets[f] & sets[g]) >= MIN_OVERLAP * min(len(sets[f]), len(sets[g]))]
+        return [g for g in frames if g != f and _share_frames(sets[f], sets[g])]
+
+    stretch = {f: set(windows.get(f, [f])) for f in contours}
 
     def alongside(f: int, g: int) -> bool:
-        return _same_stretch(windows.get(f, [f]), windows.get(g, [g]))
+        return _same_stretch(stretch[f], stretch[g])
 
     out = dict(contours)
     replaced = set()
@@ -104,7 +106,7 @@ def reconcile_windows(contours: dict[int, PipeContour], windows: dict[int, list[
                       f"of pipe ({len(others)}); the fit around frame {best} is used")
             out[f] = _borrow(contours[f], contours[best], reason, best)
             replaced.add(f)
-    # A window whose own fit is not trusted takes the pose of a trusted overlapping window it disagrees with.
+    # A window whose own fit is not trusted takes the pose of a trusted window over its stretch it disagrees with.
     for f in contours:
         if f in frames or not np.all(np.isfinite(contours[f].covariance)) or not len(_fitted(contours[f])):
             continue
@@ -134,19 +136,23 @@ def reconcile_windows(contours: dict[int, PipeContour], windows: dict[int, list[
     return out
 
 
-def _same_stretch(a, b) -> bool:
-    """Whether two windows (frame indices) look at the same stretch of pipe: they share ``MIN_OVERLAP`` of the
-    smaller one's frames, or their frames' ranges overlap by that share of the shorter range.
+def _share_frames(a: set, b: set) -> bool:
+    """Whether two windows (sets of frame indices) share ``MIN_OVERLAP`` of the smaller one's frames."""
+    return len(a & b) >= MIN_OVERLAP * min(len(a), len(b))
+
+
+def _same_stretch(a: set, b: set) -> bool:
+    """Whether two windows (sets of frame indices) look at the same stretch of pipe: they share frames
+    (``_share_frames``), or their frames' ranges overlap by ``MIN_OVERLAP`` of the shorter range.
 
     The frames are the first at each 0.1 m of chainage (``window_frames``), so two observation frames a few frames
     apart can pick wholly different frames of the same stretch: S03 through an 800x600 camera, windows 5 frames
     apart sharing none, one fit trusted 4.6 degrees off the other (its rings' RMS 0.87 px against 0.67) and never
     compared. What the mount shares is the stretch; the frames shared are the fits' correlation (``rho`` below)."""
-    sa, sb = set(a), set(b)
-    if len(sa & sb) >= MIN_OVERLAP * min(len(sa), len(sb)):
+    if _share_frames(a, b):
         return True
-    lo, hi = max(min(sa), min(sb)), min(max(sa), max(sb))
-    shorter = min(max(sa) - min(sa), max(sb) - min(sb))
+    lo, hi = max(min(a), min(b)), min(max(a), max(b))
+    shorter = min(max(a) - min(a), max(b) - min(b))
     return shorter > 0 and hi - lo >= MIN_OVERLAP * shorter
 
 

@@ -179,6 +179,10 @@ def test_a_window_alone_against_every_other_over_its_stretch_is_replaced_whateve
     out = reconcile_windows(contours, windows)                                   # no two share a frame
     assert np.allclose(out[107].view.pose, good) and not out[107].confident and out[107].pose_frame == 118
     assert "disagrees grossly with every other fit over the same stretch" in out[107].problems[-1]
+    # a report says it in plain words, no technical fragment left over
+    from pipeline.reports.warning_text import plain_warnings
+    assert [s for s, _ in plain_warnings(out[107].problems[-1])] == [
+        "the pipe's outline fitted here disagreed with a better fit from neighbouring frames, which was used instead"]
     assert out[112].confident and out[118].confident
     # alone against one window only: not decided here
     assert reconcile_windows({107: wrong, 112: contours[112]}, windows)[107] is wrong

@@ -94,7 +94,7 @@ def reconcile_windows(contours: dict[int, PipeContour], windows: dict[int, list[
     # A window alone against every other trusted window over its stretch of pipe (at least two, two of them agreeing
     # with each other) is the wrong one, whatever its RMS: windows that picked none of the same frames are not
     # compared above, and a fit in the offset-for-pitch valley can lie closer to its own rings (S03 through an
-    # 800x600 camera: one window 4.6 degrees off the seven others, RMS 0.87 px against 0.59-0.67, trusted)
+    # 800x600 camera: one window 4.6 degrees off the seven others, trusted; benchmarks/night_look.py --poses)
     for f in frames:
         if f in replaced:
             continue
@@ -102,8 +102,9 @@ def reconcile_windows(contours: dict[int, PipeContour], windows: dict[int, list[
         if len(others) >= 2 and all(_m2(contours[f], contours[g]) > GROSS_M2 for g in others) and \
                 any(_m2(contours[a], contours[b]) <= GROSS_M2 for i, a in enumerate(others) for b in others[i + 1:]):
             best = min(others, key=lambda g: contours[g].rms_px)
+            # ends as the reasons above do: the reports read "that pose is used" as their tail (reports.warning_text)
             reason = (f"the pose fitted around frame {f} disagrees grossly with every other fit over the same stretch "
-                      f"of pipe ({len(others)}); the fit around frame {best} is used")
+                      f"of pipe ({len(others)}), the closest to its rings around frame {best}; that pose is used")
             out[f] = _borrow(contours[f], contours[best], reason, best)
             replaced.add(f)
     # A window whose own fit is not trusted takes the pose of a trusted window over its stretch it disagrees with.
@@ -147,8 +148,8 @@ def _same_stretch(a: set, b: set) -> bool:
 
     The frames are the first at each 0.1 m of chainage (``window_frames``), so two observation frames a few frames
     apart can pick wholly different frames of the same stretch: S03 through an 800x600 camera, windows 5 frames
-    apart sharing none, one fit trusted 4.6 degrees off the other (its rings' RMS 0.87 px against 0.67) and never
-    compared. What the mount shares is the stretch; the frames shared are the fits' correlation (``rho`` below)."""
+    apart sharing none, one fit trusted 4.6 degrees off the other and never compared. What the mount shares is
+    the stretch; the frames shared are the fits' correlation (``rho`` below)."""
     if _share_frames(a, b):
         return True
     lo, hi = max(min(a), min(b)), min(max(a), max(b))

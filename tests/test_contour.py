@@ -11,7 +11,7 @@ import pytest
 
 from pipeline.formats.certificate import load_certificate
 from pipeline.vision.contour import PipeView, detect_contour
-from pipeline.vision.contour.ridges import static_overlay_mask
+from pipeline.vision.contour.overlay import static_overlay_mask
 from pipeline.maths.profiles import exit_table, profile_polygon, ray_to_wall
 from pipeline.vision.video.pipe_contour import read_ideal_grays
 from pipeline.vision.video.reader import iter_frames
@@ -239,10 +239,44 @@ def test_first_pose_profile_fit_recovers_an_egg_ring_among_outliers():
 @pytest.mark.parametrize("n", [15, 16])
 def test_overlay_mask_median_on_8_bit_frames_equals_the_float_median(n):
     """The burned-in overlay's median frame, taken by a partition of the 8-bit values, is numpy's median."""
-    from pipeline.vision.contour.ridges import _median_frame
+    from pipeline.vision.contour.overlay import _median_frame
 
     stack = np.random.default_rng(n).integers(0, 256, (n, 37, 53), dtype=np.uint8)
     assert np.array_equal(_median_frame(stack), np.median(stack.astype(np.float32), axis=0).astype(np.uint8))
+
+
+def _steady_scene(rows=576, cols=720, n=16, seed=3):
+    """Frames of a pipe driven through steadily: wall texture that changes from frame to frame above still water
+    whose line runs from the frame's left edge towards the centre, burned-in text at the top and in the middle
+    row, and an empty box on the right (upright edges)."""
+    rng = np.random.default_rng(seed)
+    x = np.arange(cols)[None, :]
+    y = np.arange(rows)[:, None]
+    water = y > 400 - 0.3 * x                                  # a line through (0, 400) and (300, 310)
+    water &= x < 300
+    frames = []
+    for _ in range(n):
+        wall = cv2.GaussianBlur(rng.normal(150, 40, (rows, cols)).astype(np.float32), (0, 0), 2)
+        frame = np.where(water, 60 + rng.normal(0, 0.5, (rows, cols)), wall)
+        frame = np.clip(frame, 0, 255).astype(np.uint8)
+        cv2.rectangle(frame, (10, 10), (330, 60), 0, cv2.FILLED)
+        cv2.putText(frame, "DN400 MH101-MH102 0012.34m", (16, 45), cv2.FONT_HERSHEY_SIMPLEX, 0.8, 255, 2)
+        cv2.putText(frame, "2026-12-06 03:14", (20, rows // 2 + 8), cv2.FONT_HERSHEY_SIMPLEX, 0.8, 255, 2)
+        cv2.rectangle(frame, (350, 160), (500, 420), 255, 2)     # its left edge aimed at the centre
+        frames.append(frame)
+    return frames
+
+
+def test_a_steady_water_line_is_not_taken_for_the_overlay():
+    """Still water under a steadily driven camera draws the same sharp line in every frame; the overlay mask leaves
+    it to the water line's search, and keeps the text (also text lying on the centre's row) and a box's upright
+    edges masked."""
+    mask = static_overlay_mask(_steady_scene())
+    on_line = [(x, int(round(400 - 0.3 * x))) for x in range(20, 280, 10)]
+    assert all(mask[y + dy, x] == 255 for x, y in on_line for dy in (-1, 0, 1))
+    assert mask[35, 100] == 0 and mask[35, 300] == 0                   # the text at the top
+    assert mask[288, 60] == 0 and mask[288, 200] == 0                   # the text on the centre's row
+    assert mask[300, 350] == 0 and mask[300, 500] == 0 and mask[300, 425] == 0   # the box, whole
 
 
 @pytest.mark.parametrize("shape", ["circular", "egg"])

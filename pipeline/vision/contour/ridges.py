@@ -12,7 +12,7 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
-__all__ = ["dark_centre", "ridge_points", "edge_points", "static_overlay_mask"]
+__all__ = ["dark_centre", "ridge_points", "edge_points"]
 
 DARK_FLOOR = 16.0   # grey levels added before the log: compression banding in the dark far pipe is not a ring
 RIDGE_FLOOR = 3.0   # a ridge stands out at least this much [32 ln grey: about 10 % contrast] where the noise is lower
@@ -156,33 +156,3 @@ def _peaks(ridge: np.ndarray, signed: np.ndarray, valid: np.ndarray, centre, sha
         ok = mask[yi, xi] > 0
         pts, strength, label = pts[ok], strength[ok], label[ok]
     return pts, strength, label
-
-
-def static_overlay_mask(grays, *, max_std: float = 3.0, min_contrast: float = 25.0, grow_px: int = 8) -> np.ndarray:
-    """Where ring points may be taken (255) and where the burned-in overlay is (0).
-
-    grays : 8-bit frames (rows, cols) spread over one video. The overlay is what
-    stays put while the pipe moves past: low temporal standard deviation
-    [grey levels] together with strong local contrast (text, box edges),
-    grown by ``grow_px`` [px], with the holes filled.
-    """
-    stack = np.stack([np.asarray(g, np.uint8) for g in grays])
-    steady = stack.astype(np.float32).std(axis=0) < max_std
-    median = _median_frame(stack)
-    kernel = np.ones((3, 3), np.uint8)
-    contrast = cv2.dilate(median, kernel) - cv2.erode(median, kernel)
-    overlay = (steady & (contrast > min_contrast)).astype(np.uint8)
-    grow = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * grow_px + 1, 2 * grow_px + 1))
-    overlay = cv2.morphologyEx(cv2.dilate(overlay, grow), cv2.MORPH_CLOSE, grow)
-    outlines, _ = cv2.findContours(overlay, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_SIMPLE)
-    cv2.drawContours(overlay, outlines, -1, 1, thickness=cv2.FILLED)     # a box is masked whole
-    return np.where(overlay > 0, 0, 255).astype(np.uint8)
-
-
-def _median_frame(stack: np.ndarray) -> np.ndarray:
-    """Per-pixel median (rows, cols) of a uint8 stack (n, rows, cols), rounded down as ``np.median(...).astype(uint8)``
-    would, by a partition on the 8-bit values (a float median of a video's frames costs 3x more)."""
-    n = len(stack)
-    lo, hi = (n - 1) // 2, n // 2
-    part = np.partition(stack, sorted({lo, hi}), axis=0)
-    return ((part[lo].astype(np.uint16) + part[hi]) // 2).astype(np.uint8)

@@ -19,7 +19,7 @@ import numpy as np
 from pipeline.vision.contour import PipeContour
 from pipeline.vision.contour.consensus import reconcile_windows
 from pipeline.vision.contour.detect import contour_from_candidates, frame_candidates, wall_u_from_tolerance
-from pipeline.vision.contour.ridges import static_overlay_mask
+from pipeline.vision.contour.overlay import static_overlay_mask
 from pipeline.vision.video.beside_decoding import ordered_map
 from pipeline.vision.video.chainage_track import ChainageTrack
 from pipeline.vision.video.reader import FrameScan, iter_frames, probe_video

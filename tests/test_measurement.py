@@ -217,6 +217,26 @@ def test_a_monte_carlo_failing_on_an_untrusted_pose_still_says_why_the_pose_was_
     assert "its Monte Carlo could not be run" in message and "outside the model's domain" in message
 
 
+def test_a_pose_on_few_rings_whose_monte_carlo_leaves_the_pipe_says_so_in_plain_words():
+    # a pose fitted to one ring more than its parameters is a Student-t of about one degree of freedom (S03 through
+    # an 800x600 camera: nu 1.04, 155 of 10000 trials outside); the refusal names that, not only "the domain"
+    from dataclasses import replace
+
+    from pipeline.core.errors import PipegaugeError
+
+    truth, cert, und, view = _truth("S02-circular-water-offset")
+    obs = next(o for o in truth["observations"] if o["code"] == "BDD")
+    marked = _marked(und, obs["quantities"][0], "BDD", "A")
+    few = replace(_contour(view, (0.05, 0.05, 0.02, 0.02, 0.01)), dof=1.0)
+    with pytest.raises(PipegaugeError, match=r"outside the model's domain.*rests on few rings \(1 degrees of freedom\)"):
+        measure_quantity(marked, few, cert, H=400.0, tolerance=4.0, seed=11)
+    many = replace(_contour(view, (0.05, 0.05, 0.02, 0.02, 0.01)), dof=30.0)
+    try:
+        measure_quantity(marked, many, cert, H=400.0, tolerance=4.0, seed=11)
+    except PipegaugeError as exc:               # refused for its spread alone: nothing said of few rings
+        assert "few rings" not in str(exc)
+
+
 def test_an_input_known_exactly_has_no_sensitivity_in_the_budget():
     # the pipe's shift with no tolerance left to it is an input of u EXACT_U (every frame's model keeps the same
     # inputs); its difference quotient over that step is rounding, which printed 66.6 or 341 in the reports

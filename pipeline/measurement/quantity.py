@@ -67,7 +67,7 @@ import numpy as np
 from pipeline.camera import Certificate
 from pipeline.vision.contour import PipeContour
 from pipeline.vision.contour.detect import wall_u_from_tolerance
-from pipeline.core.errors import MeasurementError, PipegaugeError
+from pipeline.core.errors import MeasurementError, ModelError, PipegaugeError
 from pipeline.maths.metrology import (InputSet, JointNormal, Normal, Rectangular, StudentT, propagate_linear, propagate_monte_carlo,
                                       validate_linear)
 from pipeline.maths.profiles import level_tables, wall_point
@@ -94,6 +94,7 @@ EXACT_U = 1e-12
 FOUND_NOT_MEASURED = "found, not measured: "      # an image-alone result's error when it is not trusted
 # a result of the law of propagation alone says so among its reasons (the reviewer's preview)
 LINEAR_PREVIEW = "linear preview: the Monte Carlo result replaces it"
+FEW_DOF = 3.0           # a pose's Student-t with fewer degrees of freedom has tails a Monte Carlo failure is said of
 RESOLUTION_PX = 2.0     # an extent under about 2 px is not resolved: a blurred edge spreads over 1-2 px
 
 INPUT_DESCRIPTIONS = {
@@ -489,6 +490,18 @@ def _frame_model(q: MarkedQuantity, contour: PipeContour, cert: Certificate, *, 
     return _FrameModel(q, model, H, contour, plane, p_X, v_ortho, v_persp, fn, independent, joint, nuisance)
 
 
+def _few_rings_said(exc: PipegaugeError, inputs: InputSet) -> PipegaugeError:
+    """A Monte Carlo's domain error with the reason a reader can act on, when the pose's Student-t has fewer than
+    ``FEW_DOF`` degrees of freedom: a pose fitted to barely more rings than it has parameters has tails heavy enough
+    to put a share of the trials' camera outside the pipe."""
+    few = min((m.dof for m in inputs.members if math.isfinite(m.dof)), default=math.inf)
+    if not isinstance(exc, ModelError) or few >= FEW_DOF:
+        return exc
+    return ModelError(f"{exc}: the camera pose rests on few rings ({few:.2g} degrees of freedom), and its "
+                      "Student-t tails put the camera outside the pipe in those trials; a frame with more joints "
+                      "in view, or marks, would measure it")
+
+
 def _result(fn, inputs: InputSet, *, value_at_estimates: float, v_ortho: float, v_persp: float, reasons: list[str],
             model_reasons: list[str], main: _FrameModel, p_X: float, confident: bool,
             nuisance_lines: list[BudgetEntry], seed: int, edges: tuple[float, ...],
@@ -517,8 +530,9 @@ def _result(fn, inputs: InputSet, *, value_at_estimates: float, v_ortho: float, 
                                    redraw_outside=any(math.isfinite(m.dof) for m in inputs.members),
                                    tolerance_of="interval")
     except PipegaugeError as exc:
+        exc = _few_rings_said(exc, inputs)
         if confident:
-            raise
+            raise exc
         # an untrusted pose (turned far off the axis, say) sends many trials' rays past the wall, and the Monte
         # Carlo gives up; its failure must not hide why the result was not trusted in the first place
         raise MeasurementError(FOUND_NOT_MEASURED + "; ".join(dict.fromkeys(

@@ -59,6 +59,38 @@ def test_water_line_is_found_at_the_true_level(wet):
 
 
 @pytest.mark.slow
+def test_a_water_line_the_overlay_hides_leaves_no_trusted_level(wet):
+    """Where the mask hides the wall at the true level (an overlay, or before 2026-12-06 the overlay mask's own
+    error), the line found instead (a stain's edge here) is not trusted: the hidden level could not be compared
+    with it. Unmasked, the water's line outscores the stain's."""
+    from pipeline.vision.contour.water_line import _line_points
+
+    frames, contour = wet
+    view, rows_cols = contour.view, frames[0].shape[:2]
+    # a stain band along the wall, from 32 to 40 % of the height: two lines of the water line's kind
+    stained = frames[0].copy()
+    depths = np.geomspace(0.8, 5.0, 200)
+    for side in (0, 1):
+        low, high = _line_points(view, 0.32, depths)[0][side], _line_points(view, 0.40, depths)[0][side]
+        band = np.vstack([low, high[::-1]])
+        band = band[np.all(np.isfinite(band), axis=1)].round().astype(np.int32)
+        shade = np.zeros(rows_cols, np.uint8)
+        cv2.fillPoly(shade, [band], 1)
+        stained[shade > 0] = (stained[shade > 0] * 0.75).astype(np.uint8)
+    mask = np.full(rows_cols, 255, np.uint8)
+    for h in (0.19, 0.22, 0.25):                  # the true level's lines and their neighbours', 12 px wide
+        pts, _, _ = _line_points(view, h, depths)
+        for side in pts:
+            ok = np.all(np.isfinite(side), axis=1)
+            cv2.polylines(mask, [side[ok].round().astype(np.int32)], False, 0, thickness=13)
+    line = find_water_line(stained, view, mask=mask)
+    assert line is not None and 0.30 < line.level < 0.42              # within the stain, the only lines left
+    assert not line.confident and any("overlay hides" in p for p in line.problems), line
+    clear = find_water_line(stained, view, mask=np.full(rows_cols, 255, np.uint8))
+    assert clear is not None and clear.confident and abs(clear.level - 0.22) < 0.01
+
+
+@pytest.mark.slow
 @pytest.mark.parametrize("model", ["perspective", "orthographic"])
 def test_water_level_from_the_image_holds_the_truth_in_its_interval(wet, cert, model):
     frames, contour = wet

@@ -20,6 +20,9 @@ through the vanishing point, fixed by h once the pose is known
    groups, not the points, are independent), gives the image position's
    standard uncertainty.
 
+A level whose line the overlay mask hides (between the invert and the camera)
+cannot be compared with the one found, so the find is then not trusted.
+
 The result is expressed as two points on the water line in one
 cross-section (the chord a logged BDD would be marked with), so the
 measurement models and their budgets apply unchanged

@@ -11,9 +11,9 @@ S02 read 16 % for a water level of 30 %: ``benchmarks/night_look.py --looks 1
 --first 3 --seed 1``). So, before the overlay is grown, straight segments of it
 that run into the pipe are handed back: long, aimed at the middle of the frame
 (where the vanishing point lies in any pose the contour accepts), reaching
-towards it, and not upright (a box's side; a water line is that steep only in a
-nearly dry pipe). What they take back from a box or a line of text is
-covered again by the growth of the pixels beside them.
+towards it, not upright (a box's side; a water line is that steep only in a
+nearly dry pipe), and alone (a line of text, or a box's edge with its text,
+has as many steady pixels beside it as on it; a water line almost none).
 """
 
 from __future__ import annotations
@@ -63,7 +63,8 @@ def static_overlay_mask(grays: Iterable[np.ndarray], *, max_std: float = 3.0, mi
 def steady_pipe_lines(steady: np.ndarray) -> list[tuple[int, int, int, int]]:
     """Straight segments (x1, y1, x2, y2) [px] of a map of steady, contrasted pixels (rows, cols; non-zero on them)
     that run along the pipe: at least ``LINE_MIN_LENGTH`` long, their line within ``LINE_AIM`` of the frame's
-    centre, their inner end within ``LINE_REACH`` of it, and no steeper than ``LINE_MAX_SLOPE_DEG``.
+    centre, their inner end within ``LINE_REACH`` of it, no steeper than ``LINE_MAX_SLOPE_DEG``, and alone
+    (``_alone``).
 
     Segments come from the probabilistic Hough transform (``cv2.HoughLinesP``), with gaps of up to 5 % of the
     frame's smaller side bridged: a water line under sensor noise is steady only in pieces.

@@ -94,11 +94,16 @@ def _alone(steady: np.ndarray, segment: tuple[int, int, int, int]) -> bool:
     ``LINE_MAX_FLANK`` times as many steady pixels as on it. A line of text or a box's edge with text inside
     has as many beside it as on it; a water line has almost none."""
     x1, y1, x2, y2 = segment
-    line, band = np.zeros(steady.shape, np.uint8), np.zeros(steady.shape, np.uint8)
-    cv2.line(line, (x1, y1), (x2, y2), 1, thickness=2 * LINE_HALF_WIDTH_PX + 1)
-    cv2.line(band, (x1, y1), (x2, y2), 1, thickness=2 * LINE_FLANK_PX + 1)
-    on = np.count_nonzero(steady[line > 0])
-    beside = np.count_nonzero(steady[(band > 0) & (line == 0)])
+    # drawn in the segment's box only, widened by the flank (the frame's other pixels are neither on nor beside)
+    rows, cols = steady.shape
+    top, left = max(0, min(y1, y2) - LINE_FLANK_PX), max(0, min(x1, x2) - LINE_FLANK_PX)
+    box = steady[top:min(rows, max(y1, y2) + LINE_FLANK_PX + 1), left:min(cols, max(x1, x2) + LINE_FLANK_PX + 1)]
+    ends = (x1 - left, y1 - top), (x2 - left, y2 - top)
+    line, band = np.zeros(box.shape, np.uint8), np.zeros(box.shape, np.uint8)
+    cv2.line(line, *ends, 1, thickness=2 * LINE_HALF_WIDTH_PX + 1)
+    cv2.line(band, *ends, 1, thickness=2 * LINE_FLANK_PX + 1)
+    on = np.count_nonzero(box[line > 0])
+    beside = np.count_nonzero(box[(band > 0) & (line == 0)])
     return beside < LINE_MAX_FLANK * on
 
 

@@ -127,12 +127,15 @@ def _scale(view: PipeView) -> float:
 
 
 def _side_contrasts(image: np.ndarray, view: PipeView, level: float, depths: np.ndarray, mask,
-                    chromatic: bool = False) -> tuple[float, float]:
-    """The median colour difference across each water line at ``level`` (left, right) [8-bit levels]; 0 for a
-    line with fewer than MIN_EDGE_POINTS usable points. Both lines from one projection."""
+                    chromatic: bool = False) -> tuple[tuple[float, float], bool]:
+    """The median colour difference across each water line at ``level`` (left, right) [8-bit levels], 0 for a
+    line with fewer than MIN_EDGE_POINTS usable points; and whether the mask hides either line (in the frame with
+    at least MIN_EDGE_POINTS usable points, but not that many outside the mask). Both lines from one projection."""
     pts, normals, _ = _line_points(view, level, depths)
     k = _scale(view)
-    ok = _usable(pts, image.shape[:2], mask, k * SEARCH_PX + 2)
+    in_frame = _usable(pts, image.shape[:2], None, k * SEARCH_PX + 2)
+    ok = in_frame if mask is None else in_frame & _usable(pts, image.shape[:2], mask, 0.0)
+    hidden = bool(np.any((in_frame.sum(axis=1) >= MIN_EDGE_POINTS) & (ok.sum(axis=1) < MIN_EDGE_POINTS)))
     out = []
     for side in (0, 1):
         if ok[side].sum() < MIN_EDGE_POINTS:
@@ -143,23 +146,7 @@ def _side_contrasts(image: np.ndarray, view: PipeView, level: float, depths: np.
         if chromatic and image.shape[-1] == 3:
             above, below = _chroma(above), _chroma(below)
         out.append(float(np.median(np.linalg.norm(above - below, axis=-1))))
-    return out[0], out[1]
-
-
-def _hidden_levels(view: PipeView, depths: np.ndarray, shape: tuple[int, int], mask: np.ndarray | None) -> list[float]:
-    """The levels [H] between the invert and the camera whose water line, on either side, the mask hides: in the
-    frame with at least MIN_EDGE_POINTS usable points, but not that many outside the mask."""
-    if mask is None:
-        return []
-    margin = _scale(view) * SEARCH_PX + 2
-    hidden = []
-    for h in LEVELS[LEVELS < 0.5 + view.oy]:
-        pts, _, _ = _line_points(view, float(h), depths)
-        seen = _usable(pts, shape, None, margin).sum(axis=1)
-        unmasked = _usable(pts, shape, mask, margin).sum(axis=1)
-        if np.any((seen >= MIN_EDGE_POINTS) & (unmasked < MIN_EDGE_POINTS)):
-            hidden.append(float(h))
-    return hidden
+    return (out[0], out[1]), hidden
 
 
 def _edges(image: np.ndarray, points: np.ndarray, normals: np.ndarray,
@@ -201,7 +188,8 @@ def find_water_line(ideal_bgr: np.ndarray, view: PipeView, *, depths: tuple[floa
     # horizontal, up on one side and down on the other (a common level for both missed a roll of 3 degrees in 10 of
     # 40 cases and read 7 of the rest outside their U95: benchmarks/automatic_coverage.py --roll 3); the two sides'
     # levels are averaged below, which takes the roll out to first order
-    scores = np.array([_side_contrasts(image, view, h, t, mask, chromatic) for h in LEVELS]).T     # (side, level)
+    per_level = [_side_contrasts(image, view, h, t, mask, chromatic) for h in LEVELS]
+    scores = np.array([contrasts for contrasts, _ in per_level]).T     # (side, level)
     if not np.any(scores > 0):
         return None
     reach = int(round(2 * SIDE_SPLIT_H / (LEVELS[1] - LEVELS[0])))
@@ -266,7 +254,7 @@ def find_water_line(ideal_bgr: np.ndarray, view: PipeView, *, depths: tuple[floa
         problems.append("the water line is seen on one side only")
     # a level the overlay hides could not be compared with the one found: under drawn look 3 of seed 1 the mask
     # hid S02's true level on both sides, and the best of the faint rest (7 grey levels) was a line 14 % of H low
-    hidden = _hidden_levels(view, t, image.shape[:2], mask)
+    hidden = [float(h) for h, (_, masked) in zip(LEVELS, per_level) if masked and h < 0.5 + view.oy]
     if hidden:
         problems.append(f"the overlay hides the wall where a water line at {100 * min(hidden):.0f}-"
                         f"{100 * max(hidden):.0f} % of the height would lie, so a line there could not be compared "

@@ -58,6 +58,23 @@ def test_water_line_is_found_at_the_true_level(wet):
     assert line.a[0] < contour.view.vanishing_point[0] < line.b[0]
 
 
+def _stained(frame: np.ndarray, view, darker: float) -> np.ndarray:
+    """The frame with a band along the wall from 32 to 40 % of the height, its light times ``darker``: two lines
+    of the water line's kind (a high-water mark's stain)."""
+    from pipeline.vision.contour.water_line import _line_points
+
+    stained = frame.copy()
+    depths = np.geomspace(0.8, 5.0, 200)
+    for side in (0, 1):
+        low, high = _line_points(view, 0.32, depths)[0][side], _line_points(view, 0.40, depths)[0][side]
+        band = np.vstack([low, high[::-1]])
+        band = band[np.all(np.isfinite(band), axis=1)].round().astype(np.int32)
+        shade = np.zeros(frame.shape[:2], np.uint8)
+        cv2.fillPoly(shade, [band], 1)
+        stained[shade > 0] = (stained[shade > 0] * darker).astype(np.uint8)
+    return stained
+
+
 @pytest.mark.slow
 def test_a_water_line_the_overlay_hides_leaves_no_trusted_level(wet):
     """Where the mask hides the wall at the true level (an overlay, or before 2026-12-06 the overlay mask's own
@@ -67,16 +84,8 @@ def test_a_water_line_the_overlay_hides_leaves_no_trusted_level(wet):
 
     frames, contour = wet
     view, rows_cols = contour.view, frames[0].shape[:2]
-    # a stain band along the wall, from 32 to 40 % of the height: two lines of the water line's kind
-    stained = frames[0].copy()
+    stained = _stained(frames[0], view, 0.75)
     depths = np.geomspace(0.8, 5.0, 200)
-    for side in (0, 1):
-        low, high = _line_points(view, 0.32, depths)[0][side], _line_points(view, 0.40, depths)[0][side]
-        band = np.vstack([low, high[::-1]])
-        band = band[np.all(np.isfinite(band), axis=1)].round().astype(np.int32)
-        shade = np.zeros(rows_cols, np.uint8)
-        cv2.fillPoly(shade, [band], 1)
-        stained[shade > 0] = (stained[shade > 0] * 0.75).astype(np.uint8)
     mask = np.full(rows_cols, 255, np.uint8)
     for h in (0.19, 0.22, 0.25):                  # the true level's lines and their neighbours', 12 px wide
         pts, _, _ = _line_points(view, h, depths)
@@ -88,6 +97,22 @@ def test_a_water_line_the_overlay_hides_leaves_no_trusted_level(wet):
     assert not line.confident and any("overlay hides" in p for p in line.problems), line
     clear = find_water_line(stained, view, mask=np.full(rows_cols, 255, np.uint8))
     assert clear is not None and clear.confident and abs(clear.level - 0.22) < 0.01
+
+
+@pytest.mark.slow
+def test_a_water_line_with_a_rival_nearly_as_strong_is_not_trusted(wet):
+    """A stain's edge along the wall that stands out nearly as much as the water's line (40 % darker: 21 grey
+    levels against 30) leaves the level found untrusted, saying where the rival lies; a fainter stain (25 %
+    darker) does not."""
+    frames, contour = wet
+    unmasked = np.full(frames[0].shape[:2], 255, np.uint8)
+    line = find_water_line(_stained(frames[0], contour.view, 0.6), contour.view, mask=unmasked)
+    assert line is not None and abs(line.level - 0.22) < 0.01          # the water's line still wins ...
+    assert not line.confident, line                                     # ... but not by enough to be trusted
+    said = [p for p in line.problems if "another line" in p]
+    assert said and any(f"at {pct} % of the height" in said[0] for pct in range(30, 43)), line.problems
+    faint = find_water_line(_stained(frames[0], contour.view, 0.75), contour.view, mask=unmasked)
+    assert faint is not None and faint.confident and faint.rival > 0.25 * faint.contrast, faint
 
 
 @pytest.mark.slow

@@ -31,6 +31,7 @@ from pipeline.formats.certificate import load_certificate
 from pipeline.domain.records import Observation
 from pipeline.vision.contour import detect_contour
 from pipeline.vision.contour.detect import wall_u_from_tolerance
+from pipeline.vision.contour.water_line import RIVAL_RATIO, find_water_line
 from pipeline.core.errors import PipegaugeError
 from pipeline.measurement.automatic import measure_automatic
 from pipeline.synth.scene import Deformation, Pipe, Scene
@@ -74,6 +75,7 @@ def main() -> None:
     rows = []
     t0 = time.perf_counter()
     kinds = args.kind or KINDS
+    standouts: list[float] = []
     for kind in kinds:
         rng = np.random.default_rng([args.seed, KINDS.index(kind)])
         looks = np.random.default_rng([args.seed, KINDS.index(kind), 1])    # its own stream: the same geometry
@@ -87,6 +89,10 @@ def main() -> None:
             contour = detect_contour([cv2.cvtColor(f, cv2.COLOR_BGR2GRAY) for f in frames], K, "circular",
                                      wall_u=wall_u_from_tolerance(H, 0.0))
             char1 = "B" if kind == "deformation_B" else "A"
+            if kind == "water_level":       # how far the line stands out of the others (the gate on RIVAL_RATIO)
+                line = find_water_line(frames[0], contour.view) if np.all(np.isfinite(contour.covariance)) else None
+                if line is not None:
+                    standouts.append(line.contrast / max(line.rival, 1e-9))
             obs = Observation(1, z / 1000, code, char1, "", truth, "%", None, "", None, None, False, "", None, "", "", {})
             for model in ("perspective", "orthographic"):
                 try:
@@ -99,6 +105,11 @@ def main() -> None:
             print(f"{kind} {i + 1}/{args.cases}: truth {truth:.2f} %, perspective {rows[-2][3]}, "
                   f"orthographic {rows[-1][3]}", file=sys.stderr)
     print(f"{len(rows) // 2} cases in {time.perf_counter() - t0:.0f} s")
+    if standouts:
+        so = np.array(standouts)
+        print(f"water lines found: {so.size}; contrast / best rival's: min {so.min():.2f}, 5th percentile "
+              f"{np.percentile(so, 5):.2f}, median {np.median(so):.1f}; under {RIVAL_RATIO} (not trusted): "
+              f"{np.count_nonzero(so < RIVAL_RATIO)}")
     for kind in kinds:
         for model in ("perspective", "orthographic"):
             mine = [r for r in rows if r[0] == kind and r[1] == model]

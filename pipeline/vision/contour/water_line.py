@@ -59,8 +59,9 @@ EDGE_FLOOR_PX = 0.25                       # a blurred, compressed colour step i
 MIN_CONTRAST = 6.0                         # least colour difference across a water line [8-bit levels]
 RIVAL_APART_H = 0.05                       # a rival line lies at least this far from the one found, on its side [H]
 # the line found must stand out this many times more than its best rival to be trusted: of 279 generated wet
-# pipes (four looks and rolls, benchmark below) every true line did by 3.1 times or more (median 12); under drawn
-# look 3 of seed 1, with the overlay mask's error of 2026-12-06, a faint line 14 % of H low won by 1.03
+# pipes (benchmarks/automatic_coverage.py --kind water_level, default and varied looks, with and without a roll of
+# 3 degrees: docs/measurement.md) every true line did by 3.1 times or more (median 12); under drawn look 3 of seed
+# 1, with the overlay mask's error of 2026-12-06, a faint line 14 % of H low won by 1.03
 RIVAL_RATIO = 2.0
 
 
@@ -281,7 +282,8 @@ def find_water_line(ideal_bgr: np.ndarray, view: PipeView, *, depths: tuple[floa
                         "with the one found")
     if contrast < RIVAL_RATIO * rival:
         problems.append(f"another line along the wall, at {100 * rival_level:.0f} % of the height, stands out nearly "
-                        f"as much ({rival:.1f} grey levels against {contrast:.1f}), so which is the water's is not clear")
+                        f"as much ({rival:.1f} grey levels against {contrast:.1f}): which of the two is the surface "
+                        "sought is not clear")
     if len(means) < 4:
         problems.append("the water line is seen over too short a stretch of pipe")
     t_ref = float(np.exp(np.mean(np.log(depth_of[good])))) if reference_depth is None else float(reference_depth)

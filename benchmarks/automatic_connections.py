@@ -11,10 +11,13 @@ settled deposit of random area (BBC, % of the cross-section). Frames are rendere
 measures on (the camera 1.6 H and 2.3 H before the lateral; 1.2 H and 1.7 H
 before a deposit's start) and forty more every 0.1 m within 2 m of the first, the night's window
 (``pipeline.vision.video.pipe_contour``), for the contour's rings.
-With ``--codec h264`` the frames are written as a video (OpenCV's MPEG-4,
-as the samples are), re-encoded as H.264 (``pipeline.synth.delivery``) and
-read back; ``--codec mp4v`` stops after OpenCV's MPEG-4; ``none`` keeps the
-rendered frames.
+With ``--codec h264`` the frames are written as an H.264 video (x264 at the
+delivery settings of ``pipeline.synth.delivery``, straight from the rendered
+frames, as a camera recording H.264 does) and read back; ``mpeg2`` likewise
+through MPEG-2 at 6 Mbit/s; ``--codec mp4v``
+writes them with OpenCV's MPEG-4 Part 2, as the samples are; ``mp4v+h264``
+re-encodes that as H.264 (a transcoded delivery; what ``h264`` was until
+2026-12-06); ``none`` keeps the rendered frames.
 
 Prints per kind: the share found and measured (confident), found but not
 measured, not found; over the measured ones, coverage of the truth by the
@@ -109,7 +112,8 @@ def case(kind: str, rng: np.random.Generator, with_feature: bool):
     return Scene(pipe, features=features), z, area, None, mount
 
 
-FOURCC = {"none": None, "mp4v": "mp4v", "h264": "avc1"}   # what the night reads from each video (``codec_edge_u``)
+# what the night reads from each video (``codec_edge_u``)
+FOURCC = {"none": None, "mp4v": "mp4v", "h264": "avc1", "mpeg2": "mpg2", "mp4v+h264": "avc1"}
 
 
 def _r_eq(shape: str, H: float) -> float:
@@ -162,15 +166,24 @@ def frames_at_depths(kind: str, cases: int, seed: int, shapes: tuple[str, ...], 
 
 
 def _through_codec(raw, codec: str, tmp: Path, cert):
-    from pipeline.synth.delivery import delivered
+    """The frames through ``codec``: "mp4v" (OpenCV's MPEG-4 Part 2), "h264" (x264 straight from the rendered
+    frames, as a camera recording H.264 writes them), "mpeg2" (MPEG-2 at 6 Mbit/s, likewise) or "mp4v+h264"
+    (OpenCV's MPEG-4 re-encoded with x264: a transcoded delivery, both losses; the benchmark's "h264" until
+    2026-12-06)."""
+    from pipeline.synth.delivery import CODECS, delivered, encoded
     folder = tmp / "case"
     folder.mkdir(exist_ok=True)
     path = folder / "video.mp4"
+    if codec in CODECS:
+        out = [f for _, f in iter_frames(encoded(raw, codec, path.with_suffix(CODECS[codec][1])))]
+        if len(out) != len(raw):
+            raise RuntimeError(f"{codec}: {len(out)} frames read back of {len(raw)}")
+        return out
     w = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*"mp4v"), 25.0, (cert.image_width_px, cert.image_height_px))
     for f in raw:
         w.write(f)
     w.release()
-    video = delivered(path, "h264" if codec == "h264" else None, tmp)
+    video = delivered(path, "h264" if codec == "mp4v+h264" else None, tmp)
     out = [f for _, f in iter_frames(video)]
     if len(out) != len(raw):
         raise RuntimeError(f"{codec}: {len(out)} frames read back of {len(raw)}")
@@ -244,7 +257,7 @@ def main() -> None:
     ap.add_argument("--empty", type=int, default=None, help="cases without it (default: cases / 3)")
     ap.add_argument("--seed", type=int, default=34)
     ap.add_argument("--kind", choices=KINDS, action="append")
-    ap.add_argument("--codec", choices=("none", "mp4v", "h264"), action="append")
+    ap.add_argument("--codec", choices=tuple(FOURCC), action="append")
     ap.add_argument("--json", type=Path, help="write the per-case rows (value, truth, u, budget lines) to this file")
     ap.add_argument("--table", type=Path, help="only print the summary again from rows kept by --json")
     ap.add_argument("--codec-u", type=float, nargs=2, metavar=("WAS", "NOW"),

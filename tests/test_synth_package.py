@@ -185,3 +185,25 @@ def test_the_samples_text_files_are_reproduced_byte_for_byte_and_agree_with_the_
     bce = [r for r in rows if r["code"] == "BCE"]
     assert len(bce) == 1 and float(bce[0]["distance_m"]) == round(float(frames[-1]["counter_m"]), 2)
     assert header["section_length_m"] == round(float(frames[-1]["chainage_m"]), 2)
+
+
+@pytest.mark.parametrize("codec, family", [("h264", "H.264"), ("mpeg2", None)])
+def test_frames_encoded_straight_through_a_codec_read_back_frame_for_frame(tmp_path, codec, family):
+    """``encoded``: rendered frames through one codec, once (a camera recording H.264 itself), every frame kept at
+    its index, the codec told from the file as the night tells it (MPEG-2 has no edge figure yet)."""
+    pytest.importorskip("av")
+    from pipeline.measurement.codecs import CODEC_FAMILIES
+    from pipeline.synth.delivery import CODECS, encoded
+    from pipeline.vision.video.reader import iter_frames, probe_video
+    rng = np.random.default_rng(3)
+    base = cv2.GaussianBlur(rng.integers(0, 256, (96, 128, 3), dtype=np.uint8), (0, 0), 3.0)
+    frames = [np.roll(base, 4 * k, axis=1) for k in range(12)]
+    path = encoded(frames, codec, tmp_path / f"v{CODECS[codec][1]}")
+    back = [f for _, f in iter_frames(path)]
+    assert len(back) == len(frames)
+    # frame k is frame k: each decoded frame is nearest its own rendered frame
+    errors = np.array([[np.abs(b.astype(float) - f).mean() for f in frames] for b in back])
+    assert np.all(errors.argmin(axis=1) == np.arange(len(frames)))
+    assert np.diag(errors).max() < 6.0                  # a codec's loss, not a different picture
+    fourcc = probe_video(path).codec.strip().lower()
+    assert family == next((name for name, tags in CODEC_FAMILIES.items() if fourcc in tags), None)

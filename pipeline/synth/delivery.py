@@ -10,6 +10,9 @@ on the result measures.
 
     from pipeline.synth.delivery import delivered
     video = delivered(folder / "video.mp4", "h264", tmp)
+
+``encoded`` writes rendered frames straight through one of CODECS, one generation of loss as a camera that
+records H.264 itself gives (``delivered`` adds its loss to MPEG-4 Part 2's: a transcoded delivery).
 """
 
 from __future__ import annotations
@@ -17,7 +20,7 @@ from __future__ import annotations
 from fractions import Fraction
 from pathlib import Path
 
-__all__ = ["CODECS", "delivered"]
+__all__ = ["CODECS", "delivered", "encoded"]
 
 # codec name -> (FFmpeg encoder, file suffix, encoder options): the settings of a typical delivery
 CODECS = {
@@ -54,3 +57,27 @@ def delivered(video: Path, codec: str | None, folder: Path) -> Path:
             out.mux(stream.encode(frame))
         out.mux(stream.encode())
     return out_path
+
+
+def encoded(frames, codec: str, path: Path, rate: float = 25.0) -> Path:
+    """BGR frames (``uint8`` arrays of one size) written to ``path`` through ``codec`` (a key of CODECS) at
+    ``rate`` [frames per second], each frame its own index; returns ``path``.
+    Raises ImportError when PyAV is not installed."""
+    try:
+        import av
+    except ImportError:
+        raise ImportError("encoding needs PyAV: pip install -e '.[bench]'") from None
+    encoder, _, options = CODECS[codec]
+    frames = list(frames)
+    rows, cols = frames[0].shape[:2]
+    fps = Fraction(rate).limit_denominator(1001)
+    with av.open(str(path), "w") as out:
+        stream = out.add_stream(encoder, rate=fps, options=options)
+        stream.width, stream.height, stream.pix_fmt = cols, rows, "yuv420p"
+        stream.codec_context.time_base = 1 / fps
+        for index, image in enumerate(frames):
+            frame = av.VideoFrame.from_ndarray(image, format="bgr24").reformat(format="yuv420p")
+            frame.pts, frame.time_base = index, 1 / fps
+            out.mux(stream.encode(frame))
+        out.mux(stream.encode())
+    return path

@@ -285,6 +285,7 @@ def test_an_edge_through_a_codec_takes_the_codec_term_in_its_u():
     # H.264 shortens an opening more than MPEG-4 Part 2 (docs/measurement.md): a larger term, whichever FourCC
     assert codec_edge_u("avc1") == codec_edge_u("H264") == CODEC_EDGE_U_PX["avc1"] > CODEC_EDGE_U_PX["mp4v"]
     assert codec_edge_u("MJPG") == 0.0         # a codec without a figure (not validated: validation_doubt)
+    assert codec_edge_u("mpg2") == CODEC_EDGE_U_PX["mpg2"] == max(CODEC_EDGE_U_PX.values())   # MPEG-2: the largest
     cert = load_certificate(CERT)
     lat = Lateral(1.0, 1.6, ((100.0, 200.0), (140.0, 190.0)), ((120.0, 180.0), (121.0, 210.0)), 0.3, 0.2, 0.2, 0.2,
                   50, 30.0, ())
@@ -306,6 +307,10 @@ def test_validation_doubt_names_the_codecs_a_code_was_validated_in():
     assert validation_doubt("BAJ", "avc1") is None        # the joint's ends were validated in both codecs
     assert validation_doubt("BAG", "") is None and validation_doubt("BAG", None) is None      # no video: nothing to say
     assert validation_doubt("BAG", "unknown") is not None     # the reader's word for a FourCC it could not tell
+    # a codec tried and failed says so; one never tried says that, not a miss no benchmark measured
+    assert "miss their stated U95 more often" in validation_doubt("BAG", "avc1")
+    for codec in ("unknown", "MJPG", "mpg2"):                 # BAG was never benchmarked in MPEG-2
+        assert "was never benchmarked" in validation_doubt("BAG", codec) and "more often" not in validation_doubt("BAG", codec)
     # an intruding lateral or an opening in an egg-shaped pipe missed too often, whatever the codec; circular ones
     # are validated, and the joints in both shapes
     assert "not validated in egg pipes" in validation_doubt("BAG", "mp4v", "egg")

@@ -35,7 +35,7 @@ import numpy as np
 
 from pipeline.camera import Certificate
 from pipeline.core.errors import MeasurementError, PipegaugeError
-from pipeline.measurement.codecs import CODEC_FAMILIES, MPEG4_PART2, codec_edge_u
+from pipeline.measurement.codecs import CODEC_FAMILIES, H264, MPEG2, MPEG4_PART2, codec_edge_u
 from pipeline.measurement.frames import beyond_agreement, chi_square_with_covariance, frame_covariance
 from pipeline.measurement.quantity import MarkedQuantity, QuantityResult, measure_quantity
 from pipeline.vision.contour import PipeContour
@@ -45,6 +45,7 @@ from pipeline.vision.contour.deposit import find_deposit_surface
 
 __all__ = ["CONNECTION_CODES", "DEPOSIT_CODES", "FEATURE_CODES", "Automatic", "lateral_points", "intrusion_points", "deposit_points",
            "measure_connection", "measure_deposit", "find_connection", "validation_doubt", "codec_edge_u",
+           "BENCHMARKED_CODECS",
            "VALIDATED_SHAPES", "FoundConnection", "VIEW_DEPTHS_H",
            "DEPOSIT_VIEW_H", "DEPOSIT_SPAN_H", "DEPOSIT_AGREEMENT_H", "DEPOSIT_TRUST_CONTRAST"]
 
@@ -86,6 +87,10 @@ ORIGIN = {"BCA": "lateral rim fit", "BAG": "intruding lateral's base and tip", "
 # kept "found, not measured" with the reason: never graded nor checked against the log.
 VALIDATED_CODECS: dict[str, frozenset[str]] = {"BCA": MPEG4_PART2, "BAG": MPEG4_PART2,
                                                "BBC": frozenset(), "BBB": frozenset()}
+# The codecs each code was benchmarked in, validated or not: a codec outside them was never tried, and the reason
+# kept says so rather than that its intervals miss
+BENCHMARKED_CODECS: dict[str, frozenset[str]] = {"BCA": MPEG4_PART2 | H264 | MPEG2, "BAG": MPEG4_PART2 | H264,
+                                                 "BBC": MPEG4_PART2 | H264, "BBB": MPEG4_PART2 | H264}
 # The pipe shapes in which a code held its U95, for a code that failed in some shape (the same rule as the codecs):
 # an intruding lateral in an egg-shaped pipe missed in 6 of 14 measured through MPEG-4 Part 2 (seeds 40 and 41;
 # Wilson 33-79 % inside), where circular pipes held 98 % (seed 41); an opening in an egg's wall held 35 of 42
@@ -113,8 +118,11 @@ def validation_doubt(code: str, codec: str | None, shape: str | None = None) -> 
     if not codec or codec.strip().lower() in allowed:
         return None
     families = " and ".join(name for name, fourccs in CODEC_FAMILIES.items() if fourccs <= allowed)
+    # a codec benchmarked and failed, or one never benchmarked: the reason says which, not a miss never measured
+    why = ("in which its edges miss their stated U95 more often" if codec.strip().lower() in BENCHMARKED_CODECS.get(code, ())
+           else "in which whether its stated U95 holds was never benchmarked")
     return (f"{code} from the image alone is validated in {families} video only, and this video's codec is "
-            f"{codec.strip()!r}, in which its edges miss their stated U95 more often (docs/measurement.md)")
+            f"{codec.strip()!r}, {why} (docs/measurement.md)")
 
 
 @dataclass

@@ -72,6 +72,27 @@ def test_lateral_diameter_inside_u95(lateral):
 
 
 @pytest.mark.slow
+def test_an_opening_at_9_oclock_above_the_water_is_measured_to_the_wall_beside_its_rim(monkeypatch):
+    """A large opening at the side whose lower rays run out into the water's darker surface: the rim's half-way
+    level is taken from the wall beside the rim, not from the water, and the diameter holds its U95. Taken from
+    the ray's outer part (the rule off), the level fell and the opening read short, outside its U95."""
+    from pipeline.vision.contour import lateral as lateral_module
+    scene = Scene(Pipe("circular", H, "concrete", 1000.0), water_percent=16.0, features=(Connection("c", Z, 9, 160.0),))
+    cert, contour, frames = _views(scene, VIEW_DEPTHS_H)
+    truth = _truth_around(160.0, 9)
+
+    def measured():
+        return measure_connection("BCA", "A", 9, [(contour, frames[k], t) for k, t in enumerate(VIEW_DEPTHS_H)],
+                                  cert, H=H, tolerance=0.0, seed=1).result
+
+    res = measured()
+    assert res.low <= truth <= res.high, (truth, res.value, res.low, res.high)
+    monkeypatch.setattr(lateral_module, "WALL_DROP", 0.0)       # the level from the ray's outer part, always
+    before = measured()
+    assert before.high < truth and before.value < res.value, (truth, before.value, before.high)
+
+
+@pytest.mark.slow
 def test_lateral_width_along_inside_u95(lateral):
     """BCA Q2, the opening's width along the pipe (the generator's hole: the diameter at its centre angle), from the
     same search as Q1; foreshortened along the axis, its U95 is wider than Q1's."""

@@ -52,6 +52,9 @@ SECTORS = 8                       # independent groups of edge points around the
 MIN_RAYS = 0.6                    # share of the rays that must find the rim
 MIN_CONTRAST = 12.0               # least grey step from the opening to the wall [8-bit levels]
 GLARE_LEVEL = 250.0               # a grey level this bright near the rim is glare (clipped)
+WALL_DROP = 0.7                   # a ray's outer wall under this share of the step beside the rim is not the wall's
+                                  # level (``_wall_level``): on dry rays the share was 0.85-1.09 (the lamp's
+                                  # fall-off), on rays running into the water 0.31-0.40 (seed 50, case 28)
 RIM_WEIGHT = 0.15                 # the rim's place between the two half-way crossings, grey (0) to light (1) [1]
 RIM_WEIGHT_U = 0.10               # its standard uncertainty [1]
 # Both set on the generator's response (benchmarks/lateral_rim.py: seed 34, 23 circular cases, the extent found
@@ -236,7 +239,7 @@ def _edges(gray, view, theta0, t0, radius, mask):
         du, dz = s[None, :] * np.cos(phi)[:, None], s[None, :] * np.sin(phi)[:, None]
         pts = _to_image(view, theta0, arc, t0, du, dz)
     prof = _masked(_sample(gray, pts), pts, mask)
-    inner, outer = s < 0.4 * radius, (s > 1.4 * radius)
+    inner, outer, beside = s < 0.4 * radius, (s > 1.4 * radius), (s > 1.2 * radius) & (s < 1.5 * radius)
     found = np.full(RAYS, np.nan)
     steps = np.full(RAYS, np.nan)
     gap = np.full(RAYS, np.nan)
@@ -246,6 +249,7 @@ def _edges(gray, view, theta0, t0, radius, mask):
         if not np.all(np.isfinite(p)):
             continue
         lo, hi = float(np.median(p[inner])), float(np.median(p[outer]))
+        hi = _wall_level(lo, hi, float(np.median(p[beside])))
         if hi - lo < MIN_CONTRAST:
             continue
         placed = rim_on_ray(p, s, lo, hi, radius)
@@ -256,6 +260,16 @@ def _edges(gray, view, theta0, t0, radius, mask):
             continue
         found[k], steps[k] = r, hi - lo
     return phi, found, steps, arc, glare, gap
+
+
+def _wall_level(lo: float, outer: float, beside: float) -> float:
+    """The wall's grey level a ray's rim rises to [8-bit levels]: the median of the ray's outer part (``outer``,
+    0.4-1.0 of the opening's radius beyond its rim), unless that falls to under ``WALL_DROP`` of the step to the
+    wall just beside the rim (``beside``, 0.2-0.5 beyond): then something darker than the wall lies out there (the
+    water's surface below a lateral at 3 or 9 o'clock), and the wall beside the rim is the level the rim rises to.
+    A step taken to the water placed the half-way level low, so the rim inside the opening (an extent around
+    1-2 % short at 1.6 H with water at 15-18 %; at the water's side, rays with no step left were dropped)."""
+    return beside if outer - lo < WALL_DROP * (beside - lo) else outer
 
 
 def rim_on_ray(p: np.ndarray, s: np.ndarray, lo: float, hi: float, radius: float) -> tuple[float, float] | None:

@@ -187,10 +187,10 @@ def test_the_samples_text_files_are_reproduced_byte_for_byte_and_agree_with_the_
     assert header["section_length_m"] == round(float(frames[-1]["chainage_m"]), 2)
 
 
-@pytest.mark.parametrize("codec, family", [("h264", "H.264"), ("mpeg2", None)])
+@pytest.mark.parametrize("codec, family", [("h264", "H.264"), ("mpeg2", "MPEG-2")])
 def test_frames_encoded_straight_through_a_codec_read_back_frame_for_frame(tmp_path, codec, family):
     """``encoded``: rendered frames through one codec, once (a camera recording H.264 itself), every frame kept at
-    its index, the codec told from the file as the night tells it (MPEG-2 has no edge figure yet)."""
+    its index, the codec told from the file as the night tells it."""
     pytest.importorskip("av")
     from pipeline.measurement.codecs import CODEC_FAMILIES
     from pipeline.synth.delivery import CODECS, encoded

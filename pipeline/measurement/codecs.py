@@ -25,8 +25,8 @@ MPEG4_PART2 = frozenset({"mp4v", "fmp4", "xvid", "divx", "dx50"})
 # now and then over a pixel, which no symmetric term covers; H.264 stays out of VALIDATED_CODECS for BCA and BAG.
 H264 = frozenset({"avc1", "h264", "x264", "avc3"})
 # MPEG-2 (the .mpg of many German deliveries; its FourCCs as OpenCV reads them): no figure measured on it, so the
-# largest known, as a codec without a figure gets for a displaced joint; benchmarked at 6 Mbit/s for BCA with it
-# (docs/measurement.md, "MPEG-2 and H.264 written once")
+# largest known, as a codec without a figure gets for a displaced joint; no code from the image alone is validated
+# in it yet (``benchmarks/automatic_connections.py --codec mpeg2`` writes it at 6 Mbit/s, for the benchmark to come)
 MPEG2 = frozenset({"mpg2", "mp2v", "mpeg", "m2v1"})
 CODEC_EDGE_U_PX: dict[str, float] = ({fourcc: 0.2 for fourcc in MPEG4_PART2} | {fourcc: 0.3 for fourcc in H264}
                                      | {fourcc: 0.3 for fourcc in MPEG2})

@@ -35,7 +35,7 @@ import numpy as np
 
 from pipeline.camera import Certificate
 from pipeline.core.errors import MeasurementError, PipegaugeError
-from pipeline.measurement.codecs import CODEC_FAMILIES, H264, MPEG2, MPEG4_PART2, codec_edge_u
+from pipeline.measurement.codecs import CODEC_FAMILIES, H264, MPEG4_PART2, codec_edge_u
 from pipeline.measurement.frames import beyond_agreement, chi_square_with_covariance, frame_covariance
 from pipeline.measurement.quantity import MarkedQuantity, QuantityResult, measure_quantity
 from pipeline.vision.contour import PipeContour
@@ -89,7 +89,7 @@ VALIDATED_CODECS: dict[str, frozenset[str]] = {"BCA": MPEG4_PART2, "BAG": MPEG4_
                                                "BBC": frozenset(), "BBB": frozenset()}
 # The codecs each code was benchmarked in, validated or not: a codec outside them was never tried, and the reason
 # kept says so rather than that its intervals miss
-BENCHMARKED_CODECS: dict[str, frozenset[str]] = {"BCA": MPEG4_PART2 | H264 | MPEG2, "BAG": MPEG4_PART2 | H264,
+BENCHMARKED_CODECS: dict[str, frozenset[str]] = {"BCA": MPEG4_PART2 | H264, "BAG": MPEG4_PART2 | H264,
                                                  "BBC": MPEG4_PART2 | H264, "BBB": MPEG4_PART2 | H264}
 # The pipe shapes in which a code held its U95, for a code that failed in some shape (the same rule as the codecs):
 # an intruding lateral in an egg-shaped pipe missed in 6 of 14 measured through MPEG-4 Part 2 (seeds 40 and 41;

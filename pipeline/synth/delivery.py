@@ -17,8 +17,11 @@ records H.264 itself gives (``delivered`` adds its loss to MPEG-4 Part 2's: a tr
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from fractions import Fraction
 from pathlib import Path
+
+import numpy as np
 
 __all__ = ["CODECS", "delivered", "encoded"]
 
@@ -59,7 +62,7 @@ def delivered(video: Path, codec: str | None, folder: Path) -> Path:
     return out_path
 
 
-def encoded(frames, codec: str, path: Path, rate: float = 25.0) -> Path:
+def encoded(frames: Iterable[np.ndarray], codec: str, path: Path, rate: float = 25.0) -> Path:
     """BGR frames (``uint8`` arrays of one size) written to ``path`` through ``codec`` (a key of CODECS) at
     ``rate`` [frames per second], each frame its own index; returns ``path``.
     Raises ImportError when PyAV is not installed."""
@@ -68,14 +71,16 @@ def encoded(frames, codec: str, path: Path, rate: float = 25.0) -> Path:
     except ImportError:
         raise ImportError("encoding needs PyAV: pip install -e '.[bench]'") from None
     encoder, _, options = CODECS[codec]
-    frames = list(frames)
-    rows, cols = frames[0].shape[:2]
+    images = list(frames)
+    if not images:
+        raise ValueError(f"no frames to encode into {path}")
+    rows, cols = images[0].shape[:2]
     fps = Fraction(rate).limit_denominator(1001)
     with av.open(str(path), "w") as out:
         stream = out.add_stream(encoder, rate=fps, options=options)
         stream.width, stream.height, stream.pix_fmt = cols, rows, "yuv420p"
         stream.codec_context.time_base = 1 / fps
-        for index, image in enumerate(frames):
+        for index, image in enumerate(images):
             frame = av.VideoFrame.from_ndarray(image, format="bgr24").reformat(format="yuv420p")
             frame.pts, frame.time_base = index, 1 / fps
             out.mux(stream.encode(frame))

@@ -175,15 +175,13 @@ def _through_codec(raw, codec: str, tmp: Path, cert):
     folder.mkdir(exist_ok=True)
     path = folder / "video.mp4"
     if codec in CODECS:
-        out = [f for _, f in iter_frames(encoded(raw, codec, path.with_suffix(CODECS[codec][1])))]
-        if len(out) != len(raw):
-            raise RuntimeError(f"{codec}: {len(out)} frames read back of {len(raw)}")
-        return out
-    w = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*"mp4v"), 25.0, (cert.image_width_px, cert.image_height_px))
-    for f in raw:
-        w.write(f)
-    w.release()
-    video = delivered(path, "h264" if codec == "mp4v+h264" else None, tmp)
+        video = encoded(raw, codec, path.with_suffix(CODECS[codec][1]))
+    else:
+        w = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*"mp4v"), 25.0, (cert.image_width_px, cert.image_height_px))
+        for f in raw:
+            w.write(f)
+        w.release()
+        video = delivered(path, "h264" if codec == "mp4v+h264" else None, tmp)
     out = [f for _, f in iter_frames(video)]
     if len(out) != len(raw):
         raise RuntimeError(f"{codec}: {len(out)} frames read back of {len(raw)}")

@@ -191,7 +191,6 @@ def test_the_samples_text_files_are_reproduced_byte_for_byte_and_agree_with_the_
 def test_frames_encoded_straight_through_a_codec_read_back_frame_for_frame(tmp_path, codec, family):
     """``encoded``: rendered frames through one codec, once (a camera recording H.264 itself), every frame kept at
     its index, the codec told from the file as the night tells it."""
-    pytest.importorskip("av")
     from pipeline.measurement.codecs import CODEC_FAMILIES
     from pipeline.synth.delivery import CODECS, encoded
     from pipeline.vision.video.reader import iter_frames, probe_video

@@ -32,6 +32,29 @@ CODECS = {
 }
 
 
+def _av():
+    """PyAV, or ImportError saying how to install it."""
+    try:
+        import av
+    except ImportError:
+        raise ImportError("encoding needs PyAV: pip install -e '.[bench]'") from None
+    return av
+
+
+def _write(out, codec: str, rate: Fraction, size: tuple[int, int], frames) -> None:
+    """``frames`` (PyAV video frames, any format) into the open container ``out`` through ``codec`` (a key of
+    CODECS) at ``rate`` [frames per second] and ``size`` (width, height) [px], as yuv420p; frame i keeps index i."""
+    encoder, _, options = CODECS[codec]
+    stream = out.add_stream(encoder, rate=rate, options=options)
+    stream.width, stream.height, stream.pix_fmt = *size, "yuv420p"
+    stream.codec_context.time_base = 1 / rate
+    for index, frame in enumerate(frames):
+        frame = frame.reformat(format="yuv420p")
+        frame.pts, frame.time_base = index, 1 / rate        # frame i stays frame i: the truth is indexed by frame
+        out.mux(stream.encode(frame))
+    out.mux(stream.encode())
+
+
 def delivered(video: Path, codec: str | None, folder: Path) -> Path:
     """``video`` re-encoded with ``codec`` into ``folder``, or ``video`` itself when codec is None.
 
@@ -42,47 +65,25 @@ def delivered(video: Path, codec: str | None, folder: Path) -> Path:
     """
     if codec is None:
         return video
-    try:
-        import av
-    except ImportError:
-        raise ImportError("re-encoding needs PyAV: pip install -e '.[bench]'") from None
-    encoder, suffix, options = CODECS[codec]
-    out_path = folder / f"{video.parent.name}-{codec}{suffix}"
+    av = _av()
+    out_path = folder / f"{video.parent.name}-{codec}{CODECS[codec][1]}"
     with av.open(str(video)) as source, av.open(str(out_path), "w") as out:
         inp = source.streams.video[0]
-        rate = Fraction(inp.average_rate).limit_denominator(1001)
-        stream = out.add_stream(encoder, rate=rate, options=options)
-        stream.width, stream.height, stream.pix_fmt = inp.codec_context.width, inp.codec_context.height, "yuv420p"
-        stream.codec_context.time_base = 1 / rate
-        for index, frame in enumerate(source.decode(inp)):
-            frame = frame.reformat(format="yuv420p")
-            frame.pts, frame.time_base = index, 1 / rate    # frame i stays frame i: the truth is indexed by frame
-            out.mux(stream.encode(frame))
-        out.mux(stream.encode())
+        _write(out, codec, Fraction(inp.average_rate).limit_denominator(1001),
+               (inp.codec_context.width, inp.codec_context.height), source.decode(inp))
     return out_path
 
 
 def encoded(frames: Iterable[np.ndarray], codec: str, path: Path, rate: float = 25.0) -> Path:
     """BGR frames (``uint8`` arrays of one size) written to ``path`` through ``codec`` (a key of CODECS) at
     ``rate`` [frames per second], each frame its own index; returns ``path``.
-    Raises ImportError when PyAV is not installed."""
-    try:
-        import av
-    except ImportError:
-        raise ImportError("encoding needs PyAV: pip install -e '.[bench]'") from None
-    encoder, _, options = CODECS[codec]
+    Raises ImportError when PyAV is not installed, ValueError for no frames."""
+    av = _av()
     images = list(frames)
     if not images:
         raise ValueError(f"no frames to encode into {path}")
     rows, cols = images[0].shape[:2]
-    fps = Fraction(rate).limit_denominator(1001)
     with av.open(str(path), "w") as out:
-        stream = out.add_stream(encoder, rate=fps, options=options)
-        stream.width, stream.height, stream.pix_fmt = cols, rows, "yuv420p"
-        stream.codec_context.time_base = 1 / fps
-        for index, image in enumerate(images):
-            frame = av.VideoFrame.from_ndarray(image, format="bgr24").reformat(format="yuv420p")
-            frame.pts, frame.time_base = index, 1 / fps
-            out.mux(stream.encode(frame))
-        out.mux(stream.encode())
+        _write(out, codec, Fraction(rate).limit_denominator(1001), (cols, rows),
+               (av.VideoFrame.from_ndarray(image, format="bgr24") for image in images))
     return path

@@ -121,7 +121,8 @@ def validation_doubt(code: str, codec: str | None, shape: str | None = None) -> 
         return None
     families = " and ".join(name for name, fourccs in CODEC_FAMILIES.items() if fourccs <= allowed)
     # a codec benchmarked and failed, or one never benchmarked: the reason says which, not a miss never measured
-    why = ("in which its edges miss their stated U95 more often" if codec.strip().lower() in BENCHMARKED_CODECS.get(code, ())
+    tried = codec.strip().lower() in BENCHMARKED_CODECS.get(code, ())
+    why = ("in which its edges miss their stated U95 more often" if tried
            else "in which whether its stated U95 holds was never benchmarked")
     return (f"{code} from the image alone is validated in {families} video only, and this video's codec is "
             f"{codec.strip()!r}, {why} (docs/measurement.md)")

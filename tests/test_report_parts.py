@@ -67,6 +67,11 @@ def test_a_code_not_validated_from_the_image_alone_is_said_with_what_to_do():
         [(sentence, action)] = plain_warnings(doubt)
         assert words in sentence and "not used" in sentence
         assert "pipegauge review" in action
+    # the codecs to ask for are the ones the code was validated in
+    [(_, action)] = plain_warnings(validation_doubt("BCA", "mpg2"))
+    assert action.endswith("ask for the video in MPEG-4 Part 2 and H.264")
+    [(_, action)] = plain_warnings(validation_doubt("BAG", "avc1"))
+    assert action.endswith("ask for the video in MPEG-4 Part 2")
 
 
 @pytest.mark.parametrize("x, text", [(0.0001721, "1.72e-04"), (1.0797e-05, "1.08e-05"), (405.52, "406"),

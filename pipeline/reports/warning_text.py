@@ -44,9 +44,9 @@ _RULES = [
     (re.compile(r"Monte Carlo not converged"),
      "the Monte Carlo run stopped at its trial cap before the interval's ends settled to the digits printed "
      "(JCGM 101 7.9), so their last digit is uncertain", "read the interval to one digit less"),
-    (re.compile(r"from the image alone is validated in .* only"),
+    (re.compile(r"from the image alone is validated in (?P<codecs>.*?) video only"),
      "measuring this code from the image alone is not validated in this video's codec, so the value was not used",
-     "measure it with marks (pipegauge review), or ask for the video in MPEG-4 Part 2"),
+     "measure it with marks (pipegauge review), or ask for the video in {codecs}"),
     (re.compile(r"from the image alone is not validated in \S+ pipes"),
      "measuring this code from the image alone is not validated in pipes of this shape, so the value was not used",
      "measure it with marks (pipegauge review)"),
@@ -64,9 +64,11 @@ def plain_warnings(technical: str | None) -> list[tuple[str, str]]:
     pct = [float(x) for x in re.findall(r"u\(p_H\) is (?:[\d.]+-)?([\d.]+) %", technical or "")]
     for reason in _split(technical or ""):
         for pattern, sentence, action in _RULES:
-            if pattern.search(reason):
+            if match := pattern.search(reason):
                 if sentence is not None:
-                    out[(sentence.format(pct=f"{max(pct):.0f}" if pct else "?"), action)] = None
+                    # a rule's words may name what its reason names (the codecs a code was validated in)
+                    fields = {"pct": f"{max(pct):.0f}" if pct else "?", **match.groupdict()}
+                    out[(sentence.format(**fields), action.format(**fields))] = None
                 break
         else:
             out[(reason, "check the marks and the outline on the thumbnail")] = None

@@ -9,6 +9,11 @@ the rim's definition. Prints per case and the medians, and the extent's error at
 
     nice -n 10 python benchmarks/lateral_rim.py --cases 30 [--seed 34]
 
+With ``--blur-shift [--codec h264]`` it prints, at 1.6 and 2.0 H, the extent around's error [px] at the grey
+crossing, the light one and with the blur's shift where the rim curves (``lateral._unblurred_rim``), and the
+medians, robust SDs and trends with the rim's curvature (a / b^2, the image's semi-axes around and along [px]) for
+rim weights and shares of the ramp's variance about the night's (``RIM_WEIGHT``, ``BLUR_SHARE``).
+
 With ``--depths 1.6 2.0 2.3 [--codec mp4v]`` it prints instead the extent's error around and along at each depth
 [H] (the frames of one case share their fitted pose), in % of the diameter: how the rim fit's error grows with
 depth, and what a codec adds.
@@ -38,6 +43,44 @@ def _found(frame, view, clock, weight: float, weight_u: float, floor: float):
         return _find(frame, view, clock, VIEW_DEPTHS_H[0])
     finally:
         lateral_module.RIM_WEIGHT, lateral_module.RIM_WEIGHT_U, lateral_module.EDGE_FLOOR_PX = saved
+
+
+def blur_shift(cases: int, seed: int, codec: str = "none") -> None:
+    """The extent around's error [px] at the grey and light crossings and with the blur's shift, per case, and
+    combinations of the rim's weight and the shift's share (linear in both: the weight moves the rim between the
+    crossings, the shift is proportional to the share)."""
+    depths = (1.6, 2.0)
+    rows = []
+    saved = lateral_module.RIM_WEIGHT, lateral_module.BLUR_SHARE
+    try:
+        for i, scene, clock, frames, contour in ac.frames_at_depths("bca", cases, seed, ("circular",), depths, codec):
+            H, d = scene.pipe.height_mm, scene.features[0].diameter_mm
+            for t, frame in zip(depths, frames):
+                errors = []
+                for weight, share in ((0.0, 0.0), (1.0, 0.0), (0.0, 1.0), saved):
+                    lateral_module.RIM_WEIGHT, lateral_module.BLUR_SHARE = weight, share
+                    lat = _find(frame, contour.view, clock, t)
+                    if lat is None or lat.problems:
+                        break
+                    a = float(np.linalg.norm(np.subtract(*lat.around))) / 2.0
+                    b = float(np.linalg.norm(np.subtract(*lat.along))) / 2.0
+                    errors.append((lat.extent_around * H - d) / d * 2.0 * a)
+                if len(errors) < 4:
+                    continue
+                rows.append((*errors, a / b ** 2))
+                print(f"{i:3d} DN {H:5.0f}, {d:4.0f} mm, {t:.1f} H: grey {errors[0]:+.2f} px, light {errors[1]:+.2f}, "
+                      f"grey with the whole shift {errors[2]:+.2f}, the night's {errors[3]:+.2f}; a/b^2 {a / b ** 2:.3f}/px",
+                      flush=True)
+    finally:
+        lateral_module.RIM_WEIGHT, lateral_module.BLUR_SHARE = saved
+    grey, light, shifted, night, curvature = (np.array(c) for c in zip(*rows))
+    print(f"{len(rows)} frames; the night's (weight {saved[0]:.2f}, share {saved[1]:.2f}): median {np.median(night):+.3f} px, "
+          f"robust SD {robust_sd(night):.3f}")
+    for weight in (0.0, saved[0], 0.15):
+        for share in (0.0, 0.4, saved[1], 0.8, 1.0):
+            e = grey + weight * (light - grey) + share * (shifted - grey)
+            print(f"weight {weight:.2f}, share {share:.2f}: median {np.median(e):+.3f} px, robust SD {robust_sd(e):.3f}, "
+                  f"trend {np.polyfit(curvature, e, 1)[0]:+.2f} px per 1/px of a/b^2")
 
 
 def _find(frame, view, clock, depth: float):
@@ -78,8 +121,12 @@ def main() -> None:
     ap.add_argument("--cases", type=int, default=30)
     ap.add_argument("--seed", type=int, default=34)
     ap.add_argument("--depths", type=float, nargs="+", help="print the extents' errors at these depths [H]")
-    ap.add_argument("--codec", choices=tuple(ac.FOURCC), default="none", help="the frames' codec (with --depths)")
+    ap.add_argument("--codec", choices=tuple(ac.FOURCC), default="none", help="the frames' codec (with --depths or --blur-shift)")
+    ap.add_argument("--blur-shift", action="store_true", help="the rim's weight and the blur's shift (see above)")
     args = ap.parse_args()
+    if args.blur_shift:
+        blur_shift(args.cases, args.seed, args.codec)
+        return
     if args.depths:
         by_depth(args.cases, args.seed, tuple(args.depths), args.codec)
         return

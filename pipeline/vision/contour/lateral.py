@@ -55,16 +55,24 @@ GLARE_LEVEL = 250.0               # a grey level this bright near the rim is gla
 WALL_DROP = 0.7                   # a ray's outer wall under this share of the step beside the rim is not the wall's
                                   # level (``_wall_level``): on dry rays the share was 0.85-1.09 (the lamp's
                                   # fall-off), on rays running into the water 0.31-0.40 (seed 50, case 28)
-RIM_WEIGHT = 0.15                 # the rim's place between the two half-way crossings, grey (0) to light (1) [1]
+BLUR_SHARE = 0.6                  # the share of the rim ramp's variance taken as the blur that drew the rim in
+                                  # where it curves (``_unblurred_rim``) [1]; 0 turns the shift off
+BLUR_SHARE_U = 0.2                # the shift's standard uncertainty, a share of it [1]: the codecs' best shares spread
+                                  # over 0.4-0.8 about 0.6 (below), rectangular
+RAMP_PER_SIGMA = 1.349            # a Gaussian-blurred step's quarter-to-three-quarter width over sigma [1]
+RIM_WEIGHT = 0.05                 # the rim's place between the two half-way crossings, grey (0) to light (1) [1]
 RIM_WEIGHT_U = 0.10               # its standard uncertainty [1]
-# Both set on the generator's response (benchmarks/lateral_rim.py: seed 34, 23 circular cases, the extent found
-# against the truth's arc): the rim lay 0.14-0.18 of the way (median over the cases), the grey
-# crossing 0.1 px short of it on each end, the light one about 0.6 px beyond (a step rendered as the generator does,
-# blurred, gives 0-0.12: tests/test_connections.py). The old weight 1/3 put the values 0.25 px high (median z +0.4),
-# and a rectangular term over the whole spread counted the rim's place as unknown between the crossings, making u
-# about twice the scatter (robust SD of z 0.5). A camera whose response is unlike the generator's moves the weight,
-# which RIM_WEIGHT_U does not cover: it lies between the median's own uncertainty (0.05) and the cases' scatter
-# about it (robust SD 0.14-0.18, which also holds the pose's and the rim points' scatter, in the budget apart).
+# The three set together on the generator's response (2026-12-06: seed 50, 29 circular cases at 1.6 and 2.0 H,
+# the extent around found against the truth's arc, in rendered frames, through MPEG-4 Part 2 and through H.264
+# written once; one-off fits recorded in docs/measurement.md, "The blur's shift where the rim curves"). Without
+# the shift the weight was 0.15: it stood in for the shift on the median opening, so a far or small one (its ends
+# close in the image, the rim sharply curved there) read short by up to 0.3 px, more through a codec's added
+# blur (median -0.22 px through MPEG-4 Part 2, robust SD 0.46). With the shift: medians +0.06, -0.12 (MPEG-4
+# Part 2), -0.02 px (H.264), robust SD 0.24, 0.37, 0.41 px, none trending with the curvature. The share is under 1:
+# the ramp reads the rim's own shading (the lateral's lit tube just inside) besides the blur. A camera whose
+# response is unlike the generator's moves the weight, which RIM_WEIGHT_U does not cover: it lies between the
+# median's own uncertainty (0.05) and the cases' scatter about it (robust SD 0.14-0.18 with the weight alone,
+# which also holds the pose's and the rim points' scatter, in the budget apart).
 DISPLAY_GAMMA = 2.2               # the response assumed to linearise grey levels (sRGB-like)
 EDGE_FLOOR_PX = 0.10              # an end is not located better than this [px]: a floor for a rim of few, smooth
                                   # points, not the term that sets u. At 0.25 it did, for every clean case
@@ -243,6 +251,8 @@ def _edges(gray, view, theta0, t0, radius, mask):
     found = np.full(RAYS, np.nan)
     steps = np.full(RAYS, np.nan)
     gap = np.full(RAYS, np.nan)
+    ramp = np.full(RAYS, np.nan)
+    px_per_s = np.linalg.norm(np.diff(pts, axis=1), axis=-1) / np.diff(s)      # the rays' image scale [px per H]
     glare = bool(np.nanmax(prof, initial=0.0) >= GLARE_LEVEL) if np.isfinite(prof).any() else False
     for k in range(RAYS):
         p = prof[k]
@@ -259,7 +269,9 @@ def _edges(gray, view, theta0, t0, radius, mask):
         if not 0.4 * radius <= r <= 1.6 * radius:
             continue
         found[k], steps[k] = r, hi - lo
-    return phi, found, steps, arc, glare, gap
+        ramp[k] = _ramp(p, s, lo, hi, radius) * float(np.interp(r, s[:-1], px_per_s[k]))
+    spacing = float(np.nanmedian(px_per_s)) * float(s[1] - s[0])
+    return phi, found, steps, arc, glare, gap, ramp, spacing
 
 
 def _wall_level(lo: float, outer: float, beside: float) -> float:
@@ -302,6 +314,15 @@ def rim_definition_u(gap_px: float) -> float:
     return float(np.sqrt(2.0) * RIM_WEIGHT_U * gap_px)
 
 
+def _ramp(p: np.ndarray, s: np.ndarray, lo: float, hi: float, radius: float) -> float:
+    """The distance along a ray between the crossings of a quarter and three quarters of the way from the
+    opening's level ``lo`` to the wall's ``hi`` (in the unit of ``s``; nan when either is missing): 1.349 sigma of a
+    straight edge blurred by a Gaussian sigma, seen across it, widened by the 3-sample smoothing."""
+    q = np.convolve(p, np.ones(3) / 3, mode="same")
+    low, high = (_crossing(q, s, lo + f * (hi - lo), radius) for f in (0.25, 0.75))
+    return np.nan if low is None or high is None else high - low
+
+
 def _crossing(q: np.ndarray, s: np.ndarray, level: float, radius: float) -> float | None:
     """Where the profile q along s first rises through ``level`` nearest the expected rim ``radius``."""
     cross = np.nonzero((q[:-1] < level) & (q[1:] >= level))[0]
@@ -311,6 +332,58 @@ def _crossing(q: np.ndarray, s: np.ndarray, level: float, radius: float) -> floa
     j = int(cross[np.argmin(np.abs(s[cross] - radius))]) + 1
     f = (level - q[j - 1]) / max(q[j] - q[j - 1], 1e-9)
     return float(s[j - 1] + f * (s[j] - s[j - 1]))
+
+
+def _rim_in_image(view: PipeView, theta0: float, arc: float, t0: float, Au: float, Az: float, phi: np.ndarray):
+    """The fitted rim (semi-axes Au around, Az along [H], centred at theta0, t0) seen in the image, at the rays'
+    angles ``phi`` [rad]: its distance from the centre on each ray [H], the ray's image scale there [px per H], the
+    cosine between the ray and the rim's normal in the image, and the rim's curvature there [1/px] (positive
+    where it bulges outwards)."""
+    r = 1.0 / np.sqrt((np.cos(phi) / Au) ** 2 + (np.sin(phi) / Az) ** 2)
+    t = np.arctan2(r * np.sin(phi) / Az, r * np.cos(phi) / Au)            # the ellipse's parameter at each ray
+    h = 1e-3
+    P = [_to_image(view, theta0, arc, t0, Au * np.cos(t + k * h), Az * np.sin(t + k * h)) for k in (-1, 0, 1)]
+    d1, d2 = (P[2] - P[0]) / (2 * h), (P[2] - 2 * P[1] + P[0]) / h ** 2
+    speed = np.linalg.norm(d1, axis=1)
+    normal = np.column_stack([d1[:, 1], -d1[:, 0]]) / speed[:, None]
+    outward = np.sign(np.sum((P[1] - P[1].mean(axis=0)) * normal, axis=1))
+    normal *= outward[:, None]
+    curvature = outward * (d1[:, 0] * d2[:, 1] - d1[:, 1] * d2[:, 0]) / speed ** 3
+    beyond = _to_image(view, theta0, arc, t0, 1.01 * r * np.cos(phi), 1.01 * r * np.sin(phi))
+    step = beyond - P[1]
+    scale = np.linalg.norm(step, axis=1) / (0.01 * r)
+    cos = np.abs(np.sum(step * normal, axis=1)) / np.linalg.norm(step, axis=1)
+    return r, scale, cos, curvature
+
+
+def _blur_sigma(view, theta0, arc, t0, Au, Az, phi, ramp, spacing) -> float:
+    """The blur's standard deviation in the image at the rim [px], from the rays' quarter-to-three-quarter ramps
+    ``ramp`` [px, along each ray] at angles ``phi``: across the rim (the ray's cosine to the rim's normal), less
+    the 3-sample smoothing's variance (2/3 of the samples' ``spacing`` [px] squared); nan without a ramp."""
+    _, _, cos, _ = _rim_in_image(view, theta0, arc, t0, Au, Az, phi)
+    var = cos ** 2 * ((ramp / RAMP_PER_SIGMA) ** 2 - 2.0 / 3.0 * spacing ** 2)
+    var = var[np.isfinite(var)]
+    return float(np.sqrt(max(float(np.median(var)), 0.0))) if var.size else np.nan
+
+
+def _unblurred_rim(view, theta0, arc, t0, Au, Az, sigma):
+    """The rim before a Gaussian blur ``sigma`` [px] drew it in: (theta0, t0, Au, Az) refitted.
+
+    A blur moves a dark region's half-level rim inwards by sigma^2 kappa / 2 where it bulges with curvature kappa
+    [1/px] (to first order: the level set's curvature flow over a time sigma^2 / 2), most at the ends of a
+    foreshortened opening's long axis: an opening far or small, its ends close in the image, read short. Each ray's
+    place on the fitted rim is moved back out by that shift, in the image and along the ray, and the ellipse refitted.
+    """
+    if not np.isfinite(sigma) or sigma <= 0:
+        return theta0, t0, Au, Az
+    phi = np.linspace(0, 2 * np.pi, RAYS, endpoint=False)
+    r, scale, cos, curvature = _rim_in_image(view, theta0, arc, t0, Au, Az, phi)
+    r = r + 0.5 * sigma ** 2 * np.clip(curvature, 0.0, None) / np.maximum(cos, 0.2) / scale
+    fit = _fit_ellipse(r * np.cos(phi), r * np.sin(phi))
+    if fit is None:
+        return theta0, t0, Au, Az
+    uc, zc, Au2, Az2 = fit
+    return theta0 + uc / arc, t0 + zc, Au2, Az2
 
 
 def _fit_ellipse(u: np.ndarray, z: np.ndarray):
@@ -352,7 +425,7 @@ def find_lateral(ideal_bgr: np.ndarray, view: PipeView, *, clock: float | None =
     radius = 0.25 * (around + along)
     fit = None
     for _ in range(3):                          # recentre on the fit, then fit again
-        phi, r, step, arc, glare, gap = _edges(gray, view, theta0, t0, radius, mask)
+        phi, r, step, arc, glare, gap, ramp, spacing = _edges(gray, view, theta0, t0, radius, mask)
         ok = np.isfinite(r)
         if ok.sum() < 8:
             return None
@@ -382,9 +455,17 @@ def find_lateral(ideal_bgr: np.ndarray, view: PipeView, *, clock: float | None =
     gap_px = float(np.nanmedian(gap[ok])) * float(np.median(np.abs(residual_px) / np.maximum(np.abs(r_pt - r_fit), 1e-12))) \
         if np.any(np.abs(r_pt - r_fit) > 0) else 0.0
     u_definition = rim_definition_u(gap_px)
-    u_end = max(float(np.hypot(per_end, u_definition)), EDGE_FLOOR_PX)
+    blurred_ends = [_to_image(view, theta0, arc, t0, np.array([-Au, Au]), np.zeros(2)),
+            _to_image(view, theta0, arc, t0, np.zeros(2), np.array([-Az, Az]))]
+    sigma = _blur_sigma(view, theta0, arc, t0, Au, Az, phi[ok], ramp[ok], spacing)
+    theta0, t0, Au, Az = _unblurred_rim(view, theta0, arc, t0, Au, Az, np.sqrt(BLUR_SHARE) * sigma)
     a_ar, b_ar = _to_image(view, theta0, arc, t0, np.array([-Au, Au]), np.zeros(2))
     a_al, b_al = _to_image(view, theta0, arc, t0, np.zeros(2), np.array([-Az, Az]))
+    # the shift's own uncertainty, per end: BLUR_SHARE_U of how far it moved the ends
+    u_shift = [BLUR_SHARE_U * float(np.mean(np.linalg.norm(np.subtract(new, old), axis=1)))
+               for new, old in zip(((a_ar, b_ar), (a_al, b_al)), blurred_ends)]
+    u_around, u_along = (max(float(np.sqrt(per_end ** 2 + u_definition ** 2 + u ** 2)), EDGE_FLOOR_PX)
+                         for u in u_shift)
     problems = []
     if ok.mean() < MIN_RAYS:
         problems.append(f"the opening's rim is seen on {100 * ok.mean():.0f} % of its edge rays only "
@@ -397,4 +478,4 @@ def find_lateral(ideal_bgr: np.ndarray, view: PipeView, *, clock: float | None =
         return None
     return Lateral(float(theta0), float(t0), (tuple(map(float, a_ar)), tuple(map(float, b_ar))),
                    (tuple(map(float, a_al)), tuple(map(float, b_al))), float(2 * Au * 1.0), float(2 * Az),
-                   u_end, u_end, int(ok.sum()), float(np.nanmedian(step)), tuple(problems))
+                   u_around, u_along, int(ok.sum()), float(np.nanmedian(step)), tuple(problems))

@@ -67,15 +67,15 @@ def blur_shift(cases: int, seed: int, codec: str = "none") -> None:
                     errors.append((lat.extent_around * H - d) / d * 2.0 * a)
                 if len(errors) < 4:
                     continue
-                rows.append((*errors, a / b ** 2))
+                rows.append((*errors, a / b ** 2, lat.blur_px))
                 print(f"{i:3d} DN {H:5.0f}, {d:4.0f} mm, {t:.1f} H: grey {errors[0]:+.2f} px, light {errors[1]:+.2f}, "
                       f"grey with the whole shift {errors[2]:+.2f}, the night's {errors[3]:+.2f}; a/b^2 {a / b ** 2:.3f}/px",
                       flush=True)
     finally:
         lateral_module.RIM_WEIGHT, lateral_module.BLUR_SHARE = saved
-    grey, light, shifted, night, curvature = (np.array(c) for c in zip(*rows))
+    grey, light, shifted, night, curvature, blur = (np.array(c) for c in zip(*rows))
     print(f"{len(rows)} frames; the night's (weight {saved[0]:.2f}, share {saved[1]:.2f}): median {np.median(night):+.3f} px, "
-          f"robust SD {robust_sd(night):.3f}")
+          f"robust SD {robust_sd(night):.3f}; the blur read on the rays: median {np.nanmedian(blur):.2f} px")
     for weight in (0.0, saved[0], 0.15):
         for share in (0.0, 0.4, saved[1], 0.8, 1.0):
             e = grey + weight * (light - grey) + share * (shifted - grey)

@@ -96,6 +96,7 @@ class Lateral:
     n_points: int                      # edge points used
     contrast: float                    # median grey step from the opening to the wall [8-bit levels]
     problems: tuple[str, ...]          # why not to be trusted (empty when fine)
+    blur_px: float = float("nan")      # the blur read on the rim's rays, its share BLUR_SHARE not yet taken [px]
 
     @property
     def confident(self) -> bool:
@@ -478,4 +479,4 @@ def find_lateral(ideal_bgr: np.ndarray, view: PipeView, *, clock: float | None =
         return None
     return Lateral(float(theta0), float(t0), (tuple(map(float, a_ar)), tuple(map(float, b_ar))),
                    (tuple(map(float, a_al)), tuple(map(float, b_al))), float(2 * Au * 1.0), float(2 * Az),
-                   u_around, u_along, int(ok.sum()), float(np.nanmedian(step)), tuple(problems))
+                   u_around, u_along, int(ok.sum()), float(np.nanmedian(step)), tuple(problems), float(sigma))

@@ -19,6 +19,9 @@ wall can be read as a map over (theta, t):
    points share texture and blur, so the sectors, not the points, are
    independent), gives the standard uncertainty of the axes' ends in the
    image.
+4. the blur, which draws a dark region's half-way rim inwards where it
+   curves (most at the ends of a foreshortened opening's long axis), is
+   read from the rays' ramps and its shift put back (``_unblurred_rim``).
 
 The result is the pair of image points an operator would mark for each
 extent (the ends around the pipe in the opening's centre cross-section, the
@@ -62,13 +65,14 @@ BLUR_SHARE_U = 0.2                # the shift's standard uncertainty, a share of
 RAMP_PER_SIGMA = 1.349            # a Gaussian-blurred step's quarter-to-three-quarter width over sigma [1]
 RIM_WEIGHT = 0.05                 # the rim's place between the two half-way crossings, grey (0) to light (1) [1]
 RIM_WEIGHT_U = 0.10               # its standard uncertainty [1]
-# The three set together on the generator's response (2026-12-06: seed 50, 29 circular cases at 1.6 and 2.0 H,
+# The three set together on the generator's response (2026-12-06: seed 50, 27-29 circular cases at 1.6 and 2.0 H,
 # the extent around found against the truth's arc, in rendered frames, through MPEG-4 Part 2 and through H.264
-# written once; one-off fits recorded in docs/measurement.md, "The blur's shift where the rim curves"). Without
-# the shift the weight was 0.15: it stood in for the shift on the median opening, so a far or small one (its ends
-# close in the image, the rim sharply curved there) read short by up to 0.3 px, more through a codec's added
-# blur (median -0.22 px through MPEG-4 Part 2, robust SD 0.46). With the shift: medians +0.06, -0.12 (MPEG-4
-# Part 2), -0.02 px (H.264), robust SD 0.24, 0.37, 0.41 px, none trending with the curvature. The share is under 1:
+# written once: benchmarks/lateral_rim.py --blur-shift; docs/measurement.md, "The blur's shift where the rim
+# curves"). Without the shift the weight was 0.15: it stood in for the shift on the median opening, so a far or
+# small one (its ends close in the image, the rim sharply curved there) read short by up to 0.3 px, more through a
+# codec's added blur (median -0.22 px through MPEG-4 Part 2, robust SD 0.46). With the shift: medians +0.07, -0.12
+# (MPEG-4 Part 2), -0.02 px (H.264), robust SD 0.25, 0.40, 0.45 px, their trends with the rim's curvature a third
+# of what they were or less, of either sign. The share is under 1:
 # the ramp reads the rim's own shading (the lateral's lit tube just inside) besides the blur. A camera whose
 # response is unlike the generator's moves the weight, which RIM_WEIGHT_U does not cover: it lies between the
 # median's own uncertainty (0.05) and the cases' scatter about it (robust SD 0.14-0.18 with the weight alone,
@@ -457,7 +461,7 @@ def find_lateral(ideal_bgr: np.ndarray, view: PipeView, *, clock: float | None =
         if np.any(np.abs(r_pt - r_fit) > 0) else 0.0
     u_definition = rim_definition_u(gap_px)
     blurred_ends = [_to_image(view, theta0, arc, t0, np.array([-Au, Au]), np.zeros(2)),
-            _to_image(view, theta0, arc, t0, np.zeros(2), np.array([-Az, Az]))]
+                    _to_image(view, theta0, arc, t0, np.zeros(2), np.array([-Az, Az]))]
     sigma = _blur_sigma(view, theta0, arc, t0, Au, Az, phi[ok], ramp[ok], spacing)
     theta0, t0, Au, Az = _unblurred_rim(view, theta0, arc, t0, Au, Az, np.sqrt(BLUR_SHARE) * sigma)
     a_ar, b_ar = _to_image(view, theta0, arc, t0, np.array([-Au, Au]), np.zeros(2))

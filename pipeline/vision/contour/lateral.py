@@ -71,8 +71,8 @@ RIM_WEIGHT_U = 0.10               # its standard uncertainty [1]
 # curves"). Without the shift the weight was 0.15: it stood in for the shift on the median opening, so a far or
 # small one (its ends close in the image, the rim sharply curved there) read short by up to 0.3 px, more through a
 # codec's added blur (median -0.22 px through MPEG-4 Part 2, robust SD 0.46). With the shift: medians +0.07, -0.12
-# (MPEG-4 Part 2), -0.02 px (H.264), robust SD 0.25, 0.40, 0.45 px, their trends with the rim's curvature a third
-# of what they were or less, of either sign. The share is under 1:
+# (MPEG-4 Part 2), -0.02 px (H.264), robust SD 0.25, 0.40, 0.45 px; their trends with the rim's curvature a / b^2
+# from -0.24, -0.88, -0.43 to +0.12, -0.29, +0.32 px per 1/px. The share is under 1:
 # the ramp reads the rim's own shading (the lateral's lit tube just inside) besides the blur. A camera whose
 # response is unlike the generator's moves the weight, which RIM_WEIGHT_U does not cover: it lies between the
 # median's own uncertainty (0.05) and the cases' scatter about it (robust SD 0.14-0.18 with the weight alone,

@@ -57,6 +57,12 @@ def no_lateral():
     return _views(Scene(Pipe("circular", H, "concrete", 1000.0), water_percent=8.0), VIEW_DEPTHS_H)
 
 
+def _bca_q1(clock: float, cert, contour, frames):
+    """BCA Q1 (the diameter around) at ``clock`` from the measured frames at VIEW_DEPTHS_H, as the night measures it."""
+    return measure_connection("BCA", "A", clock, [(contour, frames[k], t) for k, t in enumerate(VIEW_DEPTHS_H)], cert,
+                              H=H, tolerance=0.0, seed=1)
+
+
 def _truth_around(d: float, clock: float) -> float:
     th, dt = clock_to_theta(clock), d / 2 / (H / 2)
     return float(np.linalg.norm(np.subtract(wall_point("circular", H, th + dt), wall_point("circular", H, th - dt))))
@@ -65,8 +71,7 @@ def _truth_around(d: float, clock: float) -> float:
 @pytest.mark.slow
 def test_lateral_diameter_inside_u95(lateral):
     cert, contour, frames = lateral
-    auto = measure_connection("BCA", "A", 2, [(contour, frames[k], t) for k, t in enumerate(VIEW_DEPTHS_H)], cert,
-                              H=H, tolerance=0.0, seed=1)
+    auto = _bca_q1(2, cert, contour, frames)
     res, truth = auto.result, _truth_around(150.0, 2)
     assert auto.frames_found == 2 and auto.measured, res.reasons
     assert res.low <= truth <= res.high, (truth, res.value, res.low, res.high)
@@ -83,14 +88,10 @@ def test_an_opening_at_9_oclock_above_the_water_is_measured_to_the_wall_beside_i
     cert, contour, frames = _views(scene, VIEW_DEPTHS_H)
     truth = _truth_around(160.0, 9)
 
-    def measured():
-        return measure_connection("BCA", "A", 9, [(contour, frames[k], t) for k, t in enumerate(VIEW_DEPTHS_H)],
-                                  cert, H=H, tolerance=0.0, seed=1).result
-
-    res = measured()
+    res = _bca_q1(9, cert, contour, frames).result
     assert res.low <= truth <= res.high, (truth, res.value, res.low, res.high)
     monkeypatch.setattr(lateral_module, "WALL_DROP", 0.0)       # the level from the ray's outer part, always
-    before = measured()
+    before = _bca_q1(9, cert, contour, frames).result
     assert before.high < truth and before.value < res.value, (truth, before.value, before.high)
 
 
@@ -105,15 +106,11 @@ def test_a_small_opening_through_a_soft_lens_is_measured_to_its_rim_not_to_the_o
     cert, contour, frames = _views(scene, VIEW_DEPTHS_H, Appearance(blur_px=1.6))
     truth = _truth_around(50.0, 2)
 
-    def measured():
-        return measure_connection("BCA", "A", 2, [(contour, frames[k], t) for k, t in enumerate(VIEW_DEPTHS_H)],
-                                  cert, H=H, tolerance=0.0, seed=1).result
-
-    res = measured()
+    res = _bca_q1(2, cert, contour, frames).result
     assert res.low <= truth <= res.high, (truth, res.value, res.low, res.high)
     monkeypatch.setattr(lateral_module, "BLUR_SHARE", 0.0)
     monkeypatch.setattr(lateral_module, "RIM_WEIGHT", 0.15)
-    before = measured()
+    before = _bca_q1(2, cert, contour, frames).result
     assert before.value < res.value and abs(before.value - truth) > abs(res.value - truth), \
         (truth, before.value, res.value)
 
@@ -137,8 +134,7 @@ def test_lateral_width_along_inside_u95(lateral):
 def test_no_lateral_is_not_found(no_lateral):
     cert, contour, frames = no_lateral
     with pytest.raises(MeasurementError, match="no lateral opening"):
-        measure_connection("BCA", "A", 2, [(contour, frames[k], t) for k, t in enumerate(VIEW_DEPTHS_H)], cert,
-                           H=H, tolerance=0.0, seed=1)
+        _bca_q1(2, cert, contour, frames)
 
 
 @pytest.mark.slow

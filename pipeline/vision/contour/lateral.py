@@ -361,34 +361,30 @@ def _rim_in_image(view: PipeView, theta0: float, arc: float, t0: float, Au: floa
     return r, scale, cos, curvature
 
 
-def _blur_sigma(view, theta0, arc, t0, Au, Az, phi, ramp, spacing) -> float:
+def _blur_sigma(cos: np.ndarray, ramp: np.ndarray, spacing: float) -> float:
     """The blur's standard deviation in the image at the rim [px], from the rays' quarter-to-three-quarter ramps
-    ``ramp`` [px, along each ray] at angles ``phi``: across the rim (the ray's cosine to the rim's normal), less
-    the 3-sample smoothing's variance (2/3 of the samples' ``spacing`` [px] squared); nan without a ramp."""
-    _, _, cos, _ = _rim_in_image(view, theta0, arc, t0, Au, Az, phi)
+    ``ramp`` [px, along each ray]: across the rim (``cos``, the ray's cosine to the rim's normal), less the
+    3-sample smoothing's variance (2/3 of the samples' ``spacing`` [px] squared); nan without a ramp."""
     var = cos ** 2 * ((ramp / RAMP_PER_SIGMA) ** 2 - 2.0 / 3.0 * spacing ** 2)
     var = var[np.isfinite(var)]
     return float(np.sqrt(max(float(np.median(var)), 0.0))) if var.size else np.nan
 
 
-def _unblurred_rim(view, theta0, arc, t0, Au, Az, sigma):
-    """The rim before a Gaussian blur ``sigma`` [px] drew it in: (theta0, t0, Au, Az) refitted.
+def _unblurred_rim(rim, phi: np.ndarray, sigma: float):
+    """The rim before a Gaussian blur ``sigma`` [px] drew it in: the fitted rim's offset (around, along [H]) and
+    semi-axes (Au, Az [H]) refitted, or None (no shift, or no fit).
 
+    rim : ``_rim_in_image`` at the rays' angles ``phi`` [rad].
     A blur moves a dark region's half-level rim inwards by sigma^2 kappa / 2 where it bulges with curvature kappa
     [1/px] (to first order: the level set's curvature flow over a time sigma^2 / 2), most at the ends of a
     foreshortened opening's long axis: an opening far or small, its ends close in the image, read short. Each ray's
     place on the fitted rim is moved back out by that shift, in the image and along the ray, and the ellipse refitted.
     """
     if not np.isfinite(sigma) or sigma <= 0:
-        return theta0, t0, Au, Az
-    phi = np.linspace(0, 2 * np.pi, RAYS, endpoint=False)
-    r, scale, cos, curvature = _rim_in_image(view, theta0, arc, t0, Au, Az, phi)
+        return None
+    r, scale, cos, curvature = rim
     r = r + 0.5 * sigma ** 2 * np.clip(curvature, 0.0, None) / np.maximum(cos, 0.2) / scale
-    fit = _fit_ellipse(r * np.cos(phi), r * np.sin(phi))
-    if fit is None:
-        return theta0, t0, Au, Az
-    uc, zc, Au2, Az2 = fit
-    return theta0 + uc / arc, t0 + zc, Au2, Az2
+    return _fit_ellipse(r * np.cos(phi), r * np.sin(phi))
 
 
 def _fit_ellipse(u: np.ndarray, z: np.ndarray):
@@ -462,8 +458,12 @@ def find_lateral(ideal_bgr: np.ndarray, view: PipeView, *, clock: float | None =
     u_definition = rim_definition_u(gap_px)
     blurred_ends = [_to_image(view, theta0, arc, t0, np.array([-Au, Au]), np.zeros(2)),
                     _to_image(view, theta0, arc, t0, np.zeros(2), np.array([-Az, Az]))]
-    sigma = _blur_sigma(view, theta0, arc, t0, Au, Az, phi[ok], ramp[ok], spacing)
-    theta0, t0, Au, Az = _unblurred_rim(view, theta0, arc, t0, Au, Az, np.sqrt(BLUR_SHARE) * sigma)
+    rim = _rim_in_image(view, theta0, arc, t0, Au, Az, phi)        # phi: the rays' angles, all RAYS of them
+    sigma = _blur_sigma(rim[2][ok], ramp[ok], spacing)
+    unblurred = _unblurred_rim(rim, phi, np.sqrt(BLUR_SHARE) * sigma)
+    if unblurred is not None:
+        uc, zc, Au, Az = unblurred
+        theta0, t0 = theta0 + uc / arc, t0 + zc
     a_ar, b_ar = _to_image(view, theta0, arc, t0, np.array([-Au, Au]), np.zeros(2))
     a_al, b_al = _to_image(view, theta0, arc, t0, np.zeros(2), np.array([-Az, Az]))
     # the shift's own uncertainty, per end: BLUR_SHARE_U of how far it moved the ends

@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+from contextlib import contextmanager
 from pathlib import Path
 
 import numpy as np
@@ -35,14 +36,23 @@ import automatic_connections as ac  # noqa: E402
 from coverage_stats import robust_sd  # noqa: E402
 
 
+@contextmanager
+def _rim_constants(**values: float):
+    """``lateral``'s module constants set as given (e.g. RIM_WEIGHT=0.0) for the block, restored after it."""
+    saved = {name: getattr(lateral_module, name) for name in values}
+    for name, value in values.items():
+        setattr(lateral_module, name, value)
+    try:
+        yield
+    finally:
+        for name, value in saved.items():
+            setattr(lateral_module, name, value)
+
+
 def _found(frame, view, clock, weight: float, weight_u: float, floor: float):
     """find_lateral on the nearest frame with the rim's weight, its u and the end's floor set as given."""
-    saved = lateral_module.RIM_WEIGHT, lateral_module.RIM_WEIGHT_U, lateral_module.EDGE_FLOOR_PX
-    lateral_module.RIM_WEIGHT, lateral_module.RIM_WEIGHT_U, lateral_module.EDGE_FLOOR_PX = weight, weight_u, floor
-    try:
+    with _rim_constants(RIM_WEIGHT=weight, RIM_WEIGHT_U=weight_u, EDGE_FLOOR_PX=floor):
         return _find(frame, view, clock, VIEW_DEPTHS_H[0])
-    finally:
-        lateral_module.RIM_WEIGHT, lateral_module.RIM_WEIGHT_U, lateral_module.EDGE_FLOOR_PX = saved
 
 
 def blur_shift(cases: int, seed: int, codec: str = "none") -> None:
@@ -52,27 +62,24 @@ def blur_shift(cases: int, seed: int, codec: str = "none") -> None:
     depths = (1.6, 2.0)
     rows = []
     saved = lateral_module.RIM_WEIGHT, lateral_module.BLUR_SHARE
-    try:
-        for i, scene, clock, frames, contour in ac.frames_at_depths("bca", cases, seed, ("circular",), depths, codec):
-            H, d = scene.pipe.height_mm, scene.features[0].diameter_mm
-            for t, frame in zip(depths, frames):
-                errors = []
-                for weight, share in ((0.0, 0.0), (1.0, 0.0), (0.0, 1.0), saved):
-                    lateral_module.RIM_WEIGHT, lateral_module.BLUR_SHARE = weight, share
+    for i, scene, clock, frames, contour in ac.frames_at_depths("bca", cases, seed, ("circular",), depths, codec):
+        H, d = scene.pipe.height_mm, scene.features[0].diameter_mm
+        for t, frame in zip(depths, frames):
+            errors = []
+            for weight, share in ((0.0, 0.0), (1.0, 0.0), (0.0, 1.0), saved):
+                with _rim_constants(RIM_WEIGHT=weight, BLUR_SHARE=share):
                     lat = _find(frame, contour.view, clock, t)
-                    if lat is None or lat.problems:
-                        break
-                    a = float(np.linalg.norm(np.subtract(*lat.around))) / 2.0
-                    b = float(np.linalg.norm(np.subtract(*lat.along))) / 2.0
-                    errors.append((lat.extent_around * H - d) / d * 2.0 * a)
-                if len(errors) < 4:
-                    continue
-                rows.append((*errors, a / b ** 2, lat.blur_px))
-                print(f"{i:3d} DN {H:5.0f}, {d:4.0f} mm, {t:.1f} H: grey {errors[0]:+.2f} px, light {errors[1]:+.2f}, "
-                      f"grey with the whole shift {errors[2]:+.2f}, the night's {errors[3]:+.2f}; a/b^2 {a / b ** 2:.3f}/px",
-                      flush=True)
-    finally:
-        lateral_module.RIM_WEIGHT, lateral_module.BLUR_SHARE = saved
+                if lat is None or lat.problems:
+                    break
+                a = float(np.linalg.norm(np.subtract(*lat.around))) / 2.0
+                b = float(np.linalg.norm(np.subtract(*lat.along))) / 2.0
+                errors.append((lat.extent_around * H - d) / d * 2.0 * a)
+            if len(errors) < 4:
+                continue
+            rows.append((*errors, a / b ** 2, lat.blur_px))
+            print(f"{i:3d} DN {H:5.0f}, {d:4.0f} mm, {t:.1f} H: grey {errors[0]:+.2f} px, light {errors[1]:+.2f}, "
+                  f"grey with the whole shift {errors[2]:+.2f}, the night's {errors[3]:+.2f}; a/b^2 {a / b ** 2:.3f}/px",
+                  flush=True)
     grey, light, shifted, night, curvature, blur = (np.array(c) for c in zip(*rows))
     print(f"{len(rows)} frames; the night's (weight {saved[0]:.2f}, share {saved[1]:.2f}): median {np.median(night):+.3f} px, "
           f"robust SD {robust_sd(night):.3f}; the blur read on the rays: median {np.nanmedian(blur):.2f} px")

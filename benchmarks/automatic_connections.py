@@ -198,7 +198,7 @@ def run_case(kind: str, i: int, rng, cert, codec: str, with_feature: bool, tmp: 
                              wall_u=wall_u_from_tolerance(H, 0.0))
     row = dict(kind=kind, dn=round(H, -1), shape=shape, codec=codec, camera=cert.certificate_id, feature=with_feature,
                truth=truth, found=False, measured=False, value=None, u=None, U95=None, low=None, high=None, reason="",
-               noise=look[0], look=asdict(look[1]))
+               noise=look[0], look=asdict(look[1]), image_u_px=cert.image_coordinate_u_px)
     try:
         if kind in ("bca", "bag"):
             views = [(contour, frames[k], t) for k, t in enumerate(depths)]
@@ -243,6 +243,15 @@ def summary(rows: list[dict], kind: str, label: str) -> list[str]:
                      f"{'mm' if kind == 'bca' else '%'}")
             if kind == "bca":
                 line += f" ({np.median([100 * r['U95'] / r['truth'] for r in measured]):.1f} % of the diameter)"
+            drawn = [r for r in (generators_sources(r) for r in measured) if r is not None]
+            if drawn:
+                z = np.array([(r["value"] - r["truth"]) / r["u"] for r in drawn])
+                inside = sum(abs(r["value"] - r["truth"]) <= 1.96 * r["u"] for r in drawn)
+                lo, hi = wilson(inside, len(drawn))
+                line += (f"\n    against the generator's own sources (the certificate's terms out): coverage "
+                         f"{100 * inside / len(drawn):.1f} % (Wilson {100 * lo:.1f}-{100 * hi:.1f} %), median z "
+                         f"{np.median(z):+.2f}, robust SD z {robust_sd(z):.2f} "
+                         "({:.2f}, {:.2f})".format(*robust_sd_interval(z)))
         out.append(line)
     if none:
         out.append(f"{kind} {label}: " + false_finds(sum(r["found"] for r in none), len(none)))
@@ -266,6 +275,9 @@ def main() -> None:
     args = ap.parse_args()
     if args.table:
         rows = json.loads(args.table.read_text())
+        # rows kept before each carried its certificate's image-coordinate u were all run with --camera's certificate
+        image_u = load_certificate(args.camera).image_coordinate_u_px
+        rows = [r if "image_u_px" in r else dict(r, image_u_px=image_u) for r in rows]
         report(rescaled(rows, *args.codec_u) if args.codec_u else rows)
         return
     cert = load_certificate(args.camera)
@@ -291,24 +303,38 @@ def main() -> None:
     report(rows)
 
 
+EDGE_LINES = ("xa", "ya", "xb", "yb")      # the budget's lines of the two points' image coordinates
+
+
 def rescaled(rows: list[dict], was: float, now: float) -> list[dict]:
-    """BCA and BAG rows as if their edge coordinates' codec term had been ``now`` instead of ``was`` [px]: the budget's
-    edge lines (xa, ya, xb, yb) scaled by the points' u with the new term over theirs, u scaled as the linear budget's
-    root sum of squares, and the interval taken as value -+ 1.96 u (a trial, not a rerun: how ``CODEC_EDGE_U_PX``
-    was chosen, then checked on a fresh seed)."""
-    edges = ("xa", "ya", "xb", "yb")
-    out = []
-    for r in rows:
-        if not (r["measured"] and r.get("u_a_px") and r.get("budget")):
-            out.append(r)
-            continue
-        f2 = (r["u_a_px"] ** 2 - was ** 2 + now ** 2) / r["u_a_px"] ** 2
-        b = r["budget"]
-        old = math.sqrt(sum(v ** 2 for v in b.values()))
-        new = math.sqrt(sum(v ** 2 * (f2 if k in edges else 1.0) for k, v in b.items()))
-        u = r["u"] * new / old
-        out.append(dict(r, u=u, U95=1.96 * u, low=r["value"] - 1.96 * u, high=r["value"] + 1.96 * u))
-    return out
+    """BCA and BAG rows as if their edge coordinates' codec term had been ``now`` instead of ``was`` [px]
+    (``_edges_u``; a trial, not a rerun: how ``CODEC_EDGE_U_PX`` and ``CODEC_RIM_U_PX`` were chosen, then checked
+    on a fresh seed)."""
+    return [_edges_u(r, math.sqrt(r["u_a_px"] ** 2 - was ** 2 + now ** 2))
+            if r["measured"] and r.get("u_a_px") and r.get("budget") else r for r in rows]
+
+
+def generators_sources(r: dict) -> dict | None:
+    """A BCA or BAG row with the certificate's terms taken out of its u: the frames are rendered with the
+    certificate's estimates exactly, so its lines (the intrinsics', "certificate", and its image coordinates' u in
+    each edge, ``image_u_px``) stand for errors a real camera has and the generator never draws. The z against the
+    rest says whether the budget's other terms match the errors they are for; the night keeps the whole budget.
+    None for a row without the lines (or kept before ``image_u_px`` was: ``main`` fills it from ``--camera``)."""
+    if not (r.get("u_a_px") and r.get("budget") and r.get("image_u_px") is not None):
+        return None
+    return _edges_u(r, math.sqrt(max(r["u_a_px"] ** 2 - r["image_u_px"] ** 2, 0.0)), drop=("certificate",))
+
+
+def _edges_u(r: dict, u_px: float, drop: tuple[str, ...] = ()) -> dict:
+    """The row with each point's u [px] set to ``u_px``: the budget's edge lines (``EDGE_LINES``) scaled with it,
+    the lines in ``drop`` left out, u the budget's root sum of squares scaled alike (the linear budget's ratio, on
+    the row's own u, Monte Carlo's where it ran), and the interval value -+ 1.96 u."""
+    f = u_px / r["u_a_px"]
+    budget = {k: v * f if k in EDGE_LINES else v for k, v in r["budget"].items() if k not in drop}
+    old = math.sqrt(sum(v ** 2 for v in r["budget"].values()))
+    u = r["u"] * math.sqrt(sum(v ** 2 for v in budget.values())) / old
+    return dict(r, budget=budget, u_a_px=u_px, u_b_px=u_px, u=u, U95=1.96 * u, low=r["value"] - 1.96 * u,
+                high=r["value"] + 1.96 * u)
 
 
 def report(rows: list[dict]) -> None:

@@ -8,15 +8,17 @@ same way in every frame of one approach. The figures are by codec family, read f
 
 from __future__ import annotations
 
-__all__ = ["MPEG4_PART2", "H264", "MPEG2", "CODEC_EDGE_U_PX", "CODEC_FAMILIES", "LARGEST_CODEC_EDGE_U_PX", "codec_edge_u"]
+__all__ = ["MPEG4_PART2", "H264", "MPEG2", "CODEC_EDGE_U_PX", "CODEC_RIM_U_PX", "CODEC_FAMILIES",
+           "LARGEST_CODEC_EDGE_U_PX", "codec_edge_u"]
 
 MPEG4_PART2 = frozenset({"mp4v", "fmp4", "xvid", "divx", "dx50"})
-# The u [px] MPEG-4 Part 2's 8x8 blocks give an edge coordinate of an opening's rim or an intruding lateral's base
-# and tip: through OpenCV's mp4v (the samples' codec) 17 of 105 BCA and 10 of 68 BAG missed their U95 with the
-# clean frames' u alone (seed 40; median z -0.02 and +0.08: no bias, heavy tails). 0.5 px was set there, on a benchmark
-# whose pose rested on too few rings (docs/measurement.md); with the night's 4 m window of ring frames and
-# the frames' value check, 0.5 px made the intervals twice the errors (robust SD of z 0.48 BCA, 0.53 BAG, seed 43)
-# and 0.2 px brings both to about 95 % with SD 0.8 there (0 px: 90-92 %); checked on seed 44.
+# The u [px] MPEG-4 Part 2's 8x8 blocks give an edge coordinate of an intruding lateral's base and tip (and of an
+# opening's rim until 2026-12-06, ``CODEC_RIM_U_PX`` below): through OpenCV's mp4v (the samples' codec) 17 of 105
+# BCA and 10 of 68 BAG missed their U95 with the clean frames' u alone (seed 40; median z -0.02 and +0.08: no bias,
+# heavy tails). 0.5 px was set there, on a benchmark whose pose rested on too few rings (docs/measurement.md); with
+# the night's 4 m window of ring frames and the frames' value check, 0.5 px made the intervals twice the errors
+# (robust SD of z 0.48 BCA, 0.53 BAG, seed 43) and 0.2 px brings both to about 95 % with SD 0.8 there (0 px: 90-92
+# %); checked on seed 44.
 # H.264 (x264 at CRF 23 in the benchmark) shortens an opening more: paired with the same cases in rendered frames,
 # the extent around at the nearest frame moves by -0.26 px through H.264 and -0.13 px through mp4v (median of 19,
 # benchmarks/lateral_rim.py --depths, seed 50); 0.3 px brought BCA's coverage at DN >= 200 in circular pipes to
@@ -33,17 +35,26 @@ H264 = frozenset({"avc1", "h264", "x264", "avc3"})
 MPEG2 = frozenset({"mpg2", "mp2v", "mpeg", "m2v1"})
 CODEC_EDGE_U_PX: dict[str, float] = ({fourcc: 0.2 for fourcc in MPEG4_PART2} | {fourcc: 0.3 for fourcc in H264}
                                      | {fourcc: 0.3 for fourcc in MPEG2})
+# An opening's rim (BCA) is placed where the blur that drew it in is taken back (``lateral._unblurred_rim``, since
+# 2026-12-06), the codec's added blur with the rest: its shortening, which the figures above stood in for, is
+# modelled, and what a codec leaves in the rim is its blocks' scatter alone. Set on seed 52's rows
+# (``automatic_connections.py --table --codec-u``), against the terms the generator draws (the certificate's own
+# are not: the frames are rendered with its estimates), then checked on a fresh seed (docs/measurement.md,
+# "The codec's term for an opening's rim"); MPEG-2 without a figure, the largest known, as above.
+CODEC_RIM_U_PX: dict[str, float] = ({fourcc: 0.1 for fourcc in MPEG4_PART2} | {fourcc: 0.3 for fourcc in H264}
+                                    | {fourcc: 0.3 for fourcc in MPEG2})
 CODEC_FAMILIES = {"MPEG-4 Part 2": MPEG4_PART2, "H.264": H264, "MPEG-2": MPEG2}     # their names, for the reasons
 LARGEST_CODEC_EDGE_U_PX = max(CODEC_EDGE_U_PX.values())
 
 
-def codec_edge_u(codec: str | None, *, without_figure: float = 0.0) -> float:
-    """The standard uncertainty [px] a video codec's blocks give an edge coordinate of an opening's rim or an
-    intruding lateral's base and tip, by the video's FourCC (``CODEC_EDGE_U_PX``); 0 for frames not through a
-    codec (None). A codec without a figure gets ``without_figure``: 0 where the code is not validated in it anyway
+def codec_edge_u(codec: str | None, *, without_figure: float = 0.0, rim: bool = False) -> float:
+    """The standard uncertainty [px] a video codec's blocks give an edge coordinate of an intruding lateral's base
+    and tip or a joint's ends (``CODEC_EDGE_U_PX``), or with ``rim`` of an opening's rim placed where the blur was
+    taken back (``CODEC_RIM_U_PX``), by the video's FourCC; 0 for frames not through a codec (None). A codec
+    without a figure gets ``without_figure``: 0 where the code is not validated in it anyway
     (``connections.validation_doubt``: found, not measured), the largest figure known
     (``LARGEST_CODEC_EDGE_U_PX``) for a code measured in any codec (a displaced joint): its blocks move edges too,
     by an amount no benchmark measured."""
     if not codec:
         return 0.0
-    return CODEC_EDGE_U_PX.get(codec.strip().lower(), without_figure)
+    return (CODEC_RIM_U_PX if rim else CODEC_EDGE_U_PX).get(codec.strip().lower(), without_figure)

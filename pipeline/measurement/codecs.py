@@ -17,8 +17,8 @@ MPEG4_PART2 = frozenset({"mp4v", "fmp4", "xvid", "divx", "dx50"})
 # BCA and 10 of 68 BAG missed their U95 with the clean frames' u alone (seed 40; median z -0.02 and +0.08: no bias,
 # heavy tails). 0.5 px was set there, on a benchmark whose pose rested on too few rings (docs/measurement.md); with
 # the night's 4 m window of ring frames and the frames' value check, 0.5 px made the intervals twice the errors
-# (robust SD of z 0.48 BCA, 0.53 BAG, seed 43) and 0.2 px brings both to about 95 % with SD 0.8 there (0 px: 90-92
-# %); checked on seed 44.
+# (robust SD of z 0.48 BCA, 0.53 BAG, seed 43) and 0.2 px brings both to about 95 % with SD 0.8 there (0 px:
+# 90-92 %); checked on seed 44.
 # H.264 (x264 at CRF 23 in the benchmark) shortens an opening more: paired with the same cases in rendered frames,
 # the extent around at the nearest frame moves by -0.26 px through H.264 and -0.13 px through mp4v (median of 19,
 # benchmarks/lateral_rim.py --depths, seed 50); 0.3 px brought BCA's coverage at DN >= 200 in circular pipes to

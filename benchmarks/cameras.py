@@ -3,7 +3,10 @@
 from __future__ import annotations
 
 import argparse
+from dataclasses import replace
 from pathlib import Path
+
+from pipeline.camera import Certificate
 
 CERTIFICATES = Path(__file__).resolve().parent.parent / "sample_videos" / "certificates"
 DEFAULT_CAMERA = CERTIFICATES / "SYN-720x576.json"      # the samples' 4:3 camera, every benchmark's until 2026-12-05
@@ -15,3 +18,13 @@ def add_camera_argument(ap: argparse.ArgumentParser) -> None:
                     help="the camera's certificate the cases are rendered and measured with (default: the samples' "
                     f"720x576 camera; {CERTIFICATES.relative_to(CERTIFICATES.parent.parent)}/SYN-1280x720.json is a "
                     "second one, 16:9)")
+
+
+def generators_certificate(cert: Certificate) -> Certificate:
+    """The certificate with its own uncertainties set to zero: its intrinsics' u and covariance, and the u of an
+    image coordinate after calibration. The generator renders with the certificate's estimates exactly, so these
+    stand for errors a real camera has and the benchmark never draws; a result measured again with this
+    certificate has the u of the sources the benchmark does draw, and its z against the truth says whether the
+    budget's other terms match their errors (the night keeps the whole budget)."""
+    return replace(cert, parameters={k: replace(p, u=0.0) for k, p in cert.parameters.items()},
+                   image_coordinate_u_px=0.0, covariance=None)

@@ -354,11 +354,26 @@ def report(rows: list[dict]) -> None:
                     if "false" not in line:
                         print(line)
     frames_check(rows)
+    edges_share(rows)
     held_back(rows)
     for r in rows:
         if r["feature"] and r["measured"] and not r["low"] <= r["truth"] <= r["high"]:
             print(f"  miss {r['kind']} {r['codec']} DN {r['dn']:.0f} {r['shape']}: truth {r['truth']:.2f}, value "
                   f"{r['value']:.2f} [{r['low']:.2f}, {r['high']:.2f}]")
+
+
+def edges_share(rows: list[dict]) -> None:
+    """How much of the measured rows' u² the points' image coordinates hold (``EDGE_LINES``), and their u [px]: what
+    a change to an edge's u can move (DN >= 200, circular: where the night measures BCA)."""
+    for kind in dict.fromkeys(r["kind"] for r in rows):
+        mine = [r for r in rows if r["kind"] == kind and r["measured"] and r.get("budget") and r.get("u_a_px")
+                and r["dn"] >= 200 and r["shape"] == "circular"]
+        if not mine:
+            continue
+        share = [sum(v ** 2 for k, v in r["budget"].items() if k in EDGE_LINES)
+                 / max(sum(v ** 2 for v in r["budget"].values()), 1e-300) for r in mine]
+        print(f"{kind} DN >= 200 circular, {len(mine)} measured: the edges' lines hold {100 * np.mean(share):.0f} % of "
+              f"u² (mean); an edge coordinate's u {np.median([r['u_a_px'] for r in mine]):.2f} px (median)")
 
 
 def frames_check(rows: list[dict]) -> None:

@@ -2,7 +2,8 @@
 
 For each generated BCA case (``benchmarks/automatic_connections.py``'s scenes, circular pipes: the truth's arc
 around the pipe is the lateral's diameter) the opening is found in the nearest measured frame with the fitted
-pose, at the rim weights 0 (the grey-level crossing) and 1 (the light one); the extent around, against the truth,
+pose, at the rim weights 0 (the grey-level crossing) and 1 (the light one), each with the night's blur shift where
+the rim curves (``lateral.BLUR_SHARE``; ``--blur-shift`` below varies it); the extent around, against the truth,
 in the image [px] gives the weight w* that would have hit the truth (pose errors included). Also the distance
 between the crossings over the extent [px], and an end's u parts without the floor: the sectors' scatter and with
 the rim's definition. Prints per case and the medians, and the extent's error at the weights 0, 0.15, 1/3:

@@ -303,14 +303,11 @@ def main() -> None:
     report(rows)
 
 
-EDGE_LINES = ("xa", "ya", "xb", "yb")      # the budget's lines of the two points' image coordinates
-
-
 def rescaled(rows: list[dict], was: float, now: float) -> list[dict]:
     """BCA and BAG rows as if their edge coordinates' codec term had been ``now`` instead of ``was`` [px]
     (``_edges_u``; a trial, not a rerun: how ``CODEC_EDGE_U_PX`` and ``CODEC_RIM_U_PX`` were chosen, then checked
     on a fresh seed)."""
-    return [_edges_u(r, math.sqrt(r["u_a_px"] ** 2 - was ** 2 + now ** 2))
+    return [_edges_u(r, lambda u: math.sqrt(u ** 2 - was ** 2 + now ** 2))
             if r["measured"] and r.get("u_a_px") and r.get("budget") else r for r in rows]
 
 
@@ -319,22 +316,29 @@ def generators_sources(r: dict) -> dict | None:
     certificate's estimates exactly, so its lines (the intrinsics', "certificate", and its image coordinates' u in
     each edge, ``image_u_px``) stand for errors a real camera has and the generator never draws. The z against the
     rest says whether the budget's other terms match the errors they are for; the night keeps the whole budget.
-    None for a row without the lines (or kept before ``image_u_px`` was: ``main`` fills it from ``--camera``)."""
+    (``automatic_joints.py`` measures each joint again with ``cameras.generators_certificate`` instead: a joint's
+    budget holds each frame's points, whose parts these rows do not keep.) None for a row without the lines (or
+    kept before ``image_u_px`` was: ``main`` fills it from ``--camera``)."""
     if not (r.get("u_a_px") and r.get("budget") and r.get("image_u_px") is not None):
         return None
-    return _edges_u(r, math.sqrt(max(r["u_a_px"] ** 2 - r["image_u_px"] ** 2, 0.0)), drop=("certificate",))
+    return _edges_u(r, lambda u: math.sqrt(max(u ** 2 - r["image_u_px"] ** 2, 0.0)), drop=("certificate",))
 
 
-def _edges_u(r: dict, u_px: float, drop: tuple[str, ...] = ()) -> dict:
-    """The row with each point's u [px] set to ``u_px``: the budget's edge lines (``EDGE_LINES``) scaled with it,
-    the lines in ``drop`` left out, u the budget's root sum of squares scaled alike (the linear budget's ratio, on
-    the row's own u, Monte Carlo's where it ran), and the interval value -+ 1.96 u."""
-    f = u_px / r["u_a_px"]
-    budget = {k: v * f if k in EDGE_LINES else v for k, v in r["budget"].items() if k not in drop}
+def _edges_u(r: dict, new_u, drop: tuple[str, ...] = ()) -> dict:
+    """The row with each point's u [px] changed to ``new_u(u)``: the budget's edge lines (``EDGE_LINES``: a's
+    and b's) scaled with their point's, the lines in ``drop`` left out, u scaled as the budget's root sum of squares
+    (the linear budget's ratio on the row's own u, Monte Carlo's where it ran), and the interval value -+ 1.96 u."""
+    u_a, u_b = new_u(r["u_a_px"]), new_u(r.get("u_b_px") or r["u_a_px"])
+    scale = {"xa": u_a / r["u_a_px"], "ya": u_a / r["u_a_px"],
+             "xb": u_b / (r.get("u_b_px") or r["u_a_px"]), "yb": u_b / (r.get("u_b_px") or r["u_a_px"])}
+    budget = {k: v * scale.get(k, 1.0) for k, v in r["budget"].items() if k not in drop}
     old = math.sqrt(sum(v ** 2 for v in r["budget"].values()))
     u = r["u"] * math.sqrt(sum(v ** 2 for v in budget.values())) / old
-    return dict(r, budget=budget, u_a_px=u_px, u_b_px=u_px, u=u, U95=1.96 * u, low=r["value"] - 1.96 * u,
+    return dict(r, budget=budget, u_a_px=u_a, u_b_px=u_b, u=u, U95=1.96 * u, low=r["value"] - 1.96 * u,
                 high=r["value"] + 1.96 * u)
+
+
+EDGE_LINES = ("xa", "ya", "xb", "yb")      # the budget's lines of the two points' image coordinates
 
 
 def report(rows: list[dict]) -> None:

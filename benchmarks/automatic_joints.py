@@ -192,7 +192,7 @@ def rendered_pairs(case: JointCase, video: Path, truth: dict, cert, cache: Path 
 
 def table(rows: list[dict]) -> list[str]:
     out = ["| quantity | codec | DN | n | found | measured | coverage | Wilson 95 % | median z | robust SD z | "
-           "median U95 [mm] | median U95 DN300 [mm] | against the generator's own sources: coverage, median z, robust "
+           "median U95 [mm] | median U95 DN300 [mm] | against the generator's own sources: coverage of value -+ 1.96 u, median z, robust "
            "SD z |", "|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for q in ("A", "B"):
         for codec in (*CODECS, "both"):

@@ -76,18 +76,18 @@ ORIGIN = {"BCA": "lateral rim fit", "BAG": "intruding lateral's base and tip", "
 
 
 # The video codecs in which each code's measurement from the image alone was validated against generated truth
-# (benchmarks/automatic_connections.py, docs/measurement.md): a code and codec stay out where the coverage's
-# Wilson interval lies wholly under 95 %, i.e. the stated U95 is shown to miss the truth too often. MPEG-4 Part 2
-# under its FourCCs for BCA and BAG (BCA with the rim's own codec term, 2026-12-06: 96.9 % at DN >= 200 in circular
-# pipes on a fresh seed, 53, Wilson 91.4-99.0 %; 95.8 % through a 1280x720 camera, seed 54); H.264 for BCA since
-# 2026-12-06 (written once by x264, with the rim's level from the wall beside it, not the water beyond: 98.7 %
-# inside at DN >= 200 in circular pipes, Wilson 93.1-99.8 %, one miss, high, on a fresh seed, 51; before, the
-# water's rays read large openings at 3 and 9 o'clock short, one way: 92 %, all misses low). A BAG's base and tip
-# miss under H.264 (seed 47: 91.4 %, misses both ways; not rerun written once). BBC and BBB in no codec: in
-# rendered frames, with a weak surface held back (DEPOSIT_TRUST_CONTRAST), 61 of 62 deposits measured held the truth (seed 39), but through
+# (benchmarks/automatic_connections.py, docs/measurement.md): a code and codec stay out where the coverage's Wilson
+# interval lies wholly under 95 %, i.e. the stated U95 is shown to miss the truth too often. MPEG-4 Part 2 under its
+# FourCCs for BCA and BAG (BCA with the rim's own codec term, 2026-12-06: 96.9 % at DN >= 200 in circular pipes on a
+# fresh seed, 53, Wilson 91.4-99.0 %; 95.8 % through a 1280x720 camera, seed 54); H.264 for BCA since 2026-12-06
+# (written once by x264, with the rim's level from the wall beside it, not the water beyond: 98.7 % inside at
+# DN >= 200 in circular pipes, Wilson 93.1-99.8 %, one miss, high, on a fresh seed, 51; before, the water's rays read
+# large openings at 3 and 9 o'clock short, one way: 92 %, all misses low). A BAG's base and tip miss under H.264
+# (seed 47: 91.4 %, misses both ways; not rerun written once). BBC and BBB in no codec: in rendered frames, with a
+# weak surface held back (DEPOSIT_TRUST_CONTRAST), 61 of 62 deposits measured held the truth (seed 39), but through
 # MPEG-4 Part 2 the surface was not found in 39 % and the 4 measured all missed (seed 40), and under H.264 it is
-# rarely found: the codecs quantise and blur the chroma that alone tells the surface. Until a code is validated, its result is
-# kept "found, not measured" with the reason: never graded nor checked against the log.
+# rarely found: the codecs quantise and blur the chroma that alone tells the surface. Until a code is validated, its
+# result is kept "found, not measured" with the reason: never graded nor checked against the log.
 VALIDATED_CODECS: dict[str, frozenset[str]] = {"BCA": MPEG4_PART2 | H264, "BAG": MPEG4_PART2,
                                                "BBC": frozenset(), "BBB": frozenset()}
 # The codecs each code was benchmarked in, validated or not: a codec outside them was never tried, and the reason

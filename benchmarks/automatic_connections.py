@@ -248,7 +248,7 @@ def summary(rows: list[dict], kind: str, label: str) -> list[str]:
                 z = np.array([(r["value"] - r["truth"]) / r["u"] for r in drawn])
                 inside = sum(abs(r["value"] - r["truth"]) <= 1.96 * r["u"] for r in drawn)
                 lo, hi = wilson(inside, len(drawn))
-                line += (f"\n    against the generator's own sources (the certificate's terms out): coverage "
+                line += (f"\n    against the generator's own sources (the certificate's terms out): coverage (value -+ 1.96 u) "
                          f"{100 * inside / len(drawn):.1f} % (Wilson {100 * lo:.1f}-{100 * hi:.1f} %), median z "
                          f"{np.median(z):+.2f}, robust SD z {robust_sd(z):.2f} "
                          "({:.2f}, {:.2f})".format(*robust_sd_interval(z)))
@@ -328,9 +328,9 @@ def _edges_u(r: dict, new_u, drop: tuple[str, ...] = ()) -> dict:
     """The row with each point's u [px] changed to ``new_u(u)``: the budget's edge lines (``EDGE_LINES``: a's
     and b's) scaled with their point's, the lines in ``drop`` left out, u scaled as the budget's root sum of squares
     (the linear budget's ratio on the row's own u, Monte Carlo's where it ran), and the interval value -+ 1.96 u."""
-    u_a, u_b = new_u(r["u_a_px"]), new_u(r.get("u_b_px") or r["u_a_px"])
-    scale = {"xa": u_a / r["u_a_px"], "ya": u_a / r["u_a_px"],
-             "xb": u_b / (r.get("u_b_px") or r["u_a_px"]), "yb": u_b / (r.get("u_b_px") or r["u_a_px"])}
+    was_a, was_b = r["u_a_px"], r.get("u_b_px") or r["u_a_px"]
+    u_a, u_b = new_u(was_a), new_u(was_b)
+    scale = {"xa": u_a / was_a, "ya": u_a / was_a, "xb": u_b / was_b, "yb": u_b / was_b}
     budget = {k: v * scale.get(k, 1.0) for k, v in r["budget"].items() if k not in drop}
     old = math.sqrt(sum(v ** 2 for v in r["budget"].values()))
     u = r["u"] * math.sqrt(sum(v ** 2 for v in budget.values())) / old

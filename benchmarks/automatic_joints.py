@@ -20,8 +20,8 @@ nor follows the joint again, so the measurement of one set of cases can be compa
 ``--rendered N`` pairs each of the first N cases' sighted frames with the same frame rendered again without a
 codec (the same pose fit, the same depth): the step's error along its direction and the gap's error, in both,
 per frame, and their medians in px: what the codec alone does to the joint's ends; and the codec's shift of the
-gap by codec and DN (``codec_gaps``). ``--widths FILE`` prints each trusted frame's gap error by the gap's width in
-the image from a ``--json`` file, with the blur each frame's edges gave.
+gap and of the step by codec and DN (``codec_shifts``). ``--widths FILE`` prints each trusted frame's gap error by
+the gap's width in the image from a ``--json`` file, with the blur each frame's edges gave.
 """
 
 from __future__ import annotations
@@ -289,20 +289,23 @@ def widths(rows: list[dict], fx: float) -> list[str]:
     return out
 
 
-def codec_gaps(gaps: list[tuple[str, float, float, float]]) -> list[str]:
-    """The codec's shift of the gap (video against rendered) by codec and DN, from ``--rendered``'s frames:
-    (codec, DN [mm], gap error in the video, rendered [px along the wall at the top])."""
-    out = ["| codec | DN | frames | codec's shift of the gap: median [px] | robust SD [px] | 10-90 % [px] | error in the "
-           "video: median [px] | rendered [px] |", "|---|---|---|---|---|---|---|---|"]
+def codec_shifts(pairs: list[tuple[str, float, float, float]], what: str = "gap") -> list[str]:
+    """The codec's shift of the gap or of the step (video against rendered) by codec and DN, from ``--rendered``'s
+    frames: (codec, DN [mm], error in the video, rendered [px: the gap along the wall at the top, the step across
+    the pipe])."""
+    out = [f"| codec | DN | frames | codec's shift of the {what}: median [px] | robust SD [px] | rms [px] | 10-90 % [px] "
+           "| error in the video: median [px] | rendered [px] |", "|---|---|---|---|---|---|---|---|---|"]
     for codec in ("mpeg4", "h264"):
-        for lo, hi in ((150, 300), (300, 600), (600, 800), (800, 1000)):      # the last one with its end
-            a = np.array([(v, r) for c, dn, v, r in gaps
+        for lo, hi in ((150, 300), (300, 600), (600, 800), (800, 1000), (150, 1000)):   # each with its end; then all
+            a = np.array([(v, r) for c, dn, v, r in pairs
                           if c == codec and lo <= dn and (dn < hi or hi == 1000)]).reshape(-1, 2)
             if len(a):
                 d = a[:, 0] - a[:, 1]
                 p10, p90 = np.percentile(d, [10, 90])
-                out.append(f"| {codec} | {lo}-{hi} | {len(d)} | {np.median(d):+.2f} | {robust_sd(d):.2f} | "
-                           f"{p10:+.2f} to {p90:+.2f} | {np.median(a[:, 0]):+.2f} | {np.median(a[:, 1]):+.2f} |")
+                label = "all" if (lo, hi) == (150, 1000) else f"{lo}-{hi}"
+                out.append(f"| {codec} | {label} | {len(d)} | {np.median(d):+.2f} | {robust_sd(d):.2f} | "
+                           f"{math.sqrt(float(np.mean(d ** 2))):.2f} | {p10:+.2f} to {p90:+.2f} | "
+                           f"{np.median(a[:, 0]):+.2f} | {np.median(a[:, 1]):+.2f} |")
     return out
 
 
@@ -351,6 +354,7 @@ def main() -> None:
         cases = [c for c in cases if c.displaced][:args.rendered]
     paired: list[tuple[float, float]] = []
     gaps: list[tuple[str, float, float, float]] = []
+    steps: list[tuple[str, float, float, float]] = []
     for n, case in enumerate(cases, start=1):
         folder = args.work / case.case_id
         # the codecs take turns (each case rendered once, delivered in one of them): half the CPU of both
@@ -369,6 +373,7 @@ def main() -> None:
                 px_per_mm = _top_px_per_h(cert.focal_px[0], depth) / case.height_mm     # as ``widths``
                 paired.append((video_px, raw_px))
                 gaps.append((codec, case.height_mm, video_gap * px_per_mm, raw_gap * px_per_mm))
+                steps.append((codec, case.height_mm, video_px, raw_px))
                 print(f"{case.case_id} DN{case.height_mm:.0f} {case.shape} {codec} {depth:.2f} H: step error "
                       f"{video_px:+.2f} px in the video, {raw_px:+.2f} px rendered; gap error {video_gap:+.2f} mm, "
                       f"{raw_gap:+.2f} mm")
@@ -386,7 +391,9 @@ def main() -> None:
         v, r = np.array(paired).T if paired else (np.array([]), np.array([]))
         print(f"{len(paired)} frames of {len(cases)} cases: median step error {np.median(v):+.2f} px in the video, "
               f"{np.median(r):+.2f} px rendered; median shift by the codec {np.median(v - r):+.2f} px")
-        print("\n".join(codec_gaps(gaps)))
+        print("\n".join(codec_shifts(gaps, "gap")))
+        print()
+        print("\n".join(codec_shifts(steps, "step")))
         return
     print(f"{len(cases)} cases in {time.perf_counter() - t0:.0f} s")
     print("\n".join(table(rows)))

@@ -318,7 +318,8 @@ def test_night_stores_found_not_measured_without_a_value(lateral):
 
 
 def test_an_edge_through_a_codec_takes_the_codec_term_in_its_u():
-    from pipeline.measurement.codecs import CODEC_EDGE_U_PX, CODEC_RIM_U_PX, codec_edge_u
+    from pipeline.measurement.codecs import (CODEC_EDGE_U_PX, CODEC_RIM_U_PX, CODEC_U_PX, LARGEST_CODEC_EDGE_U_PX,
+                                             codec_edge_u)
     from pipeline.measurement.connections import intrusion_points, lateral_points
     from pipeline.vision.contour.intrusion import Intrusion
     from pipeline.vision.contour.lateral import Lateral
@@ -330,9 +331,21 @@ def test_an_edge_through_a_codec_takes_the_codec_term_in_its_u():
     assert codec_edge_u("MJPG") == 0.0         # a codec without a figure (not validated: validation_doubt)
     assert codec_edge_u("mpg2") == CODEC_EDGE_U_PX["mpg2"] == max(CODEC_EDGE_U_PX.values())   # MPEG-2: the largest
     # an opening's rim, its blur taken back (the codec's with it): the blocks' scatter alone, no more than an edge's
-    assert codec_edge_u("DIVX", rim=True) == CODEC_RIM_U_PX["mp4v"] < CODEC_EDGE_U_PX["mp4v"]
-    assert all(CODEC_RIM_U_PX[c] <= CODEC_EDGE_U_PX[c] for c in CODEC_EDGE_U_PX) and CODEC_RIM_U_PX.keys() == CODEC_EDGE_U_PX.keys()
-    assert codec_edge_u("mpg2", rim=True) == max(CODEC_RIM_U_PX.values()) and codec_edge_u(None, rim=True) == 0.0
+    assert codec_edge_u("DIVX", edge="rim") == CODEC_RIM_U_PX["mp4v"] < CODEC_EDGE_U_PX["mp4v"]
+    assert all(CODEC_RIM_U_PX[c] <= CODEC_EDGE_U_PX[c] for c in CODEC_EDGE_U_PX)
+    # a joint's ends (their blur taken back too): the codec's shift of the gap and of the step as measured on them;
+    # every table knows every FourCC, MPEG-2 (no figure measured) takes its table's largest, no codec none
+    for what, table in CODEC_U_PX.items():
+        assert table.keys() == CODEC_EDGE_U_PX.keys()
+        assert codec_edge_u("mpg2", edge=what) == max(table.values()) and codec_edge_u(None, edge=what) == 0.0
+        assert codec_edge_u("mp4v", edge=what) < codec_edge_u("avc1", edge=what) <= LARGEST_CODEC_EDGE_U_PX
+    assert codec_edge_u("avc1", edge="step") < codec_edge_u("avc1", edge="gap")
+    with pytest.raises(ValueError, match="one of edge, rim, gap, step"):
+        codec_edge_u("mp4v", edge="crack")
+    import doctest
+
+    from pipeline.measurement import codecs
+    assert doctest.testmod(codecs).failed == 0
     cert = load_certificate(CERT)
     lat = Lateral(1.0, 1.6, ((100.0, 200.0), (140.0, 190.0)), ((120.0, 180.0), (121.0, 210.0)), 0.3, 0.2, 0.2, 0.2,
                   50, 30.0, ())

@@ -277,7 +277,7 @@ def test_a_step_s_shared_edge_is_what_moves_the_rings_centres_and_the_codec_s(jo
     """Edges moved alike around both rings move their depths (the gap), hardly their centres (the step): B's shared
     edge is a fraction of A's in the same frame; the codec's term, which moves the far end's rim where it stands
     into the pipe, is added to B's whole."""
-    from pipeline.measurement.codecs import codec_edge_u
+    from pipeline.measurement.codecs import LARGEST_CODEC_EDGE_U_PX, codec_edge_u
 
     frames, contour = joint
     sightings, _ = follow_joint(frames, contour.view, H)
@@ -285,13 +285,16 @@ def test_a_step_s_shared_edge_is_what_moves_the_rings_centres_and_the_codec_s(jo
     a = joint_points(_obs("A"), s, contour.view, cert)
     b = joint_points(_obs("B"), s, contour.view, cert)
     assert 0.0 < b.u_edge < 0.5 * a.u_edge
-    coded = joint_points(_obs("B"), s, contour.view, cert, codec_edge_u("mp4v"))
-    assert coded.u_edge == pytest.approx(math.hypot(b.u_edge, codec_edge_u("mp4v")))
-    # a codec without a figure (not benchmarked) takes the largest known, H.264's, not none
+    coded = joint_points(_obs("B"), s, contour.view, cert, codec_edge_u("mp4v", edge="step"))
+    assert coded.u_edge == pytest.approx(math.hypot(b.u_edge, codec_edge_u("mp4v", edge="step")))
+    # the step takes the step's figure (measure_joint); a codec without a figure (not benchmarked) the largest known
+    # edge figure, not none
     points = {c: measure_joint(_obs("B"), sightings, contour, cert, H=H, tolerance=0.0, seed=3, codec=c)[0][0]
               for c in ("MJPG", "unknown", "avc1", None)}
-    assert points["MJPG"].u_edge == points["unknown"].u_edge == pytest.approx(points["avc1"].u_edge)
-    assert points["MJPG"].u_edge > points[None].u_edge
+    assert points["avc1"].u_edge == pytest.approx(math.hypot(points[None].u_edge, codec_edge_u("avc1", edge="step")))
+    assert points["MJPG"].u_edge == points["unknown"].u_edge == \
+        pytest.approx(math.hypot(points[None].u_edge, LARGEST_CODEC_EDGE_U_PX))
+    assert points["MJPG"].u_edge > points["avc1"].u_edge > points[None].u_edge
     # ends found before the sensitivities were kept: the gap's one-to-one taken, never less
     old = dataclasses.replace(s, ends=dataclasses.replace(s.ends, step_per_px=(math.nan, math.nan)))
     assert joint_points(_obs("B"), old, contour.view, cert).u_edge == pytest.approx(

@@ -8,8 +8,8 @@ same way in every frame of one approach. The figures are by codec family, read f
 
 from __future__ import annotations
 
-__all__ = ["MPEG4_PART2", "H264", "MPEG2", "CODEC_EDGE_U_PX", "CODEC_RIM_U_PX", "CODEC_FAMILIES",
-           "LARGEST_CODEC_EDGE_U_PX", "codec_edge_u"]
+__all__ = ["MPEG4_PART2", "H264", "MPEG2", "CODEC_EDGE_U_PX", "CODEC_RIM_U_PX", "CODEC_GAP_U_PX", "CODEC_STEP_U_PX",
+           "CODEC_U_PX", "CODEC_FAMILIES", "LARGEST_CODEC_EDGE_U_PX", "codec_edge_u"]
 
 MPEG4_PART2 = frozenset({"mp4v", "fmp4", "xvid", "divx", "dx50"})
 # The u [px] MPEG-4 Part 2's 8x8 blocks give an edge coordinate of an intruding lateral's base and tip (and of an
@@ -43,18 +43,41 @@ CODEC_EDGE_U_PX: dict[str, float] = ({fourcc: 0.2 for fourcc in MPEG4_PART2} | {
 # "The codec's term for an opening's rim"). H.264 keeps its edge figure (under 0.2 px its coverage fell below 93 %)
 # and MPEG-2, without a figure, the largest known, as above.
 CODEC_RIM_U_PX: dict[str, float] = CODEC_EDGE_U_PX | {fourcc: 0.1 for fourcc in MPEG4_PART2}
+# A displaced joint's ends are placed where the blur is taken back too (``joint_ends._blur``, ``blurred_gap``), so
+# what a codec leaves in them is read on them: the same cases' frames rendered again without a codec, the gap's
+# and the step's error in the video less that in the rendered frame (``benchmarks/automatic_joints.py --rendered
+# 150``, seed 354, 448 frames; docs/measurement.md, "The codec's term for a joint's ends"). Each figure is the half
+# width of that shift's 10-90 % range over 1.28 (a normal's with the same central 80 %), to the nearest 0.05 px:
+# the gap 0.13 px through MPEG-4 Part 2 and 0.34 px through H.264 (which narrows a DN 800-1000 pipe's gap by 0.7
+# px, beyond any symmetric term), the step 0.14 and 0.24 px. Not their robust SD (0.11, 0.29; 0.10, 0.18): 0.1 px
+# through MPEG-4 Part 2 left B's intervals at 91.9 % on a fresh seed (355), the shift's tails being what misses.
+# Until 2026-12-06 both took the edge's figures (0.2 and 0.3 px). MPEG-2, without a figure, the largest known.
+CODEC_GAP_U_PX: dict[str, float] = ({fourcc: 0.15 for fourcc in MPEG4_PART2} | {fourcc: 0.35 for fourcc in H264}
+                                    | {fourcc: 0.35 for fourcc in MPEG2})
+CODEC_STEP_U_PX: dict[str, float] = ({fourcc: 0.15 for fourcc in MPEG4_PART2} | {fourcc: 0.25 for fourcc in H264}
+                                     | {fourcc: 0.3 for fourcc in MPEG2})
+# which table an edge takes, by what it is (``codec_edge_u``'s ``edge``)
+CODEC_U_PX: dict[str, dict[str, float]] = {"edge": CODEC_EDGE_U_PX, "rim": CODEC_RIM_U_PX, "gap": CODEC_GAP_U_PX,
+                                           "step": CODEC_STEP_U_PX}
 CODEC_FAMILIES = {"MPEG-4 Part 2": MPEG4_PART2, "H.264": H264, "MPEG-2": MPEG2}     # their names, for the reasons
-LARGEST_CODEC_EDGE_U_PX = max(CODEC_EDGE_U_PX.values())
+LARGEST_CODEC_EDGE_U_PX = max(u for table in CODEC_U_PX.values() for u in table.values())
 
 
-def codec_edge_u(codec: str | None, *, without_figure: float = 0.0, rim: bool = False) -> float:
-    """The standard uncertainty [px] a video codec's blocks give an edge coordinate of an intruding lateral's base
-    and tip or a joint's ends (``CODEC_EDGE_U_PX``), or with ``rim`` of an opening's rim placed where the blur was
-    taken back (``CODEC_RIM_U_PX``), by the video's FourCC; 0 for frames not through a codec (None). A codec
-    without a figure gets ``without_figure``: 0 where the code is not validated in it anyway
-    (``connections.validation_doubt``: found, not measured), the largest figure known
+def codec_edge_u(codec: str | None, *, without_figure: float = 0.0, edge: str = "edge") -> float:
+    """The standard uncertainty [px] a video codec's blocks give an edge coordinate, by the video's FourCC and what
+    the edge is (``CODEC_U_PX``): ``"edge"``, an intruding lateral's base and tip (``CODEC_EDGE_U_PX``); ``"rim"``,
+    an opening's rim placed where the blur was taken back (``CODEC_RIM_U_PX``); ``"gap"`` and ``"step"``, a
+    displaced joint's ends, its gap's and its step's points (``CODEC_GAP_U_PX``, ``CODEC_STEP_U_PX``). 0 for frames
+    not through a codec (None). A codec without a figure gets ``without_figure``: 0 where the code is not validated
+    in it anyway (``connections.validation_doubt``: found, not measured), the largest figure known
     (``LARGEST_CODEC_EDGE_U_PX``) for a code measured in any codec (a displaced joint): its blocks move edges too,
-    by an amount no benchmark measured."""
+    by an amount no benchmark measured.
+
+    >>> codec_edge_u("XVID"), codec_edge_u("XVID", edge="rim"), codec_edge_u("avc1", edge="step"), codec_edge_u(None)
+    (0.2, 0.1, 0.25, 0.0)
+    """
+    if edge not in CODEC_U_PX:
+        raise ValueError(f"edge {edge!r}: one of {', '.join(CODEC_U_PX)}")
     if not codec:
         return 0.0
-    return (CODEC_RIM_U_PX if rim else CODEC_EDGE_U_PX).get(codec.strip().lower(), without_figure)
+    return CODEC_U_PX[edge].get(codec.strip().lower(), without_figure)

@@ -160,7 +160,7 @@ def _pose_reason(contour: PipeContour, code: str) -> None:
 def lateral_points(lateral: Lateral, cert: Certificate, quantity: str, code: str = "BCA",
                    char1: str = "", codec_u_px: float = 0.0) -> MarkedQuantity:
     """The two points of a lateral's extent: Q1 around the pipe, Q2 along it. codec_u_px : the u a codec's blocks
-    give each edge coordinate of the rim [px] (``codec_edge_u(..., rim=True)``)."""
+    give each edge coordinate of the rim [px] (``codec_edge_u(..., edge="rim")``)."""
     u = float(np.hypot.reduce([lateral.u_around_px if quantity == "Q1" else lateral.u_along_px,
                                cert.image_coordinate_u_px, codec_u_px]))
     a, b = lateral.around if quantity == "Q1" else lateral.along
@@ -264,7 +264,7 @@ def measure_connection(code: str, char1: str, clock: float | None, views: Sequen
         found = find_connection(code, clock, views, ahead=ahead, mask=mask)
     contour, lat = found.found[0]
     # an opening's rim is placed where the blur (the codec's with it) is taken back; an intrusion's edges are not
-    codec_u = codec_edge_u(codec, rim=not intruding)
+    codec_u = codec_edge_u(codec, edge="edge" if intruding else "rim")
     q = (intrusion_points(lat, cert, code, char1, codec_u) if intruding
          else lateral_points(lat, cert, quantity, code, char1, codec_u))
     try:

@@ -90,13 +90,12 @@ def joint_points(obs: Observation, sighting: JointSighting, view: PipeView,
                  cert: Certificate, codec_u_px: float = 0.0) -> MarkedQuantity:
     """The two points of a BAJ A or B in one frame's ideal image, found from the joint's ends.
 
-    codec_u_px : the u a video codec's blocks give an edge [px] (``codecs.codec_edge_u``), part of both
-    quantities' shared edge: the codec moves the far end's rim where it stands into the pipe (rendered frames read
-    B's steps unbiased, their video 0.1-0.5 px short), and it moves the gap's edges (seed 354's gaps against the
-    same frames rendered without a codec, DN 150-800: medians -0.25 to +0.06 px, robust SD 0.07-0.30 px, the size
-    of the edge figure; H.264 narrows DN 800-1000's by 0.6 px, beyond it: docs/measurement.md); the scatter of
-    single edges does not say so, since the frames of one approach pass through the same codec alike. Each
-    quantity takes it once.
+    codec_u_px : the u a video codec's blocks give an edge [px] (``codecs.codec_edge_u`` with ``edge="gap"`` for A,
+    ``"step"`` for B), part of both quantities' shared edge: the codec moves the far end's rim where it stands into
+    the pipe, and it moves the gap's edges (seed 354's frames against the same frames rendered without a codec,
+    ``codecs.CODEC_GAP_U_PX`` and ``CODEC_STEP_U_PX``; H.264 narrows DN 800-1000's gaps by 0.7 px, beyond its
+    term: docs/measurement.md); the scatter of single edges does not say so, since the frames of one approach pass
+    through the same codec alike. Each quantity takes it once.
     """
     e = sighting.ends
     step = e.step
@@ -200,7 +199,7 @@ def measure_joint(obs: Observation, sightings: Sequence[JointSighting], contour:
             unresolved.append(GAP_UNRESOLVED)
     # a codec the joints were not benchmarked in (MJPG, HEVC, a FourCC the reader could not tell): the largest
     # figure known, not none
-    codec_u = codec_edge_u(codec, without_figure=LARGEST_CODEC_EDGE_U_PX)
+    codec_u = codec_edge_u(codec, without_figure=LARGEST_CODEC_EDGE_U_PX, edge="gap" if obs.char1 == "A" else "step")
     points = [joint_points(obs, s, contour.view, cert, codec_u) for s in sightings]
     frames = [s.frame for s in sightings]
     views = [(q, contour) for q in points]

@@ -150,6 +150,26 @@ def test_an_untrusted_contour_gives_found_not_measured(joint, cert):
     assert found_not_measured(trusted) is None
 
 
+def test_a_frame_whose_edges_scatter_off_their_rings_gives_found_not_measured(joint, cert):
+    """Single edges scattering about a ring by more than MAX_EDGE_SCATTER_PX do not all lie on a pipe end (seed 355:
+    three eggs read their gaps 2-6 times long, trusted): the joint is found, not measured, and says which frame."""
+    from pipeline.measurement.joints import MAX_EDGE_SCATTER_PX
+
+    frames, contour = joint
+    sightings, _ = follow_joint(frames, contour.view, H)
+    _, trusted = measure_joint(_obs("A"), sightings, contour, cert, H=H, tolerance=0.0, seed=3)
+    assert trusted.confident
+    assert all(max(s.ends.scatter_near_px, s.ends.scatter_far_px) < 0.5 * MAX_EDGE_SCATTER_PX for s in sightings)
+    worst = sightings[1]
+    scattered = [s if s is not worst else dataclasses.replace(
+        s, ends=dataclasses.replace(s.ends, scatter_far_px=1.5 * MAX_EDGE_SCATTER_PX)) for s in sightings]
+    for char1 in ("A", "B"):
+        _, res = measure_joint(_obs(char1), scattered, contour, cert, H=H, tolerance=0.0, seed=3)
+        why = found_not_measured(res)
+        assert not res.confident and why is not None
+        assert f"frame {worst.frame}: the gap's edges scatter 1.8 px about the pipe ends' rings" in why
+
+
 def test_a_pose_too_uncertain_for_a_monte_carlo_gives_found_not_measured_with_its_value(joint, cert, monkeypatch):
     """A pose fit whose draws put the camera outside the pipe in more trials than may be drawn again (seen with a
     1280x720 camera, whose narrower view left one partly seen ring to fix the pose) was "not found" with the Monte

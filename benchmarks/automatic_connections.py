@@ -248,8 +248,8 @@ def summary(rows: list[dict], kind: str, label: str) -> list[str]:
                 z = np.array([(r["value"] - r["truth"]) / r["u"] for r in drawn])
                 inside = sum(abs(r["value"] - r["truth"]) <= 1.96 * r["u"] for r in drawn)
                 lo, hi = wilson(inside, len(drawn))
-                line += (f"\n    against the generator's own sources (the certificate's terms out): coverage (value -+ 1.96 u) "
-                         f"{100 * inside / len(drawn):.1f} % (Wilson {100 * lo:.1f}-{100 * hi:.1f} %), median z "
+                line += ("\n    against the generator's own sources (the certificate's terms out): coverage "
+                         f"(value -+ 1.96 u) {100 * inside / len(drawn):.1f} % (Wilson {100 * lo:.1f}-{100 * hi:.1f} %), median z "
                          f"{np.median(z):+.2f}, robust SD z {robust_sd(z):.2f} "
                          "({:.2f}, {:.2f})".format(*robust_sd_interval(z)))
         out.append(line)
@@ -303,6 +303,9 @@ def main() -> None:
     report(rows)
 
 
+EDGE_LINES = ("xa", "ya", "xb", "yb")      # the budget's lines of the two points' image coordinates
+
+
 def rescaled(rows: list[dict], was: float, now: float) -> list[dict]:
     """BCA and BAG rows as if their edge coordinates' codec term had been ``now`` instead of ``was`` [px]
     (``_edges_u``; a trial, not a rerun: how ``CODEC_EDGE_U_PX`` and ``CODEC_RIM_U_PX`` were chosen, then checked
@@ -330,15 +333,12 @@ def _edges_u(r: dict, new_u, drop: tuple[str, ...] = ()) -> dict:
     (the linear budget's ratio on the row's own u, Monte Carlo's where it ran), and the interval value -+ 1.96 u."""
     was_a, was_b = r["u_a_px"], r.get("u_b_px") or r["u_a_px"]
     u_a, u_b = new_u(was_a), new_u(was_b)
-    scale = {"xa": u_a / was_a, "ya": u_a / was_a, "xb": u_b / was_b, "yb": u_b / was_b}
+    scale = {k: u_a / was_a if k.endswith("a") else u_b / was_b for k in EDGE_LINES}
     budget = {k: v * scale.get(k, 1.0) for k, v in r["budget"].items() if k not in drop}
     old = math.sqrt(sum(v ** 2 for v in r["budget"].values()))
     u = r["u"] * math.sqrt(sum(v ** 2 for v in budget.values())) / old
     return dict(r, budget=budget, u_a_px=u_a, u_b_px=u_b, u=u, U95=1.96 * u, low=r["value"] - 1.96 * u,
                 high=r["value"] + 1.96 * u)
-
-
-EDGE_LINES = ("xa", "ya", "xb", "yb")      # the budget's lines of the two points' image coordinates
 
 
 def report(rows: list[dict]) -> None:

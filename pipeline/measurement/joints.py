@@ -37,11 +37,10 @@ from pipeline.measurement.frames import beyond_agreement, chi_square_with_covari
 from pipeline.measurement.quantity import LINEAR_PREVIEW, MarkedQuantity, QuantityResult
 from pipeline.vision.contour import PipeContour
 from pipeline.vision.contour.joint_ends import LOG_BEHIND_M, SEARCH_AHEAD_M, JointEnds, JointSighting, _wall
-from pipeline.vision.contour.view import PipeView
-from pipeline.vision.contour.water_line import REFERENCE_FOCAL_PX
+from pipeline.vision.contour.view import PipeView, focal_scale
 
-__all__ = ["JOINT_CHARS", "ORIGIN", "ANGULAR_NOT_MEASURED", "MAX_EDGE_SCATTER_PX", "joint_points", "edge_u", "measure_joint", "joint_search_m",
-           "measurable_joint", "step_clock", "frames_disagree", "plain_reasons"]
+__all__ = ["JOINT_CHARS", "ORIGIN", "ANGULAR_NOT_MEASURED", "MAX_EDGE_SCATTER_PX", "joint_points", "edge_u",
+           "measure_joint", "joint_search_m", "measurable_joint", "step_clock", "frames_disagree", "plain_reasons"]
 
 JOINT_CHARS = {"A": "axial", "B": "step"}
 ORIGIN = "joint ends fit"
@@ -52,12 +51,13 @@ AGREE_P = 0.01
 GAP_UNRESOLVED = ("the gap is narrower than the frames' blur resolves (under 2.5 times the blur's standard deviation "
                   "in every frame: the width read there is mostly the blur's own)")
 # A frame's single edges scattering about their rings by more than this [px, at the 720x576 camera's focal length;
-# scaled with a longer one] do not all lie on the pipe ends: part of a ring is another feature's edge (a far end
-# under a pose off at an egg's flat sides, the gap's far wall). Seeds 354 and 355 (290 trusted gaps at DN 150-1000,
-# both codecs): the frames' worst scatter had a median of 0.32 px and a 90th percentile of 0.46 px; of the four
-# beyond 1.2 px, all eggs, three read the gap 2-6 times long (45, 58 and 26 mm for 10, 9.5 and 11.6) within U95s
-# of 19-29 mm that a log check would still have held against a right log (docs/measurement.md, "A ring of
-# scattered edges"). ``joint_ends.MAX_RING_RMS_H`` bounds the rings' residual in H, about 5 px here: far wider.
+# scaled with a longer one: ``view.focal_scale``] do not all lie on the pipe ends: part of a ring is another
+# feature's edge (a far end under a pose off at an egg's flat sides, the gap's far wall). Seeds 354 and 355 (290
+# trusted gaps at DN 150-1000, both codecs): the frames' worst scatter had a median of 0.32 px and a 90th percentile
+# of 0.46 px; of the four beyond 1.2 px, all eggs, three read the gap 2-6 times long (45, 58 and 26 mm for 10, 9.5
+# and 11.6) within U95s of 19-29 mm that a log check would still have held against a right log (docs/measurement.md,
+# "A ring of scattered edges"). ``joint_ends.MAX_RING_RMS_H`` bounds the rings' residual in H, about 5 px here: far
+# wider.
 MAX_EDGE_SCATTER_PX = 1.2
 ANGULAR_NOT_MEASURED = ("BAJ C (angular displacement) is not measured from the image alone: the far pipe's axis "
                         "needs its wall over a length beyond the joint, which the ring of its end does not fix; "
@@ -240,7 +240,7 @@ def measure_joint(obs: Observation, sightings: Sequence[JointSighting], contour:
         why = frames_disagree(values, cov, frames, "gap" if obs.char1 == "A" else "step")
         if why is not None:
             reasons.append(why)
-    limit = MAX_EDGE_SCATTER_PX * max(1.0, 0.5 * (contour.view.fx + contour.view.fy) / REFERENCE_FOCAL_PX)
+    limit = MAX_EDGE_SCATTER_PX * focal_scale(contour.view)
     for s in sightings:
         reasons += [f"frame {s.frame}: {p}" for p in s.ends.problems]
         scatter = max(s.ends.scatter_near_px, s.ends.scatter_far_px)

@@ -18,11 +18,14 @@ import numpy as np
 from pipeline.maths.profiles import arc_of_hit, profile_polygon, ray_to_wall
 from pipeline.camera.pose import camera_rotation
 
-__all__ = ["PipeView", "POSE_PARAMETERS", "in_image"]
+__all__ = ["PipeView", "POSE_PARAMETERS", "in_image", "REFERENCE_FOCAL_PX", "focal_scale"]
 
 _ANGLE_STEP = 1e-6     # central difference of the 3 x 3 rotation [rad]: error about 1e-12
 
 POSE_PARAMETERS = ("ox", "oy", "yaw", "pitch", "roll")
+# the focal length [px] of the camera the image fits' pixel constants were set on (the samples' 720x576): a constant
+# for what a pose's error or a frame's edges move in the image scales with a longer one (``focal_scale``)
+REFERENCE_FOCAL_PX = 381.6
 
 
 @dataclass(frozen=True)
@@ -189,3 +192,9 @@ def in_image(points, size: tuple[int, int], margin_px: float = 0.0) -> np.ndarra
     rows, cols = size
     return (q[..., 0] >= margin_px) & (q[..., 1] >= margin_px) & (q[..., 0] <= cols - 1 - margin_px) \
         & (q[..., 1] <= rows - 1 - margin_px)
+
+
+def focal_scale(view: "PipeView") -> float:
+    """The camera's focal length against ``REFERENCE_FOCAL_PX`` [1], at least 1: the factor a pixel constant set on
+    the samples' camera takes through a longer one."""
+    return max(1.0, 0.5 * (view.fx + view.fy) / REFERENCE_FOCAL_PX)

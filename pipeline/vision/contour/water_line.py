@@ -37,19 +37,18 @@ import cv2
 import numpy as np
 
 from pipeline.maths.profiles import level_tables
-from pipeline.vision.contour.view import PipeView
+from pipeline.vision.contour.view import PipeView, focal_scale
 
 __all__ = ["WaterLine", "find_water_line"]
 
 LEVELS = np.arange(0.02, 0.96, 0.004)      # candidate heights above the invert [H]
 SIDE_OFFSET_PX = 2.5                       # colour sampled this far either side of a predicted line [px]
 SEARCH_PX = 6.0                            # edge search either side of the coarse line [px]
-# the two above are for the camera they were set on (the samples' 720x576, focal length 381.6 px) and scale with
-# the focal length: what they must reach is a pose's error, the camera's roll above all (a circular pipe's rings do
-# not show it, the water line does), and that moves the line in proportion. Unscaled, S02 through a 1920x1080 camera
-# (f 1018 px; roll 1.5 degrees, the lines' ends 8 px off) found no water line: contrast 5 levels against 28 at its
-# true pose (benchmarks/night_look.py --size 1920x1080)
-REFERENCE_FOCAL_PX = 381.6
+# the two above are for the camera they were set on (the samples' 720x576, ``view.REFERENCE_FOCAL_PX``) and scale
+# with the focal length (``view.focal_scale``): what they must reach is a pose's error, the camera's roll above all
+# (a circular pipe's rings do not show it, the water line does), and that moves the line in proportion. Unscaled, S02
+# through a 1920x1080 camera (f 1018 px; roll 1.5 degrees, the lines' ends 8 px off) found no water line: contrast 5
+# levels against 28 at its true pose (benchmarks/night_look.py --size 1920x1080)
 # each side's line is then looked for within this much of the common level [H]: a roll of 5 degrees moves the
 # two lines of a half-full pipe about 0.04 H apart, up on one side and down on the other
 SIDE_SPLIT_H = 0.06
@@ -128,18 +127,13 @@ def _chroma(colour: np.ndarray) -> np.ndarray:
     return 255.0 * colour / np.maximum(colour.sum(axis=-1, keepdims=True), 1.0)
 
 
-def _scale(view: PipeView) -> float:
-    """The camera's focal length against the one the pixel constants were set on [1] (at least 1)."""
-    return max(1.0, 0.5 * (view.fx + view.fy) / REFERENCE_FOCAL_PX)
-
-
 def _side_contrasts(image: np.ndarray, view: PipeView, level: float, depths: np.ndarray, mask,
                     chromatic: bool = False) -> tuple[tuple[float, float], bool]:
     """The median colour difference across each water line at ``level`` (left, right) [8-bit levels], 0 for a
     line with fewer than MIN_EDGE_POINTS usable points; and whether the mask hides either line (in the frame with
     at least MIN_EDGE_POINTS usable points, but not that many outside the mask). Both lines from one projection."""
     pts, normals, _ = _line_points(view, level, depths)
-    k = _scale(view)
+    k = focal_scale(view)
     in_frame = _usable(pts, image.shape[:2], None, k * SEARCH_PX + 2)
     ok = in_frame if mask is None else in_frame & _usable(pts, image.shape[:2], mask, 0.0)
     hidden = bool(np.any((in_frame.sum(axis=1) >= MIN_EDGE_POINTS) & (ok.sum(axis=1) < MIN_EDGE_POINTS)))
@@ -233,7 +227,7 @@ def find_water_line(ideal_bgr: np.ndarray, view: PipeView, *, depths: tuple[floa
     normals = np.array([both[0][1][0], both[1][1][1]])
     side_of = both[0][2]
     depth_of = np.broadcast_to(t, side_of.shape)
-    search = _scale(view) * SEARCH_PX
+    search = focal_scale(view) * SEARCH_PX
     ok = _usable(pts, image.shape[:2], mask, search + 2)
     pts, normals, side_of, depth_of = pts[ok], normals[ok], side_of[ok], depth_of[ok]
     offset, strength = (_edges(image, pts, normals, chromatic, search) if edge_image is None

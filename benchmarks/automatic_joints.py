@@ -20,7 +20,9 @@ nor follows the joint again, so the measurement of one set of cases can be compa
 ``--rendered N`` pairs each of the first N cases' sighted frames with the same frame rendered again without a
 codec (the same pose fit, the same depth): the step's error along its direction and the gap's error, in both,
 per frame, and their medians in px: what the codec alone does to the joint's ends; and the codec's shift of the
-gap and of the step by codec and DN (``codec_shifts``). ``--widths FILE`` prints each trusted frame's gap error by
+gap and of the step by codec and DN (``codec_shifts``), and by the size of what is measured in the image, split
+into what a case's frames share and what each adds (``shared_and_own``: ``codecs``' joint figures and
+``joints.gap_definition_u``). ``--widths FILE`` prints each trusted frame's gap error by
 the gap's width in the image from a ``--json`` file, with the blur each frame's edges gave.
 """
 
@@ -35,6 +37,7 @@ import sys
 import time
 from dataclasses import asdict, replace
 from pathlib import Path
+from typing import Sequence
 
 import cv2
 import numpy as np
@@ -44,7 +47,7 @@ from pipeline.core.errors import PipegaugeError
 from pipeline.domain.records import Observation
 from pipeline.formats.certificate import load_certificate
 from pipeline.measurement.frames import frame_values
-from pipeline.measurement.joints import _px_per_depth, measure_joint
+from pipeline.measurement.joints import _px_per_depth, joint_points, measure_joint
 from pipeline.maths.profiles import clock_to_theta
 from pipeline.synth.appearance import SENSOR_NOISE, Appearance
 from pipeline.synth.joint_cases import JointCase, case_renderer, random_case, read_truth, write_case
@@ -140,7 +143,11 @@ def measure_case(video: Path, truth: dict, cert, cache: Path | None = None, kept
                            "gap_px_per_px": [k * _px_across(contour.view, s.depth, "A") for k in s.ends.gap_per_px],
                            "step_px_per_px": [k * _px_across(contour.view, s.depth, "B") for k in s.ends.step_per_px],
                            # the frame's blur read from the gap [px], and whether the gap is wide enough against it
-                           "blur_px": s.ends.blur_px, "gap_resolved": s.ends.gap_resolved}
+                           "blur_px": s.ends.blur_px, "gap_resolved": s.ends.gap_resolved,
+                           # the u of the blur's correction [px], and how far its single edges scatter about their
+                           # rings [px] (the larger of the two ends': ``joints.MAX_EDGE_SCATTER_PX``)
+                           "blur_u_px": s.ends.blur_u_px,
+                           "scatter_px": max(s.ends.scatter_near_px, s.ends.scatter_far_px)}
                           for s in sightings]}
         try:
             points, res = measure_joint(_obs(char1), sightings, contour, cert, H=H, tolerance=0.0, seed=7,
@@ -154,6 +161,9 @@ def measure_case(video: Path, truth: dict, cert, cache: Path | None = None, kept
                        u_own=own.u,
                        U95=res.U95, low=res.low, high=res.high, reasons="; ".join(res.reasons),
                        frame_values=own_values.tolist(), frame_own_u=own_u.tolist(),
+                       # each measured frame's points: their separation in the image and the u they share [px]
+                       frame_size_px=[float(np.hypot(q.b[0] - q.a[0], q.b[1] - q.a[1])) for q in points],
+                       frame_u_edge_px=[q.u_edge for q in points],
                        # each input's contribution |c_i| u(x_i) [mm], summed in quadrature over a label's frames
                        budget=_budget(res))
         except PipegaugeError as exc:
@@ -165,9 +175,11 @@ def measure_case(video: Path, truth: dict, cert, cache: Path | None = None, kept
 
 
 def rendered_pairs(case: JointCase, video: Path, truth: dict, cert, cache: Path | None,
-                   kept: Path | None) -> list[tuple[float, float, float, float, float]]:
-    """Per sighted frame of the video: (depth [H], step error along the step in the video and in the frame rendered
-    without a codec [px across at that depth], gap error in both [mm]); the same pose fit for both."""
+                   kept: Path | None) -> list[dict]:
+    """Per sighted frame of the video, with the same frame rendered without a codec (the same pose fit): its depth
+    [H], the step's error along the step (video, rendered) [px across at that depth] and the gap's error (video,
+    rendered) [mm]; and the two points' separation in the video frame for A and B (``joint_points``) [px], with
+    the gap's error in px of that separation (video, rendered)."""
     H = case.height_mm
     contour, sightings, _ = case_sightings(video, truth, cert, cache, kept)
     if not sightings or case.step_mm <= 0:
@@ -186,7 +198,54 @@ def rendered_pairs(case: JointCase, video: Path, truth: dict, cert, cache: Path 
         px = float(contour.view.p_H(s.depth)[0]) / H           # px per mm across the pipe at the joint
         step = [(float(np.dot(e.step, along)) * H - case.step_mm) * px for e in (s.ends, ends)]
         gap = [(e.far_depth - e.near_depth) * H - case.gap_mm for e in (s.ends, ends)]
-        out.append((s.depth, step[0], step[1], gap[0], gap[1]))
+        size = {q: float(np.hypot(*np.subtract(p.b, p.a))) for q in ("A", "B")
+                for p in [joint_points(_obs(q), s, contour.view, cert)]}
+        gap_mm = (s.ends.far_depth - s.ends.near_depth) * H
+        per_mm = size["A"] / gap_mm if gap_mm > 0 else math.nan     # px of the gap's separation per mm of gap
+        out.append({"case": case.case_id, "depth": s.depth, "step_px": step, "gap_mm": gap,
+                    "gap_px": [g * per_mm for g in gap], "size_gap_px": size["A"], "size_step_px": size["B"]})
+    return out
+
+
+def _p68(x) -> float:
+    """The 68th percentile of |x|: a standard uncertainty's size, a bias in it, robust to a few frames whose ends were
+    another edge."""
+    return float(np.percentile(np.abs(np.asarray(x, float)), 68))
+
+
+def shared_and_own(frames: list[dict], what: str, bands: Sequence[float]) -> list[str]:
+    """The codec's shift (video less rendered) and the rendered frame's own error of the gap or the step, by band of
+    the case's size in the image [px] (its frames' mean separation) and codec, each as the 68th percentile of its
+    size (``_p68``): per frame; the case's mean over its frames; each frame's departure from it (times
+    sqrt(n / (n - 1))), what a frame adds on its own; and what the frames share, the case's mean with the part of
+    the frames' own that enters it taken out (sqrt(mean^2 - own^2 / n)): the shared edge's size (``codecs``'
+    joint figures). The rendered frames' shared part is the edges' definition without a codec
+    (``joints.gap_definition_u``). Frames whose rendered twin found another edge (more than 5 px off) are left out.
+    ``frames``: per frame, a ``rendered_pairs`` dict with ``codec``."""
+    err, size = ("gap_px", "size_gap_px") if what == "gap" else ("step_px", "size_step_px")
+    out = [f"| codec | {what} in the image [px] | cases | frames | the codec's shift: per frame [px] | the case's mean "
+           "[px] | each frame's own [px] | shared [px] | rendered, no codec: shared [px] |",
+           "|---|---|---|---|---|---|---|---|---|"]
+    for codec in ("mpeg4", "h264"):
+        cases: dict[str, list[dict]] = {}
+        for f in frames:
+            if f["codec"] == codec and all(abs(x) < 5.0 for x in f[err]):
+                cases.setdefault(f["case"], []).append(f)
+        for lo, hi in zip((0.0, *bands), (*bands, math.inf)):
+            group = [fs for fs in cases.values() if len(fs) > 1 and lo <= np.mean([f[size] for f in fs]) < hi]
+            if not group:
+                continue
+            n = float(np.mean([len(fs) for fs in group]))
+            parts = []
+            for k in (None, 1):            # the shift (video less rendered); the rendered frame's own error
+                values = [np.array([f[err][0] - f[err][1] if k is None else f[err][1] for f in fs]) for fs in group]
+                mean = _p68([v.mean() for v in values])
+                own = _p68(np.concatenate([(v - v.mean()) * math.sqrt(len(v) / (len(v) - 1)) for v in values]))
+                parts.append((_p68(np.concatenate(values)), mean, own, math.sqrt(max(mean ** 2 - own ** 2 / n, 0.0))))
+            (every, mean, own, shared), rendered = parts
+            label = f"{lo:.0f}-{hi:.0f}" if math.isfinite(hi) else f"{lo:.0f}-"
+            out.append(f"| {codec} | {label} | {len(group)} | {sum(len(fs) for fs in group)} | {every:.2f} | {mean:.2f} | "
+                       f"{own:.2f} | {shared:.2f} | {rendered[3]:.2f} |")
     return out
 
 
@@ -354,6 +413,7 @@ def main() -> None:
     paired: list[tuple[float, float]] = []
     gaps: list[tuple[str, float, float, float]] = []
     steps: list[tuple[str, float, float, float]] = []
+    sized: list[dict] = []
     for n, case in enumerate(cases, start=1):
         folder = args.work / case.case_id
         # the codecs take turns (each case rendered once, delivered in one of them): half the CPU of both
@@ -367,15 +427,16 @@ def main() -> None:
             write_case(case, cert, args.work, codecs=(CODECS[codec],))
         truth = read_truth(folder)
         if args.rendered:
-            for depth, video_px, raw_px, video_gap, raw_gap in rendered_pairs(case, video, truth, cert, args.contours,
-                                                                              args.sightings):
-                px_per_mm = _top_px_per_h(cert.focal_px[0], depth) / case.height_mm     # as ``widths``
+            for f in rendered_pairs(case, video, truth, cert, args.contours, args.sightings):
+                (video_px, raw_px), (video_gap, raw_gap) = f["step_px"], f["gap_mm"]
+                px_per_mm = _top_px_per_h(cert.focal_px[0], f["depth"]) / case.height_mm     # as ``widths``
                 paired.append((video_px, raw_px))
                 gaps.append((codec, case.height_mm, video_gap * px_per_mm, raw_gap * px_per_mm))
                 steps.append((codec, case.height_mm, video_px, raw_px))
-                print(f"{case.case_id} DN{case.height_mm:.0f} {case.shape} {codec} {depth:.2f} H: step error "
+                sized.append({**f, "codec": codec})
+                print(f"{case.case_id} DN{case.height_mm:.0f} {case.shape} {codec} {f['depth']:.2f} H: step error "
                       f"{video_px:+.2f} px in the video, {raw_px:+.2f} px rendered; gap error {video_gap:+.2f} mm, "
-                      f"{raw_gap:+.2f} mm")
+                      f"{raw_gap:+.2f} mm; separations {f['size_gap_px']:.1f} and {f['size_step_px']:.1f} px")
             continue
         for row in measure_case(video, truth, cert, args.contours, args.sightings, FOURCC[codec]):
             rows.append({**row, "codec": codec, "camera": cert.certificate_id, "noise": case.noise,
@@ -393,6 +454,11 @@ def main() -> None:
         print("\n".join(codec_shifts(gaps, "gap")))
         print()
         print("\n".join(codec_shifts(steps, "step")))
+        print()
+        # by the size of what is measured, shared by a case's frames or each frame's own (``codecs``' figures)
+        print("\n".join(shared_and_own(sized, "gap", (16.0, 25.0, 40.0))))
+        print()
+        print("\n".join(shared_and_own(sized, "step", (4.0, 8.0, 15.0, 25.0))))
         return
     print(f"{len(cases)} cases in {time.perf_counter() - t0:.0f} s")
     print("\n".join(table(rows)))

@@ -16,8 +16,8 @@ from pipeline.core.errors import MeasurementError, ModelError
 from pipeline.domain.records import Observation
 from pipeline.formats.certificate import load_certificate
 from pipeline.measurement.quantity import found_not_measured
-from pipeline.measurement.joints import (ANGULAR_NOT_MEASURED, frames_disagree, joint_points, measure_joint,
-                                        plain_reasons)
+from pipeline.measurement.joints import (ANGULAR_NOT_MEASURED, REFERENCE_BLUR_PX, frames_disagree, gap_definition_u,
+                                        joint_points, measure_joint, plain_reasons)
 from pipeline.synth.joint_cases import JointCase, approach_chainages, case_scene
 from pipeline.synth.render import Renderer
 from pipeline.synth.scene import DisplacedJoint, Pipe, Scene
@@ -276,28 +276,32 @@ def test_frames_disagree_reads_the_chi_square_of_the_frames_covariance():
     assert frames_disagree([20.0, 22.0], np.diag([4.1, 4.1]), [1, 2], "gap") is None
 
 
-def test_a_point_s_u_is_its_ring_s_edge_scatter_in_that_frame(joint, cert):
+def test_a_point_s_u_is_its_ring_s_and_the_gap_s_shared_edge_its_definition_by_width(joint, cert):
+    """Each point's own u is its ring's (the jackknife over sectors, which the single edges' scatter enters divided
+    down); what the frames share for a gap is its edges' definition by the gap's width against the blur, not the
+    single edges' scatter (which the rings' u already holds)."""
     frames, contour = joint
     sightings, _ = follow_joint(frames, contour.view, H)
     s = sightings[0]
     assert 0.0 < s.ends.scatter_near_px < 1.0 and 0.0 < s.ends.scatter_far_px < 1.0
     q = joint_points(_obs("A"), s, contour.view, cert)
-    # carried to the gap by the fit's own sensitivity: both ends' edges moved into the gap shorten it, about one
-    # to one in px of the points' separation
-    assert all(k < 0 for k in s.ends.gap_per_px)
-    assert 0.7 < q.u_edge / math.hypot(s.ends.scatter_near_px, s.ends.scatter_far_px) < 1.5
+    width = math.hypot(q.b[0] - q.a[0], q.b[1] - q.a[1])
+    assert q.u_edge == pytest.approx(math.hypot(gap_definition_u(width, s.ends.blur_px), s.ends.blur_u_px))
     rough = dataclasses.replace(s, ends=dataclasses.replace(s.ends, scatter_far_px=3 * s.ends.scatter_far_px + 1.0))
     q_rough = joint_points(_obs("A"), rough, contour.view, cert)
-    # the edges' scatter is the frames' shared edge term, not each point's own u (their rings' jackknife)
     assert q_rough.u_a == pytest.approx(q.u_a) and q_rough.u_b == pytest.approx(q.u_b)
-    assert q_rough.u_edge > q.u_edge + 0.6
+    assert q_rough.u_edge == pytest.approx(q.u_edge)
+    # a gap narrow against its blur is read less well than a wide one, and never better than the floor
+    assert gap_definition_u(4.0, 1.5) > 3 * gap_definition_u(40.0, 1.5) > 3 * 0.05 * 1.5
+    assert gap_definition_u(10.0, 2.0) > gap_definition_u(10.0, 1.5)
+    assert gap_definition_u(10.0) == gap_definition_u(10.0, REFERENCE_BLUR_PX) == gap_definition_u(10.0, math.nan)
 
 
-def test_a_step_s_shared_edge_is_what_moves_the_rings_centres_and_the_codec_s(joint, cert):
+def test_a_joint_s_codec_term_is_taken_by_the_size_of_what_it_measures(joint, cert):
     """Edges moved alike around both rings move their depths (the gap), hardly their centres (the step): B's shared
-    edge is a fraction of A's in the same frame; the codec's term, which moves the far end's rim where it stands
-    into the pipe, is added to B's whole."""
-    from pipeline.measurement.codecs import LARGEST_CODEC_EDGE_U_PX, codec_edge_u
+    edge is a fraction of A's in the same frame; the codec's term is added to each by the gap's width or the step's
+    size in the frame, a codec without a figure taking the largest known there."""
+    from pipeline.measurement.codecs import codec_edge_u
 
     frames, contour = joint
     sightings, _ = follow_joint(frames, contour.view, H)
@@ -305,17 +309,21 @@ def test_a_step_s_shared_edge_is_what_moves_the_rings_centres_and_the_codec_s(jo
     a = joint_points(_obs("A"), s, contour.view, cert)
     b = joint_points(_obs("B"), s, contour.view, cert)
     assert 0.0 < b.u_edge < 0.5 * a.u_edge
-    coded = joint_points(_obs("B"), s, contour.view, cert, codec_edge_u("mp4v", edge="step"))
-    assert coded.u_edge == pytest.approx(math.hypot(b.u_edge, codec_edge_u("mp4v", edge="step")))
-    # the step takes the step's figure (measure_joint); a codec without a figure (not benchmarked) the largest known
-    # edge figure, not none
+    for char1, clean, edge in (("A", a, "gap"), ("B", b, "step")):
+        size = math.hypot(clean.b[0] - clean.a[0], clean.b[1] - clean.a[1])
+        for fourcc in ("mp4v", "avc1"):
+            coded = joint_points(_obs(char1), s, contour.view, cert, fourcc)
+            assert coded.u_edge == pytest.approx(math.hypot(clean.u_edge, codec_edge_u(fourcc, edge=edge, size_px=size)))
+        unknown = joint_points(_obs(char1), s, contour.view, cert, "MJPG")
+        assert unknown.u_edge == pytest.approx(joint_points(_obs(char1), s, contour.view, cert, "mpg2").u_edge)
+        assert unknown.u_edge >= joint_points(_obs(char1), s, contour.view, cert, "avc1").u_edge > clean.u_edge
+    # measure_joint passes the video's codec to every frame
     points = {c: measure_joint(_obs("B"), sightings, contour, cert, H=H, tolerance=0.0, seed=3, codec=c)[0][0]
-              for c in ("MJPG", "unknown", "avc1", None)}
-    assert points["avc1"].u_edge == pytest.approx(math.hypot(points[None].u_edge, codec_edge_u("avc1", edge="step")))
-    assert points["MJPG"].u_edge == points["unknown"].u_edge == \
-        pytest.approx(math.hypot(points[None].u_edge, LARGEST_CODEC_EDGE_U_PX))
-    assert points["MJPG"].u_edge > points["avc1"].u_edge > points[None].u_edge
-    # ends found before the sensitivities were kept: the gap's one-to-one taken, never less
+              for c in ("avc1", None)}
+    assert points["avc1"].u_edge == pytest.approx(joint_points(_obs("B"), sightings[0], contour.view, cert,
+                                                               "avc1").u_edge)
+    assert points[None].u_edge == pytest.approx(b.u_edge)
+    # ends found before the sensitivities were kept: the gap's one-to-one taken for the step, never less
     old = dataclasses.replace(s, ends=dataclasses.replace(s.ends, step_per_px=(math.nan, math.nan)))
     assert joint_points(_obs("B"), old, contour.view, cert).u_edge == pytest.approx(
         math.hypot(s.ends.scatter_near_px, s.ends.scatter_far_px))

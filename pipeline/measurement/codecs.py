@@ -8,8 +8,10 @@ same way in every frame of one approach. The figures are by codec family, read f
 
 from __future__ import annotations
 
+import math
+
 __all__ = ["MPEG4_PART2", "H264", "MPEG2", "CODEC_EDGE_U_PX", "CODEC_RIM_U_PX", "CODEC_GAP_U_PX", "CODEC_STEP_U_PX",
-           "CODEC_U_PX", "CODEC_FAMILIES", "LARGEST_CODEC_EDGE_U_PX", "codec_edge_u"]
+           "CODEC_U_PX", "Bands", "CODEC_FAMILIES", "LARGEST_CODEC_EDGE_U_PX", "codec_edge_u"]
 
 MPEG4_PART2 = frozenset({"mp4v", "fmp4", "xvid", "divx", "dx50"})
 # The u [px] MPEG-4 Part 2's 8x8 blocks give an edge coordinate of an intruding lateral's base and tip (and of an
@@ -44,40 +46,76 @@ CODEC_EDGE_U_PX: dict[str, float] = ({fourcc: 0.2 for fourcc in MPEG4_PART2} | {
 # and MPEG-2, without a figure, the largest known, as above.
 CODEC_RIM_U_PX: dict[str, float] = CODEC_EDGE_U_PX | {fourcc: 0.1 for fourcc in MPEG4_PART2}
 # A displaced joint's ends are placed where the blur is taken back too (``joint_ends._blur``, ``blurred_gap``), so
-# what a codec leaves in them is read on them: the same cases' frames rendered again without a codec, the gap's
-# and the step's error in the video less that in the rendered frame (``benchmarks/automatic_joints.py --rendered
-# 150``, seed 354, 448 frames; docs/measurement.md, "The codec's term for a joint's ends"). Each figure is the half
-# width of that shift's 10-90 % range over 1.28 (a normal's with the same central 80 %), to the nearest 0.05 px:
-# the gap 0.13 px through MPEG-4 Part 2 and 0.34 px through H.264 (which narrows a DN 800-1000 pipe's gap by 0.7
-# px, beyond any symmetric term), the step 0.14 and 0.24 px. Not their robust SD (0.11, 0.29; 0.10, 0.18): 0.1 px
-# through MPEG-4 Part 2 left B's intervals at 91.9 % on a fresh seed (355), the shift's tails being what misses.
-# Until 2026-12-06 both took the edge's figures (0.2 and 0.3 px). MPEG-2, without a figure, the largest known.
-CODEC_GAP_U_PX: dict[str, float] = ({fourcc: 0.15 for fourcc in MPEG4_PART2} | {fourcc: 0.35 for fourcc in H264}
-                                    | {fourcc: 0.35 for fourcc in MPEG2})
-CODEC_STEP_U_PX: dict[str, float] = ({fourcc: 0.15 for fourcc in MPEG4_PART2} | {fourcc: 0.25 for fourcc in H264}
-                                     | {fourcc: 0.3 for fourcc in MPEG2})
+# what a codec leaves in them is read on them: the same cases' frames rendered again without a codec, the error in
+# the video less that in the rendered frame (``benchmarks/automatic_joints.py --rendered 150``, seed 354, 448
+# frames of 150 cases; docs/measurement.md, "A joint's edge terms by the size of what they measure"). What the
+# codec does depends on how large the feature is in the image, so each figure is by band of that size, the two
+# points' separation in the frame [px]: the gap's width along the wall, the step across the pipe.
+# The gap's figure is the part of the shift the frames of one approach share (the case's mean over its frames,
+# less what each frame's own part puts into it: ``shared_and_own``), to the nearest 0.05 px, at least 0.05 px:
+# each frame's own part (0.1-0.3 px) is in its rings' jackknife, which sees the codec's noise on the edges.
+# H.264 narrows a gap under 16 px by about 0.9 px, one of 16-25 px by 0.45 px, and leaves a wider one nearly alone:
+# its blocks smooth a dark line a macroblock or so across. MPEG-4 Part 2: 0.25, 0.1 and 0.05 px.
+# The step's figure is its shift per frame (68th percentile of its size): its shared codec part (0-0.2 px) and its
+# shared definition in rendered frames (0.06-0.25 px) are alike in size, and the single edges' scatter the step
+# takes besides (``joints.edge_u``) is a tenth of the gap's. A step of a few px stands hardly into the pipe: 0.05
+# px (MPEG-4 Part 2) and 0.1 px (H.264) under 4 px, 0.15 and 0.25 px from 8 px.
+# Until 2026-12-07 one figure per codec (the gap 0.15 and 0.35 px, the step 0.15 and 0.25 px), and the gap took the
+# single edges' scatter about their rings beside it: a wide gap's interval was three times its error, a narrow
+# H.264 gap's too short (docs/measurement.md). MPEG-2, without a figure, takes H.264's, the largest at every size.
+Bands = tuple[tuple[float, float], ...]     # (up to this size [px], u [px]), by increasing size; the last open
+_H264_GAP: Bands = ((16.0, 0.9), (25.0, 0.45), (40.0, 0.15), (math.inf, 0.05))
+_H264_STEP: Bands = ((4.0, 0.1), (8.0, 0.15), (math.inf, 0.25))
+CODEC_GAP_U_PX: dict[str, Bands] = ({fourcc: ((16.0, 0.25), (25.0, 0.1), (math.inf, 0.05)) for fourcc in MPEG4_PART2}
+                                    | {fourcc: _H264_GAP for fourcc in H264 | MPEG2})
+CODEC_STEP_U_PX: dict[str, Bands] = ({fourcc: ((4.0, 0.05), (8.0, 0.1), (math.inf, 0.15)) for fourcc in MPEG4_PART2}
+                                     | {fourcc: _H264_STEP for fourcc in H264 | MPEG2})
+
+
+def _flat(table: dict[str, float]) -> dict[str, Bands]:
+    return {fourcc: ((math.inf, u),) for fourcc, u in table.items()}
+
+
 # which table an edge takes, by what it is (``codec_edge_u``'s ``edge``)
-CODEC_U_PX: dict[str, dict[str, float]] = {"edge": CODEC_EDGE_U_PX, "rim": CODEC_RIM_U_PX, "gap": CODEC_GAP_U_PX,
-                                           "step": CODEC_STEP_U_PX}
+CODEC_U_PX: dict[str, dict[str, Bands]] = {"edge": _flat(CODEC_EDGE_U_PX), "rim": _flat(CODEC_RIM_U_PX),
+                                           "gap": CODEC_GAP_U_PX, "step": CODEC_STEP_U_PX}
 CODEC_FAMILIES = {"MPEG-4 Part 2": MPEG4_PART2, "H.264": H264, "MPEG-2": MPEG2}     # their names, for the reasons
-LARGEST_CODEC_EDGE_U_PX = max(u for table in CODEC_U_PX.values() for u in table.values())
+LARGEST_CODEC_EDGE_U_PX = max(u for table in CODEC_U_PX.values() for bands in table.values() for _, u in bands)
 
 
-def codec_edge_u(codec: str | None, *, without_figure: float = 0.0, edge: str = "edge") -> float:
-    """The standard uncertainty [px] a video codec's blocks give an edge coordinate, by the video's FourCC and what
-    the edge is (``CODEC_U_PX``): ``"edge"``, an intruding lateral's base and tip (``CODEC_EDGE_U_PX``); ``"rim"``,
-    an opening's rim placed where the blur was taken back (``CODEC_RIM_U_PX``); ``"gap"`` and ``"step"``, a
-    displaced joint's ends, its gap's and its step's points (``CODEC_GAP_U_PX``, ``CODEC_STEP_U_PX``). 0 for frames
-    not through a codec (None). A codec without a figure gets ``without_figure``: 0 where the code is not validated
-    in it anyway (``connections.validation_doubt``: found, not measured), the largest figure known
-    (``LARGEST_CODEC_EDGE_U_PX``) for a code measured in any codec (a displaced joint): its blocks move edges too,
-    by an amount no benchmark measured.
+def _in_band(bands: Bands, size_px: float) -> float:
+    return next(u for up_to, u in bands if size_px < up_to or up_to == math.inf)
+
+
+def codec_edge_u(codec: str | None, *, without_figure: float | None = 0.0, edge: str = "edge",
+                 size_px: float = math.inf) -> float:
+    """The standard uncertainty [px] a video codec's blocks give an edge coordinate, by the video's FourCC, what
+    the edge is (``CODEC_U_PX``) and, for a joint's ends, how large the feature is in the image: ``"edge"``, an
+    intruding lateral's base and tip (``CODEC_EDGE_U_PX``); ``"rim"``, an opening's rim placed where the blur was
+    taken back (``CODEC_RIM_U_PX``); ``"gap"`` and ``"step"``, a displaced joint's ends, its gap's and its step's
+    points (``CODEC_GAP_U_PX``, ``CODEC_STEP_U_PX``), by ``size_px``, the gap's width or the step's size in the
+    frame [px]. 0 for frames not through a codec (None). A codec without a figure gets ``without_figure``: 0 where
+    the code is not validated in it anyway (``connections.validation_doubt``: found, not measured); None, the
+    largest figure known for that edge and size, for a code measured in any codec (a displaced joint): its blocks
+    move edges too, by an amount no benchmark measured.
 
     >>> codec_edge_u("XVID"), codec_edge_u("XVID", edge="rim"), codec_edge_u("avc1", edge="step"), codec_edge_u(None)
     (0.2, 0.1, 0.25, 0.0)
+    >>> codec_edge_u("avc1", edge="gap", size_px=9.0), codec_edge_u("avc1", edge="gap", size_px=50.0)
+    (0.9, 0.05)
+    >>> codec_edge_u("MJPG", edge="step", size_px=2.0, without_figure=None)
+    0.1
     """
     if edge not in CODEC_U_PX:
         raise ValueError(f"edge {edge!r}: one of {', '.join(CODEC_U_PX)}")
     if not codec:
         return 0.0
-    return CODEC_U_PX[edge].get(codec.strip().lower(), without_figure)
+    if not size_px >= 0.0:
+        raise ValueError(f"size_px {size_px!r}: the feature's size in the image [px], 0 or more")
+    table = CODEC_U_PX[edge]
+    bands = table.get(codec.strip().lower())
+    if bands is not None:
+        return _in_band(bands, size_px)
+    if without_figure is None:
+        return max(_in_band(b, size_px) for b in table.values())
+    return without_figure

@@ -12,11 +12,12 @@ each frame yields the two points an operator would mark (as ``measurement.automa
 Each point's own standard uncertainty [px] is its ring's (jackknife over sectors: the ring is fitted to all its
 edges, so their single scatter enters it divided down) with the certificate's image coordinate u. The edges'
 definition (where the half level lies against the true end) is the same in every frame of the approach: one
-input, ``edge`` [px of the points' separation], the size of the frame's single-edge scatter carried to the
-quantity by the fit's own sensitivity to it (``edge_u``: about one for the gap, a tenth for the step), with the
-codec's edge term and, for the gap, the u of its correction for the frame's blur (``JointEnds.blur_u_px``). The
-frames are combined with ``measure_over_frames``: the pose (one fit for the approach), H, the certificate, the
-wall and the edge counted once, each frame's points its own. C, the angular displacement, is not
+input, ``edge`` [px of the points' separation]. For the gap it is the definition of a gap that wide against the
+frame's blur (``gap_definition_u``), the u of its correction for the blur (``JointEnds.blur_u_px``) and the
+codec's shift of a gap that wide; for the step, the frame's single-edge scatter carried to it by the fit's own
+sensitivity (``edge_u``: a tenth or less) and the codec's shift of a step that large (``codecs.codec_edge_u``).
+The frames are combined with ``measure_over_frames``: the pose (one fit for the approach), H, the certificate,
+the wall and the edge counted once, each frame's points its own. C, the angular displacement, is not
 measured: the far pipe's axis would need its wall over a length of pipe beyond the joint, which the rings of
 its end alone do not fix.
 """
@@ -32,14 +33,14 @@ import numpy as np
 from pipeline.camera import Certificate
 from pipeline.core.errors import MeasurementError, ModelError
 from pipeline.domain.records import Observation
-from pipeline.measurement.codecs import LARGEST_CODEC_EDGE_U_PX, codec_edge_u
+from pipeline.measurement.codecs import codec_edge_u
 from pipeline.measurement.frames import beyond_agreement, chi_square_with_covariance, frame_covariance, measure_over_frames
 from pipeline.measurement.quantity import LINEAR_PREVIEW, MarkedQuantity, QuantityResult
 from pipeline.vision.contour import PipeContour
 from pipeline.vision.contour.joint_ends import LOG_BEHIND_M, SEARCH_AHEAD_M, JointEnds, JointSighting, _wall
 from pipeline.vision.contour.view import PipeView, focal_scale
 
-__all__ = ["JOINT_CHARS", "ORIGIN", "ANGULAR_NOT_MEASURED", "MAX_EDGE_SCATTER_PX", "joint_points", "edge_u",
+__all__ = ["JOINT_CHARS", "ORIGIN", "ANGULAR_NOT_MEASURED", "MAX_EDGE_SCATTER_PX", "joint_points", "edge_u", "gap_definition_u",
            "measure_joint", "joint_search_m", "measurable_joint", "step_clock", "frames_disagree", "plain_reasons"]
 
 JOINT_CHARS = {"A": "axial", "B": "step"}
@@ -59,6 +60,11 @@ GAP_UNRESOLVED = ("the gap is narrower than the frames' blur resolves (under 2.5
 # "A ring of scattered edges"). ``joint_ends.MAX_RING_RMS_H`` bounds the rings' residual in H, about 5 px here: far
 # wider.
 MAX_EDGE_SCATTER_PX = 1.2
+# A gap's edges' definition (``gap_definition_u``) [in units of the frame's blur sigma]: its floor, and how it grows
+# as the gap narrows against the blur; the blur where a frame does not tell it [px] (seed 354's frames' median)
+GAP_DEFINITION_FLOOR = 0.05
+GAP_DEFINITION_NARROW = 1.2
+REFERENCE_BLUR_PX = 1.55
 ANGULAR_NOT_MEASURED = ("BAJ C (angular displacement) is not measured from the image alone: the far pipe's axis "
                         "needs its wall over a length beyond the joint, which the ring of its end does not fix; "
                         "mark it (marks.csv) or measure it with `pipegauge review`")
@@ -96,15 +102,16 @@ def _px_per_depth(view: PipeView, wall: np.ndarray, t: float) -> float:
 
 
 def joint_points(obs: Observation, sighting: JointSighting, view: PipeView,
-                 cert: Certificate, codec_u_px: float = 0.0) -> MarkedQuantity:
+                 cert: Certificate, codec: str | None = None) -> MarkedQuantity:
     """The two points of a BAJ A or B in one frame's ideal image, found from the joint's ends.
 
-    codec_u_px : the u a video codec's blocks give an edge [px] (``codecs.codec_edge_u`` with ``edge="gap"`` for A,
-    ``"step"`` for B), part of both quantities' shared edge: the codec moves the far end's rim where it stands into
-    the pipe, and it moves the gap's edges (seed 354's frames against the same frames rendered without a codec,
-    ``codecs.CODEC_GAP_U_PX`` and ``CODEC_STEP_U_PX``; H.264 narrows DN 800-1000's gaps by 0.7 px, beyond its
-    term: docs/measurement.md); the scatter of single edges does not say so, since the frames of one approach pass
-    through the same codec alike. Each quantity takes it once.
+    codec : the video's FourCC (None: a frame not through a codec). What the codec does to the ends is part of
+    both quantities' shared edge (``codecs.codec_edge_u`` with ``edge="gap"`` for A, ``"step"`` for B, by the
+    gap's width or the step's size in this frame; a codec without a figure the largest known): it moves the far
+    end's rim where it stands into the pipe, and it moves the gap's edges, the same way in every frame of one
+    approach (seed 354's frames against the same frames rendered without a codec: docs/measurement.md).
+    The gap's other shared part is its edges' definition (``gap_definition_u``), the step's the single edges'
+    scatter carried to it (``edge_u``).
     """
     e = sighting.ends
     step = e.step
@@ -123,9 +130,11 @@ def joint_points(obs: Observation, sighting: JointSighting, view: PipeView,
         b = view.project(np.array([[*(wall + e.far_centre), e.far_depth]]))[0]
         u_a = math.hypot(e.u_near * _px_per_depth(view, wall, e.near_depth), u_near_img)
         u_b = math.hypot(e.u_far * _px_per_depth(view, wall, e.far_depth), u_far_img)
-        # the edges' placement shared by the frames, the blur's correction (its model shared too) and the codec's
-        u_edge = math.sqrt(edge_u(e, "A", _px_per_depth(view, wall, 0.5 * (e.near_depth + e.far_depth))) ** 2
-                           + e.blur_u_px ** 2 + codec_u_px ** 2)
+        # shared by the frames: the edges' definition and the codec's shift, both by the gap's width in this frame,
+        # and the u of the blur's correction (its model shared too)
+        width = float(np.hypot(*(b - a)))
+        u_edge = math.sqrt(gap_definition_u(width, e.blur_px) ** 2 + e.blur_u_px ** 2
+                           + codec_edge_u(codec, without_figure=None, edge="gap", size_px=width) ** 2)
         return MarkedQuantity("BAJ", "A", "Q1", "axial", (float(a[0]), float(a[1])), (float(b[0]), float(b[1])),
                               u_a, u_b, origin=ORIGIN, u_edge=u_edge)
     face = direction + math.pi                         # the far end stands into the pipe opposite its shift
@@ -138,8 +147,35 @@ def joint_points(obs: Observation, sighting: JointSighting, view: PipeView,
         else 0.0
     u_a = math.hypot(e.u_near * _px_per_depth(view, wall, t), u_near_img)
     u_b = math.hypot(u_step * px_per_h, u_far_img)
+    codec_u = codec_edge_u(codec, without_figure=None, edge="step", size_px=float(np.hypot(*(b - a))))
     return MarkedQuantity("BAJ", "B", "Q1", "step", (float(a[0]), float(a[1])), (float(b[0]), float(b[1])),
-                          u_a, u_b, origin=ORIGIN, u_edge=math.hypot(edge_u(e, "B", px_per_h), codec_u_px))
+                          u_a, u_b, origin=ORIGIN, u_edge=math.hypot(edge_u(e, "B", px_per_h), codec_u))
+
+
+def gap_definition_u(width_px: float, blur_px: float = math.nan) -> float:
+    """The standard uncertainty [px] of a gap's width in the image from where its edges are defined: the half
+    levels, the blur taken back (``blurred_gap``), against the pipe ends' true edges; the part the frames of one
+    approach share (the same blur model, response and ends).
+
+    Read on frames rendered without a codec (seed 354: ``benchmarks/automatic_joints.py --rendered 150``, the
+    rendered frames' shared part by the gap's width; docs/measurement.md, "A joint's edge terms by the size of what
+    they measure"): about 0.3 px for a gap under 16 px wide, 0.1-0.2 px to 40 px, nothing measurable beyond.
+    Modelled as
+
+        u = sigma * hypot(GAP_DEFINITION_FLOOR, GAP_DEFINITION_NARROW * sigma / w)
+
+    with sigma the frame's blur [px] (``JointEnds.blur_px``; ``REFERENCE_BLUR_PX``, the median of those frames',
+    where the frame does not tell it) and w the gap's width [px]: a narrow gap's edges share their blur, which is
+    what w / sigma measures. Until 2026-12-07 this part was the single edges' scatter about their rings
+    (``edge_u``), which the rings' own u already holds, and which is no larger for a narrow gap than for a wide one.
+
+    >>> round(gap_definition_u(12.0, 1.55), 2), round(gap_definition_u(30.0, 1.55), 2)
+    (0.25, 0.12)
+    """
+    sigma = blur_px if math.isfinite(blur_px) and blur_px > 0 else REFERENCE_BLUR_PX
+    if not width_px > 0:
+        return sigma * GAP_DEFINITION_NARROW      # a gap of no width read: the blur's own scale
+    return sigma * math.hypot(GAP_DEFINITION_FLOOR, GAP_DEFINITION_NARROW * sigma / width_px)
 
 
 def edge_u(ends: JointEnds, char1: str = "A", px_per_h: float | None = None) -> float:
@@ -207,10 +243,9 @@ def measure_joint(obs: Observation, sightings: Sequence[JointSighting], contour:
             sightings = resolved
         else:
             unresolved.append(GAP_UNRESOLVED)
-    # a codec the joints were not benchmarked in (MJPG, HEVC, a FourCC the reader could not tell): the largest
-    # figure known, not none
-    codec_u = codec_edge_u(codec, without_figure=LARGEST_CODEC_EDGE_U_PX, edge="gap" if obs.char1 == "A" else "step")
-    points = [joint_points(obs, s, contour.view, cert, codec_u) for s in sightings]
+    # (a codec the joints were not benchmarked in, MJPG, HEVC, a FourCC the reader could not tell: the largest
+    # figure known, not none)
+    points = [joint_points(obs, s, contour.view, cert, codec) for s in sightings]
     frames = [s.frame for s in sightings]
     views = [(q, contour) for q in points]
     common = dict(H=H, tolerance=tolerance, model=model, seed=seed, edges=edges, frames=frames)

@@ -287,6 +287,31 @@ def table(rows: list[dict]) -> list[str]:
     return out
 
 
+def shapes(runs: dict[str, list[dict]]) -> list[str]:
+    """Per quantity and pipe shape at DN >= 200 (both codecs), each run's and all runs' pooled: measured, coverage
+    with its Wilson interval, median and robust SD of z. ``connections.VALIDATED_SHAPES`` keeps a shape whose
+    pooled interval lies wholly under 95 % "found, not measured" in the night."""
+    out = ["| quantity | shape | run | measured | coverage | Wilson 95 % | median z | robust SD z |",
+           "|---|---|---|---|---|---|---|---|"]
+    for q in ("A", "B"):
+        for shape in ("circular", "egg"):
+            pooled: list[dict] = []
+            for name, rows in (*runs.items(), ("pooled", None)):
+                g = pooled if rows is None else [r for r in rows if r["displaced"] and r["quantity"] == q
+                                                 and r["shape"] == shape and r["H"] >= 200]
+                if rows is not None:
+                    pooled += g
+                ok = [r for r in g if r["status"] == "measured"]
+                if not ok:
+                    continue
+                inside = sum(r["low"] <= r["truth"] <= r["high"] for r in ok)
+                lo, hi = wilson(inside, len(ok))
+                z = np.array([(r["value"] - r["truth"]) / r["u"] for r in ok if r["u"] > 0])
+                out.append(f"| BAJ {q} | {shape} | {name} | {len(ok)} of {len(g)} | {100 * inside / len(ok):.1f} % "
+                           f"({inside}) | {100 * lo:.1f}-{100 * hi:.1f} % | {np.median(z):+.2f} | {robust_sd(z):.2f} |")
+    return out
+
+
 def split(rows: list[dict]) -> list[str]:
     """What the frames of a case share and what each adds, from the measured cases seen in two frames or more:
     the frames' scatter about their mean against their own u (chi-square per degree of freedom: 1 when the own
@@ -385,6 +410,8 @@ def main() -> None:
                     help="only pair the first N cases' sighted frames with the same frames rendered without a codec")
     ap.add_argument("--split", type=Path, help="only print what the frames share and what each adds, from rows kept "
                     "by --json")
+    ap.add_argument("--shapes", type=Path, nargs="+", metavar="ROWS",
+                    help="only print each pipe shape's results at DN >= 200, per file of rows kept by --json and pooled")
     add_camera_argument(ap)
     add_appearance_argument(ap)
     args = ap.parse_args()
@@ -393,6 +420,9 @@ def main() -> None:
         return
     if args.split:
         print("\n".join(split(json.loads(args.split.read_text()))))
+        return
+    if args.shapes:
+        print("\n".join(shapes({f.stem: json.loads(f.read_text()) for f in args.shapes})))
         return
     cert = load_certificate(args.camera)
     if args.widths:

@@ -384,12 +384,12 @@ def test_validation_doubt_names_the_codecs_a_code_was_validated_in():
     assert "miss their stated U95 more often" in validation_doubt("BAG", "avc1")
     for codec in ("unknown", "MJPG", "mpg2"):                 # BAG was never benchmarked in MPEG-2
         assert "was never benchmarked" in validation_doubt("BAG", codec) and "more often" not in validation_doubt("BAG", codec)
-    # an intruding lateral or an opening in an egg-shaped pipe missed too often, whatever the codec; circular ones
-    # are validated, and the joints in both shapes
-    assert "not validated in egg pipes" in validation_doubt("BAG", "mp4v", "egg")
-    assert "not validated in egg pipes" in validation_doubt("BCA", "mp4v", "egg")
-    assert validation_doubt("BAG", "mp4v", "circular") is None and validation_doubt("BCA", "mp4v", "circular") is None
-    assert validation_doubt("BAJ", "mp4v", "egg") is None
+    # an intruding lateral, an opening or a displaced joint in an egg-shaped pipe missed too often, whatever the
+    # codec (the joints: 90 % and 89 % over four seeds, docs/measurement.md); circular ones are validated
+    for code in ("BAG", "BCA", "BAJ"):
+        assert "not validated in egg pipes" in validation_doubt(code, "mp4v", "egg")
+        assert validation_doubt(code, "mp4v", "circular") is None
+    assert validation_doubt("BAJ", "MJPG", "circular") is None      # a joint takes the largest codec term instead
     # a deposit's surface is validated in no codec yet (4 of 150 measured through MPEG-4 Part 2, all missing): always
     for code, codec in (("BBC", "mp4v"), ("BBB", "XVID"), ("BBC", None)):
         assert "not validated yet" in validation_doubt(code, codec)

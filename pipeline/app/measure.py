@@ -52,7 +52,7 @@ from pipeline.app.locate import locate
 from pipeline.domain.results import (InspectionRecord, MeasurementRecord, ObservationRecord, ThumbnailRecord,
                                      observation_record)
 
-__all__ = ["InspectionResult", "measure_package", "measurement_base", "quantity_fields", "quantity_seed",
+__all__ = ["InspectionResult", "measure_package", "measurement_base", "quantity_fields", "quantity_seed", "doubted",
            "quantity_edges"]
 
 # quantities whose Monte Carlo runs at once: two where this process may use two cores
@@ -296,6 +296,8 @@ def measure_package(folder: str | os.PathLike, *, certificates: str | os.PathLik
                                     seed=quantity_seed(manifest.package_id, r, "Q1 contour"), edges=edges(obs, "Q1"),
                                     codec=info.codec)
             t_measure += time.perf_counter() - t0
+            # a pipe shape in which the joints' U95 was shown to miss too often: found, never a measurement
+            res = doubted(res, validation_doubt(obs.code, info.codec, header.shape))
             nearest = sightings[0].frame
             chainage, u_chainage = _chainage_at(ingest.track, nearest)
             row.update(quantity_fields(res), u_mark_px=qs[0].u_a, frame=nearest, chainage_m=chainage,
@@ -519,8 +521,7 @@ def _measure_feature(obs: Observation, views: list[tuple[int, float]], track, mo
         row.update(status="error", error=str(exc))
         return row
     if doubt is not None:
-        kept = (r for r in auto.result.reasons if r != LINEAR_PREVIEW)     # no Monte Carlo will replace it
-        auto = replace(auto, result=replace(auto.result, confident=False, reasons=(*kept, doubt)))
+        auto = replace(auto, result=doubted(auto.result, doubt))
     frame = views[auto.view][0]
     chainage, u_chainage = _chainage_at(track, frame)
     q, res = auto.quantity, auto.result
@@ -536,6 +537,16 @@ def _measure_feature(obs: Observation, views: list[tuple[int, float]], track, mo
     thumbnails.append(thumbnail(frame, q, obs.row, "contour") if thumbnail is not None
                       else _thumbnail(ideal(frame), contours[frame], q, obs.row, frame, "contour"))
     return row
+
+
+def doubted(res: QuantityResult, doubt: str | None) -> QuantityResult:
+    """The result with a validation doubt (``connections.validation_doubt``) among its reasons and not confident,
+    so it is stored "found, not measured" (no grade, no log check); as it was without one. A linear preview's
+    reason is dropped: no Monte Carlo will replace it."""
+    if doubt is None:
+        return res
+    kept = (r for r in res.reasons if r != LINEAR_PREVIEW)
+    return replace(res, confident=False, reasons=(*kept, doubt))
 
 
 def _untrusted_fields(res: QuantityResult) -> dict:

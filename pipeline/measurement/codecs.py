@@ -57,7 +57,7 @@ CODEC_RIM_U_PX: dict[str, float] = CODEC_EDGE_U_PX | {fourcc: 0.1 for fourcc in 
 # H.264 narrows a gap under 16 px by about 0.9 px, one of 16-25 px by 0.45 px, and leaves a wider one nearly alone:
 # its blocks smooth a dark line a macroblock or so across. MPEG-4 Part 2: 0.25, 0.1 and 0.05 px.
 # The step's figure is its shift per frame (68th percentile of its size): its shared codec part (0-0.2 px) and its
-# shared definition in rendered frames (0.06-0.25 px) are alike in size, and the single edges' scatter the step
+# shared definition in rendered frames (0.06-0.24 px) are alike in size, and the single edges' scatter the step
 # takes besides (``joints.edge_u``) is a tenth of the gap's. A step of a few px stands hardly into the pipe: 0.05
 # px (MPEG-4 Part 2) and 0.1 px (H.264) under 4 px, 0.15 and 0.25 px from 8 px.
 # Until 2026-12-07 one figure per codec (the gap 0.15 and 0.35 px, the step 0.15 and 0.25 px), and the gap took the

@@ -22,8 +22,10 @@ codec (the same pose fit, the same depth): the step's error along its direction 
 per frame, and their medians in px: what the codec alone does to the joint's ends; and the codec's shift of the
 gap and of the step by codec and DN (``codec_shifts``), and by the size of what is measured in the image, split
 into what a case's frames share and what each adds (``shared_and_own``: ``codecs``' joint figures and
-``joints.gap_definition_u``). ``--widths FILE`` prints each trusted frame's gap error by
-the gap's width in the image from a ``--json`` file, with the blur each frame's edges gave.
+``joints.gap_definition_u``); and the gap's error in both by pipe shape and the step's size (``gap_by_step``).
+``--shapes ROWS...`` prints each pipe shape's results at DN >= 200 from ``--json`` rows, per run and pooled.
+``--widths FILE`` prints each trusted frame's gap error by the gap's width in the image from a ``--json`` file, with
+the blur each frame's edges gave.
 """
 
 from __future__ import annotations

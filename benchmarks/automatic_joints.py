@@ -164,7 +164,7 @@ def measure_case(video: Path, truth: dict, cert, cache: Path | None = None, kept
                        U95=res.U95, low=res.low, high=res.high, reasons="; ".join(res.reasons),
                        frame_values=own_values.tolist(), frame_own_u=own_u.tolist(),
                        # each measured frame's points: their separation in the image and the u they share [px]
-                       frame_size_px=[float(np.hypot(q.b[0] - q.a[0], q.b[1] - q.a[1])) for q in points],
+                       frame_size_px=[q.separation_px for q in points],
                        frame_u_edge_px=[q.u_edge for q in points],
                        # each input's contribution |c_i| u(x_i) [mm], summed in quadrature over a label's frames
                        budget=_budget(res))
@@ -200,8 +200,7 @@ def rendered_pairs(case: JointCase, video: Path, truth: dict, cert, cache: Path 
         px = float(contour.view.p_H(s.depth)[0]) / H           # px per mm across the pipe at the joint
         step = [(float(np.dot(e.step, along)) * H - case.step_mm) * px for e in (s.ends, ends)]
         gap = [(e.far_depth - e.near_depth) * H - case.gap_mm for e in (s.ends, ends)]
-        size = {q: float(np.hypot(*np.subtract(p.b, p.a))) for q in ("A", "B")
-                for p in [joint_points(_obs(q), s, contour.view, cert)]}
+        size = {q: joint_points(_obs(q), s, contour.view, cert).separation_px for q in ("A", "B")}
         gap_mm = (s.ends.far_depth - s.ends.near_depth) * H
         per_mm = size["A"] / gap_mm if gap_mm > 0 else math.nan     # px of the gap's separation per mm of gap
         out.append({"case": case.case_id, "shape": case.shape, "step_h": case.step_mm / H, "H": H,
@@ -284,9 +283,7 @@ def table(rows: list[dict]) -> list[str]:
                     continue
                 found = [r for r in g if r["status"] != "not found"]
                 ok = [r for r in g if r["status"] == "measured"]
-                inside = sum(r["low"] <= r["truth"] <= r["high"] for r in ok)
-                lo, hi = wilson(inside, len(ok))
-                z = np.array([(r["value"] - r["truth"]) / r["u"] for r in ok if r["u"] > 0])
+                inside, (lo, hi), z = _coverage(ok)
                 U = [r["U95"] for r in ok]
                 U300 = [r["U95"] for r in ok if r["H"] == 300]
                 # (rows kept before 2026-12-06 have no u_own: the column is left empty)
@@ -309,6 +306,12 @@ def table(rows: list[dict]) -> list[str]:
     return out
 
 
+def _coverage(ok: list[dict]) -> tuple[int, tuple[float, float], np.ndarray]:
+    """Of trusted rows: how many hold the truth within their interval, its Wilson 95 % interval, and each z."""
+    inside = sum(r["low"] <= r["truth"] <= r["high"] for r in ok)
+    return inside, wilson(inside, len(ok)), np.array([(r["value"] - r["truth"]) / r["u"] for r in ok if r["u"] > 0])
+
+
 def shapes(runs: dict[str, list[dict]]) -> list[str]:
     """Per quantity and pipe shape at DN >= 200 (both codecs), each run's and all runs' pooled: measured, coverage
     with its Wilson interval, median and robust SD of z. ``connections.VALIDATED_SHAPES`` keeps a shape whose
@@ -317,18 +320,14 @@ def shapes(runs: dict[str, list[dict]]) -> list[str]:
            "|---|---|---|---|---|---|---|---|"]
     for q in ("A", "B"):
         for shape in ("circular", "egg"):
-            pooled: list[dict] = []
-            for name, rows in (*runs.items(), ("pooled", None)):
-                g = pooled if rows is None else [r for r in rows if r["displaced"] and r["quantity"] == q
-                                                 and r["shape"] == shape and r["H"] >= 200]
-                if rows is not None:
-                    pooled += g
+            groups = {name: [r for r in rows if r["displaced"] and r["quantity"] == q and r["shape"] == shape
+                             and r["H"] >= 200] for name, rows in runs.items()}
+            groups["pooled"] = [r for g in list(groups.values()) for r in g]
+            for name, g in groups.items():
                 ok = [r for r in g if r["status"] == "measured"]
                 if not ok:
                     continue
-                inside = sum(r["low"] <= r["truth"] <= r["high"] for r in ok)
-                lo, hi = wilson(inside, len(ok))
-                z = np.array([(r["value"] - r["truth"]) / r["u"] for r in ok if r["u"] > 0])
+                inside, (lo, hi), z = _coverage(ok)
                 out.append(f"| BAJ {q} | {shape} | {name} | {len(ok)} of {len(g)} | {100 * inside / len(ok):.1f} % "
                            f"({inside}) | {100 * lo:.1f}-{100 * hi:.1f} % | {np.median(z):+.2f} | {robust_sd(z):.2f} |")
     return out

@@ -285,8 +285,7 @@ def test_a_point_s_u_is_its_ring_s_and_the_gap_s_shared_edge_its_definition_by_w
     s = sightings[0]
     assert 0.0 < s.ends.scatter_near_px < 1.0 and 0.0 < s.ends.scatter_far_px < 1.0
     q = joint_points(_obs("A"), s, contour.view, cert)
-    width = math.hypot(q.b[0] - q.a[0], q.b[1] - q.a[1])
-    assert q.u_edge == pytest.approx(math.hypot(gap_definition_u(width, s.ends.blur_px), s.ends.blur_u_px))
+    assert q.u_edge == pytest.approx(math.hypot(gap_definition_u(q.separation_px, s.ends.blur_px), s.ends.blur_u_px))
     rough = dataclasses.replace(s, ends=dataclasses.replace(s.ends, scatter_far_px=3 * s.ends.scatter_far_px + 1.0))
     q_rough = joint_points(_obs("A"), rough, contour.view, cert)
     assert q_rough.u_a == pytest.approx(q.u_a) and q_rough.u_b == pytest.approx(q.u_b)
@@ -310,7 +309,7 @@ def test_a_joint_s_codec_term_is_taken_by_the_size_of_what_it_measures(joint, ce
     b = joint_points(_obs("B"), s, contour.view, cert)
     assert 0.0 < b.u_edge < 0.5 * a.u_edge
     for char1, clean, edge in (("A", a, "gap"), ("B", b, "step")):
-        size = math.hypot(clean.b[0] - clean.a[0], clean.b[1] - clean.a[1])
+        size = clean.separation_px
         for fourcc in ("mp4v", "avc1"):
             coded = joint_points(_obs(char1), s, contour.view, cert, fourcc)
             assert coded.u_edge == pytest.approx(math.hypot(clean.u_edge, codec_edge_u(fourcc, edge=edge, size_px=size)))

@@ -11,7 +11,7 @@ from __future__ import annotations
 import math
 
 __all__ = ["MPEG4_PART2", "H264", "MPEG2", "CODEC_EDGE_U_PX", "CODEC_RIM_U_PX", "CODEC_GAP_U_PX", "CODEC_STEP_U_PX",
-           "CODEC_U_PX", "Bands", "CODEC_FAMILIES", "LARGEST_CODEC_EDGE_U_PX", "codec_edge_u"]
+           "CODEC_U_PX", "Bands", "CODEC_FAMILIES", "codec_edge_u"]
 
 MPEG4_PART2 = frozenset({"mp4v", "fmp4", "xvid", "divx", "dx50"})
 # The u [px] MPEG-4 Part 2's 8x8 blocks give an edge coordinate of an intruding lateral's base and tip (and of an
@@ -80,7 +80,6 @@ def _flat(table: dict[str, float]) -> dict[str, Bands]:
 CODEC_U_PX: dict[str, dict[str, Bands]] = {"edge": _flat(CODEC_EDGE_U_PX), "rim": _flat(CODEC_RIM_U_PX),
                                            "gap": CODEC_GAP_U_PX, "step": CODEC_STEP_U_PX}
 CODEC_FAMILIES = {"MPEG-4 Part 2": MPEG4_PART2, "H.264": H264, "MPEG-2": MPEG2}     # their names, for the reasons
-LARGEST_CODEC_EDGE_U_PX = max(u for table in CODEC_U_PX.values() for bands in table.values() for _, u in bands)
 
 
 def _in_band(bands: Bands, size_px: float) -> float:

@@ -158,6 +158,11 @@ class MarkedQuantity:
     # 0: none (an operator's marks, whose errors are each frame's own)
     u_edge: float = 0.0
 
+    @property
+    def separation_px(self) -> float:
+        """How far apart a and b lie in the ideal image [px] (what a joint's edge terms are read by)."""
+        return float(math.hypot(self.b[0] - self.a[0], self.b[1] - self.a[1]))
+
 
 # One input's line in a quantity's budget is the stored record itself: one definition (pipeline.domain.results).
 BudgetEntry = BudgetLine

@@ -493,3 +493,31 @@ def test_a_joint_in_a_pipe_shape_it_was_not_validated_in_is_found_not_measured(j
     assert not egg.confident and egg.value == res.value and egg.U95 == res.U95
     why = found_not_measured(egg)
     assert why is not None and "BAJ from the image alone is not validated in egg pipes" in why
+
+
+def test_the_gap_s_two_ends_are_read_over_the_same_arc_so_a_tilted_pose_moves_them_alike(cert):
+    """An egg whose far pipe is displaced to 9 o'clock: its end hides behind the near one's on that side, and the
+    top and invert lie out of the frame, so the far end's ring is seen on the right only. A pose whose yaw is
+    1 degree off tilts both rings alike; a near depth read all around against a far one read on the right differs
+    by that tilt (about 1 mm here), while the near depth read over the far end's own arc moves with it."""
+    from pipeline.vision.contour import joint_ends
+    from pipeline.vision.contour.view import PipeView
+
+    h, gap, off, yaw, pitch = 600.0, 13.0, (12.8, -8.3), math.radians(-1.83), math.radians(-1.45)
+    scene = Scene(Pipe("egg", h, "concrete", 2000.0), features=(DisplacedJoint("j", 1, gap, 9.0, clock=9),))
+    und = Undistorter(cert, cert.image_width_px, cert.image_height_px)
+    frame = Renderer(scene, cert, offset_mm=off, yaw=yaw, pitch=pitch, seed=3).render(2000.0 - 450.0)
+    gray = cv2.cvtColor(und.frame(frame), cv2.COLOR_BGR2GRAY)
+    K = und.K
+    moved, all_around = [], []
+    for tilt in (0.0, 1.0, -1.0):
+        view = PipeView("egg", K[0, 0], K[1, 1], K[0, 2], K[1, 2], ox=off[0] / h, oy=off[1] / h,
+                        yaw=yaw + math.radians(tilt), pitch=pitch)
+        e = joint_ends.find_joint_ends(gray, view, 450.0 / h)
+        assert e is not None and e.confident, e and e.problems
+        (t_all, *_), _ = joint_ends._fit_ring(view, e.near_px, e.near_depth, joint_ends._radius_of("egg"))
+        moved.append((e.far_depth - e.near_depth) * h)
+        all_around.append((e.far_depth - t_all) * h)
+    assert abs(moved[0] - gap) < 1.5                     # (the edges' own placement, the same in every pose)
+    assert max(abs(m - moved[0]) for m in moved[1:]) < 0.35
+    assert max(abs(a - all_around[0]) for a in all_around[1:]) > 0.7

@@ -15,7 +15,7 @@ from pipeline.camera.undistort import Undistorter
 from pipeline.core.errors import MeasurementError, ModelError
 from pipeline.domain.records import Observation
 from pipeline.formats.certificate import load_certificate
-from pipeline.measurement.quantity import found_not_measured
+from pipeline.measurement.quantity import LINEAR_PREVIEW, found_not_measured
 from pipeline.measurement.joints import (ANGULAR_NOT_MEASURED, REFERENCE_BLUR_PX, frames_disagree, gap_definition_u,
                                         joint_points, measure_joint, plain_reasons)
 from pipeline.synth.joint_cases import JointCase, approach_chainages, case_scene
@@ -493,6 +493,14 @@ def test_a_joint_in_a_pipe_shape_it_was_not_validated_in_is_found_not_measured(j
     assert not egg.confident and egg.value == res.value and egg.U95 == res.U95
     why = found_not_measured(egg)
     assert why is not None and "BAJ from the image alone is not validated in egg pipes" in why
+    # the night knows the doubt before it measures, so it spends no Monte Carlo on such a joint: the law of
+    # propagation's value and U95 are kept beside the reason, the preview's own note dropped
+    _, linear = measure_joint(_obs("A"), sightings, contour, cert, H=H, tolerance=0.0, seed=3, codec="mp4v",
+                              monte_carlo=False)
+    assert LINEAR_PREVIEW in linear.reasons and linear.value == pytest.approx(res.value, abs=0.05)
+    assert linear.U95 == pytest.approx(res.U95, rel=0.15)
+    held = doubted(linear, validation_doubt("BAJ", "mp4v", "egg"))
+    assert not held.confident and LINEAR_PREVIEW not in held.reasons and found_not_measured(held) is not None
 
 
 def test_the_gap_s_two_ends_are_read_over_the_same_arc_so_a_tilted_pose_moves_them_alike(cert):

@@ -217,11 +217,14 @@ def _on_nominal(shape: str, near: float, shift: np.ndarray) -> float:
 
 def measure_joint(obs: Observation, sightings: Sequence[JointSighting], contour: PipeContour, cert: Certificate, *,
                   H: float, tolerance: float, model: str = "perspective", seed: int = 1,
-                  edges: tuple[float, ...] = (), codec: str | None = None) -> tuple[list[MarkedQuantity], QuantityResult]:
+                  edges: tuple[float, ...] = (), codec: str | None = None,
+                  monte_carlo: bool = True) -> tuple[list[MarkedQuantity], QuantityResult]:
     """Measure a BAJ A or B from the joint's ends seen in one or more frames (nearest first), with U95 and budget.
 
     contour : the pose fit the frames share (their approach's); H, tolerance : the header's [mm]; codec : the
-    video's FourCC (``codecs.codec_edge_u``; None: frames not through a codec; one without a figure: the largest).
+    video's FourCC (``codecs.codec_edge_u``; None: frames not through a codec; one without a figure: the largest);
+    monte_carlo : False: the law of propagation only (a joint the caller already knows it will not trust, a pipe
+    shape its U95 was not validated in: its Monte Carlo would be spent for nothing).
     The result is not confident, with the reasons, when the contour is not trusted, when the joint was found in
     one frame only, when a frame's ends say so (glare, part of the ring hidden...) or its edges scatter about their
     rings beyond ``MAX_EDGE_SCATTER_PX``, or, for the gap, when no frame resolves it against its blur
@@ -251,7 +254,7 @@ def measure_joint(obs: Observation, sightings: Sequence[JointSighting], contour:
     common = dict(H=H, tolerance=tolerance, model=model, seed=seed, edges=edges, frames=frames)
     try:
         try:
-            res = measure_over_frames(views, cert, **common)
+            res = measure_over_frames(views, cert, **common, monte_carlo=monte_carlo)
         except ModelError as exc:
             # a pose so uncertain that its Monte Carlo draws leave the model's domain (the camera outside the pipe):
             # the joint was found, so its value stands with the law of propagation's u, but gives no interval

@@ -22,9 +22,10 @@ depth t [H] along that line is known. So:
    (a pose a little off moves both rings alike; the step, their difference, does not move). The gap's near depth
    is then read over the same arc as the far end's (``_far_ring_seen``): a pose whose angles are a little off
    tilts both rings alike, and a depth read on one side against one read all around differs by that tilt times
-   the pipe's radius (seed 357's egg frames rendered without a codec: the gap's median error +0.64e-3 H, 68th
-   percentile of its size 1.22e-3 H, all around; +0.44e-3 H and 0.91e-3 H over the same arc; circular frames
-   unchanged, 0.38 and 0.37e-3 H; docs/measurement.md, "The gap's two ends over the same arc").
+   the pipe's radius (``benchmarks/joint_tilt.py``: a yaw 1 degree off moved one egg frame's gap by +0.9 and
+   -1.1 mm, now by +0.2 and -0.1 mm; seed 354's egg frames with small steps rendered without a codec, the gap's
+   median error +0.61e-3 H and 68th percentile of its size 0.99e-3 H before, +0.48e-3 H and 0.73e-3 H now;
+   circular frames about as before; docs/measurement.md, "The gap's two ends over the same arc").
 
 Standard uncertainties of the rings' depths and centres come from a delete-one-sector jackknife (neighbouring
 edge points share the texture and the blur, so sectors, not points, are the independent observations). The
@@ -591,8 +592,8 @@ def find_joint_ends(gray: np.ndarray, view: PipeView, depth: float, *, mask: np.
     sens = _edge_sensitivity(view, near_px, deeper, walls, far_u, du_px, (tn, *cn), (tf, *cf, tp), radius)
     # the gap's near depth over the arc where the far end's own ring shows (a far end hidden on part of the
     # circumference, or out of view there): both depths then carry a tilt of the pose alike. The near ring's
-    # centre stays the one fitted all around: the step's centres read on different arcs erred no more (seed 357's
-    # egg frames: the step's 68th percentile 0.62e-3 H either way, 0.70 with both centres over the arc)
+    # centre stays the one fitted all around: in a trial on one seed's egg frames, both centres over the arc made
+    # the step's error larger, not smaller
     seen = _far_ring_seen(view, walls, far_u, (tn, *cn), (tf, *cf, tp), radius)
     sector = np.floor((ang + np.pi) / (2 * np.pi) * SECTORS).astype(int) % SECTORS
     matched = not seen.all() and seen.sum() >= MIN_EDGES * len(angles) / 2 \

@@ -1,0 +1,117 @@
+"""A joint's ends found with the camera's pose known: how a tilt of the pose moves the gap when the far end shows on
+part of its ring only, and where the edges lie at the right pose.
+
+One frame rendered with the pose known (an egg DN600, gap 13 mm, step 9 mm to 9 o'clock, the camera 0.45 m
+before the joint, its crown and invert out of the frame; the frame of
+``tests/test_joints.py::test_the_gap_s_two_ends_are_read_over_the_same_arc_so_a_tilted_pose_moves_them_alike``),
+its ends found with the pose's yaw and pitch moved by up to a degree. For each pose: the gap as the joint finder
+reads it (the near end over the far end's arc, ``joint_ends._far_ring_seen``) and with the near end's ring fitted
+all around, as before 2026-12-07 (docs/measurement.md, "The gap's two ends over the same arc").
+
+    .venv/bin/python benchmarks/joint_tilt.py        # about 10 s
+
+``--placement``: instead, frames of joints (circular and egg, with and without a step) rendered with the pose
+known and found with it: each end's depth error, the gap's and the step's, and the blur the frame's edges tell.
+``--plateau N,...`` with it: the same frames with the edges' plateau read within N samples (a quarter pixel each)
+of each edge (``joint_ends.LOCAL``, 40 in the night).
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from pipeline.camera.undistort import Undistorter
+from pipeline.formats.certificate import load_certificate
+from pipeline.synth.render import Renderer
+from pipeline.synth.scene import DisplacedJoint, Pipe, Scene
+from pipeline.vision.contour import joint_ends
+from pipeline.vision.contour.view import PipeView
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from cameras import DEFAULT_CAMERA  # noqa: E402
+
+H, GAP, STEP, CLOCK, DISTANCE_MM = 600.0, 13.0, 9.0, 9, 450.0
+OFFSET_MM, YAW_DEG, PITCH_DEG = (12.8, -8.3), -1.83, -1.45
+TILTS_DEG = ((0.0, 0.0), (1.0, 0.0), (-1.0, 0.0), (0.0, 1.0), (0.0, -1.0), (0.5, 0.5), (-0.5, -0.5))
+
+
+# (shape, DN [mm], gap [mm], step [mm], its clock, the camera before the joint [m])
+PLACEMENT = (("egg", 500, 15, 12, 12, 0.60), ("egg", 500, 15, 0, 12, 0.60), ("circular", 500, 15, 12, 12, 0.60),
+             ("circular", 500, 15, 0, 12, 0.60), ("egg", 600, 13, 9, 9, 0.45), ("circular", 300, 10, 20, 3, 0.30),
+             ("circular", 300, 10, 0, 3, 0.30), ("circular", 300, 25, 15, 6, 0.40), ("egg", 400, 20, 15, 3, 0.50),
+             ("circular", 800, 20, 30, 12, 1.00))
+
+
+def placement(cert, plateaus: list[int]) -> None:
+    """The ``PLACEMENT`` joints' ends found with the pose known (the camera on the axis, level), per plateau."""
+    und = Undistorter(cert, cert.image_width_px, cert.image_height_px)
+    K = und.K
+    frames = []
+    for shape, h, gap, step, clock, dist in PLACEMENT:
+        scene = Scene(Pipe(shape, float(h), "concrete", 2000.0),
+                      features=(DisplacedJoint("j", 1, float(gap), float(step), clock=clock),))
+        frames.append(cv2.cvtColor(und.frame(Renderer(scene, cert, seed=3).render(2000.0 - 1000.0 * dist)),
+                                   cv2.COLOR_BGR2GRAY))
+    kept = joint_ends.LOCAL
+    print("| plateau [samples] | shape | DN | gap, step [mm] | camera before it [m] | near end's error [mm] "
+          "| far end's [mm] | gap's [mm] | step's [mm] | blur read [px] |")
+    print("|---|---|---|---|---|---|---|---|---|---|")
+    try:
+        for local in plateaus:
+            joint_ends.LOCAL = local
+            errors = []
+            for (shape, h, gap, step, clock, dist), gray in zip(PLACEMENT, frames):
+                view = PipeView(shape, K[0, 0], K[1, 1], K[0, 2], K[1, 2])
+                e = joint_ends.find_joint_ends(gray, view, 1000.0 * dist / h)
+                near, far = (1000.0 * dist - gap / 2) / h, (1000.0 * dist + gap / 2) / h
+                if e is None:
+                    print(f"| {local} | {shape} | {h} | {gap}, {step} | {dist:.2f} | not found | | | | |")
+                    continue
+                errors.append((e.far_depth - e.near_depth) * h - gap)
+                print(f"| {local} | {shape} | {h} | {gap}, {step} | {dist:.2f} | {(e.near_depth - near) * h:+.2f} "
+                      f"| {(e.far_depth - far) * h:+.2f} | {errors[-1]:+.2f} | {np.hypot(*e.step) * h - step:+.2f} "
+                      f"| {e.blur_px:.2f} |")
+            print(f"| {local} | all | | | | | | rms {math.sqrt(np.mean(np.square(errors))):.2f} | | |")
+    finally:
+        joint_ends.LOCAL = kept
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--placement", action="store_true", help="where the edges lie with the pose known, not the tilt")
+    ap.add_argument("--plateau", default=str(joint_ends.LOCAL),
+                    help="with --placement: the edges' plateau windows to try [samples, comma-separated]")
+    args = ap.parse_args()
+    cert = load_certificate(DEFAULT_CAMERA)
+    if args.placement:
+        placement(cert, [int(x) for x in args.plateau.split(",")])
+        return
+    scene = Scene(Pipe("egg", H, "concrete", 2000.0), features=(DisplacedJoint("j", 1, GAP, STEP, clock=CLOCK),))
+    und = Undistorter(cert, cert.image_width_px, cert.image_height_px)
+    frame = Renderer(scene, cert, offset_mm=OFFSET_MM, yaw=math.radians(YAW_DEG), pitch=math.radians(PITCH_DEG),
+                     seed=3).render(2000.0 - DISTANCE_MM)
+    gray = cv2.cvtColor(und.frame(frame), cv2.COLOR_BGR2GRAY)
+    K = und.K
+    print("| the pose's yaw, pitch off by [deg] | gap error, near end over the far end's arc [mm] "
+          "| near end all around [mm] |")
+    print("|---|---|---|")
+    for d_yaw, d_pitch in TILTS_DEG:
+        view = PipeView("egg", K[0, 0], K[1, 1], K[0, 2], K[1, 2], ox=OFFSET_MM[0] / H, oy=OFFSET_MM[1] / H,
+                        yaw=math.radians(YAW_DEG + d_yaw), pitch=math.radians(PITCH_DEG + d_pitch))
+        e = joint_ends.find_joint_ends(gray, view, DISTANCE_MM / H)
+        if e is None:
+            print(f"| {d_yaw:+.1f}, {d_pitch:+.1f} | not found | not found |")
+            continue
+        (t_all, *_), _ = joint_ends._fit_ring(view, e.near_px, e.near_depth, joint_ends._radius_of("egg"))
+        print(f"| {d_yaw:+.1f}, {d_pitch:+.1f} | {(e.far_depth - e.near_depth) * H - GAP:+.2f} "
+              f"| {(e.far_depth - t_all) * H - GAP:+.2f} |")
+
+
+if __name__ == "__main__":
+    main()

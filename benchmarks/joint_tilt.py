@@ -5,7 +5,7 @@ One frame rendered with the pose known (an egg DN600, gap 13 mm, step 9 mm to 9 
 before the joint, its crown and invert out of the frame; the frame of
 ``tests/test_joints.py::test_the_gap_s_two_ends_are_read_over_the_same_arc_so_a_tilted_pose_moves_them_alike``),
 its ends found with the pose's yaw and pitch moved by up to a degree. For each pose: the gap as the joint finder
-reads it (the near end over the far end's arc, ``joint_ends._far_ring_seen``) and with the near end's ring fitted
+reads it (the near end over the far end's arc, ``joint_ends._far_edges``) and with the near end's ring fitted
 all around, as before 2026-12-07 (docs/measurement.md, "The gap's two ends over the same arc").
 
     .venv/bin/python benchmarks/joint_tilt.py        # about 10 s

@@ -20,7 +20,7 @@ depth t [H] along that line is known. So:
    from (where the far pipe's end stands into the flow). Where the far pipe stands out of the wall its end hides
    behind the near one's, and the far edge seen is the near pipe's rim, taken about the near ring's own centre
    (a pose a little off moves both rings alike; the step, their difference, does not move). The gap's near depth
-   is then read over the same arc as the far end's (``_far_ring_seen``): a pose whose angles are a little off
+   is then read over the same arc as the far end's (``_far_edges``): a pose whose angles are a little off
    tilts both rings alike, and a depth read on one side against one read all around differs by that tilt times
    the pipe's radius (``benchmarks/joint_tilt.py``: a yaw 1 degree off moved one egg frame's gap by +0.9 and
    -1.1 mm, now by +0.2 and -0.1 mm; seed 354's egg frames with small steps rendered without a codec, the gap's
@@ -464,16 +464,26 @@ def _far_residual(view, walls, far_u, near, x, radius) -> np.ndarray:
     step); an edge is taken for whichever of the two it lies nearer. ``near`` is the near ring (t, cx, cy) [H].
     A weak prior puts the plane midway between the ends (where a spigot's end meets its socket; it settles the
     plane when no edge lies on it)."""
-    t_far, cx, cy, t_plane = x
-    t_near = near[0]
-    rim = _far_u(view, walls, t_plane, near[1:], radius)
-    seen = far_u - np.minimum(_far_u(view, walls, t_far, (cx, cy), radius), rim)
-    plane = far_u - rim
-    r = np.where(np.abs(seen) <= np.abs(plane), seen, plane)
+    t_far, _, _, t_plane = x
+    r, _ = _far_edges(view, walls, far_u, near, x, radius)
     # a generator the ring or the rim does not meet from these parameters (the fit wandering far off): an outlier
     # of fixed size, which the robust loss carries without a gradient, rather than a nan that stops the fit
     r = np.nan_to_num(r, nan=1.0, posinf=1.0, neginf=-1.0)
-    return np.append(r, 0.1 * (1.0 / t_plane - 2.0 / (t_near + t_far)))
+    return np.append(r, 0.1 * (1.0 / t_plane - 2.0 / (near[0] + t_far)))
+
+
+def _far_edges(view, walls, far_u, near, x, radius) -> tuple[np.ndarray, np.ndarray]:
+    """Each far edge's 1 / t [1/H] against the model (``_far_residual``'s, before its prior), and whether the edge
+    lies on the far pipe's own end: its ring shows there (nearer than the rim along the generator) and the edge is
+    taken for it. ``near`` (t, cx, cy) and ``x`` (t, cx, cy, plane) [H]."""
+    t_far, cx, cy, t_plane = x
+    ring = _far_u(view, walls, t_far, (cx, cy), radius)
+    rim = _far_u(view, walls, t_plane, near[1:], radius)
+    seen = far_u - np.minimum(ring, rim)
+    plane = far_u - rim
+    taken = np.abs(seen) <= np.abs(plane)
+    with np.errstate(invalid="ignore"):
+        return np.where(taken, seen, plane), taken & (ring <= rim)
 
 
 def _fit_far(view, walls, far_u, near, t0, radius, x0=None) -> tuple[np.ndarray, float]:
@@ -594,7 +604,7 @@ def find_joint_ends(gray: np.ndarray, view: PipeView, depth: float, *, mask: np.
     # circumference, or out of view there): both depths then carry a tilt of the pose alike. The near ring's
     # centre stays the one fitted all around: in a trial on one seed's egg frames, both centres over the arc made
     # the step's error larger, not smaller
-    seen = _far_ring_seen(view, walls, far_u, (tn, *cn), (tf, *cf, tp), radius)
+    _, seen = _far_edges(view, walls, far_u, (tn, *cn), (tf, *cf, tp), radius)
     sector = np.floor((ang + np.pi) / (2 * np.pi) * SECTORS).astype(int) % SECTORS
     matched = not seen.all() and seen.sum() >= MIN_EDGES * len(angles) / 2 \
         and len(np.unique(sector[seen])) >= MIN_MATCHED_SECTORS
@@ -649,16 +659,6 @@ def find_joint_ends(gray: np.ndarray, view: PipeView, depth: float, *, mask: np.
                      float(math.sqrt(cov[0, 0])), float(math.sqrt(cov[3, 3])), d_step @ cov @ d_step.T,
                      near_px, far_px, ang, coverage, share_glare, tuple(problems), float(scatter_near),
                      float(scatter_far), *sens, blur_px=blur, blur_u_px=u_blur, gap_resolved=resolved)
-
-
-def _far_ring_seen(view, walls, far_u, near, far, radius) -> np.ndarray:
-    """Which far edges lie on the far pipe's own end (its ring shows there and the edge lies nearer it than the near
-    pipe's rim, ``_far_residual``'s choice); ``near`` (t, cx, cy) and ``far`` (t, cx, cy, plane) [H]."""
-    t_far, cx, cy, t_plane = far
-    ring = _far_u(view, walls, t_far, (cx, cy), radius)
-    rim = _far_u(view, walls, t_plane, near[1:], radius)
-    with np.errstate(invalid="ignore"):
-        return (ring <= rim) & (np.abs(far_u - ring) <= np.abs(far_u - rim))
 
 
 EDGE_PROBE_PX = 0.5         # how far the edges are moved to read the fit's sensitivity to their placement [px]

@@ -82,15 +82,27 @@ def placement(cert, plateaus: list[int]) -> None:
         joint_ends.LOCAL = kept
 
 
+def _windows(text: str) -> list[int]:
+    """``--plateau``'s windows: whole numbers of samples, 4 to 400, comma-separated."""
+    try:
+        windows = [int(x) for x in text.split(",")]
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r}: give whole numbers of samples, comma-separated (e.g. 40,20,16)") \
+            from None
+    if not all(4 <= w <= 400 for w in windows):
+        raise argparse.ArgumentTypeError(f"{text!r}: each window is 4 to 400 samples (a quarter pixel each)")
+    return windows
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--placement", action="store_true", help="where the edges lie with the pose known, not the tilt")
-    ap.add_argument("--plateau", default=str(joint_ends.LOCAL),
+    ap.add_argument("--plateau", type=_windows, default=[joint_ends.LOCAL],
                     help="with --placement: the edges' plateau windows to try [samples, comma-separated]")
     args = ap.parse_args()
     cert = load_certificate(DEFAULT_CAMERA)
     if args.placement:
-        placement(cert, [int(x) for x in args.plateau.split(",")])
+        placement(cert, args.plateau)
         return
     scene = Scene(Pipe("egg", H, "concrete", 2000.0), features=(DisplacedJoint("j", 1, GAP, STEP, clock=CLOCK),))
     und = Undistorter(cert, cert.image_width_px, cert.image_height_px)

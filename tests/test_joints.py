@@ -529,3 +529,23 @@ def test_the_gap_s_two_ends_are_read_over_the_same_arc_so_a_tilted_pose_moves_th
     assert abs(moved[0] - gap) < 1.5                     # (the edges' own placement, the same in every pose)
     assert max(abs(m - moved[0]) for m in moved[1:]) < 0.35
     assert max(abs(a - all_around[0]) for a in all_around[1:]) > 0.7
+
+
+def test_a_far_end_that_hardly_steps_is_read_on_its_own_ring_not_on_the_near_pipe_s_rim():
+    """A far end without a step has its ring where the near pipe's rim (the joint's plane) would be: its edges fit
+    both, and the rim with the far end put twice as far by the fit's prior read two DN800 joints of seed 358 at
+    19 mm for 9.5, half their rings out of view. The fit starts also from the far edges' own depth and keeps, of
+    fits as good as one another, the one whose ring takes the edges."""
+    from pipeline.vision.contour import joint_ends
+    from pipeline.vision.contour.view import PipeView
+
+    view = PipeView("circular", 381.6, 381.6, 363.1, 285.6, ox=0.08, oy=-0.056)
+    angles = np.linspace(-np.pi, 0.0, 48, endpoint=False)          # half the circumference in view
+    walls = joint_ends._wall(view.shape, angles)
+    radius = joint_ends._radius_of(view.shape)
+    near, t_far = (0.6564, 0.0, 0.0), 0.6684                        # DN800: 525.1 and 534.7 mm
+    far_u = joint_ends._far_u(view, walls, t_far, (0.0, 0.0), radius)
+    fitted, _ = joint_ends._fit_far(view, walls, far_u, near, 1.02 * 0.6684, radius)
+    _, on_ring = joint_ends._far_edges(view, walls, far_u, near, fitted, radius)
+    assert fitted[0] == pytest.approx(t_far, abs=2e-4)             # 0.16 mm in DN800
+    assert np.hypot(*fitted[1:3]) < 1e-3 and on_ring.all()

@@ -73,6 +73,8 @@ MAX_RING_RMS_H = 0.01      # a ring's residual above this [H]: its edges do not 
 RESPONSE_GAMMA = 1.35      # a video camera's transfer function, inverted to find the edges in linear light [1]
 MAX_RING_U_H = 0.02        # a ring's depth moving more than this [H] when one sector is left out: not settled
 MIN_MATCHED_SECTORS = 3    # sectors holding the far end's own ring for the near ring to be taken over them alone
+MIN_RING_SECTORS = 2       # sectors in which the far end's own ring must show for its depth to be measured
+TIED_COST = 1e-3           # far fits whose costs differ by less than this share are as good as one another
 MAX_NEAR_OFF_H = 0.05      # the near end's ring this far [H] off the pose's axis: the points cannot be placed (seed 351:
                            # the two beyond it, 5.7 and 8.3 % of H, read B 9-14 % short; none else beyond 4.4 %)
 INNER_MIN = 4              # samples (a pixel) inside a gap, 1.5 ramps clear of each edge, for it to have a floor
@@ -494,7 +496,7 @@ def _fit_far(view, walls, far_u, near, t0, radius, x0=None) -> tuple[np.ndarray,
     def residual(x):
         return _far_residual(view, walls, far_u, near, x, radius)
 
-    best = None
+    fits = []
     for start in ([x0] if x0 is not None else _far_starts(walls, far_u, near, t0)):
         if not (np.all(np.isfinite(start)) and np.all(np.isfinite(residual(np.asarray(start, float))))):
             continue
@@ -503,15 +505,23 @@ def _fit_far(view, walls, far_u, near, t0, radius, x0=None) -> tuple[np.ndarray,
                                 x_scale=[0.01 * t0, 0.01, 0.01, 0.01 * t0])
         except ValueError:                              # its Jacobian not finite: no fit from this start
             continue
-        if np.all(np.isfinite(sol.x)) and (best is None or sol.cost < best.cost):
-            best = sol
-    if best is None:                                    # no far ring fits: the caller finds no joint here
+        if np.all(np.isfinite(sol.x)):
+            fits.append(sol)
+    if not fits:                                        # no far ring fits: the caller finds no joint here
         return np.full(4, np.nan), math.nan
+    # Where the far end hardly steps, its ring and the near pipe's rim coincide: the far edges then fit the rim
+    # at the joint's plane as well as the ring, and the prior alone puts the far end twice as far from the near
+    # one (seed 358, two DN800 joints read 19 mm for 9.5). Of the fits as good as the best, the one whose ring
+    # takes the most edges is kept: the far end's ring, where the edges show it.
+    least = min(sol.cost for sol in fits)
+    best = max((sol for sol in fits if sol.cost <= least * (1 + TIED_COST) + 1e-15),
+               key=lambda sol: int(_far_edges(view, walls, far_u, near, sol.x, radius)[1].sum()))
     return best.x, _robust_rms(best.fun[:-1])
 
 
 def _far_starts(walls, far_u, near, t0) -> list[tuple[float, float, float, float]]:
-    """Starts of the far ring's fit: no step, and steps read from the far edges' first harmonic around the pipe.
+    """Starts of the far ring's fit: no step (at the guessed depth and through the far edges), and steps read from
+    the far edges' first harmonic around the pipe.
 
     Where the far pipe stands into the flow its end shows deeper along the generators (1 / t smaller), opposite
     the direction it is displaced in; the harmonic's amplitude, clipped where the far end hides behind the near
@@ -519,6 +529,10 @@ def _far_starts(walls, far_u, near, t0) -> list[tuple[float, float, float, float
     t_near, cx, cy = near
     plane = 0.5 * (t0 + t_near)
     starts = [(t0, cx, cy, plane)]
+    with np.errstate(divide="ignore"):
+        t_edges = float(1.0 / np.median(far_u))
+    if math.isfinite(t_edges) and t_edges > t_near:    # no step, the ring through the far edges themselves
+        starts.append((t_edges, cx, cy, 0.5 * (t_edges + t_near)))
     theta = np.arctan2(walls[:, 1], walls[:, 0])
     design = np.column_stack([np.ones_like(theta), np.cos(theta), np.sin(theta)])
     (a, b, c), *_ = np.linalg.lstsq(design, far_u, rcond=None)
@@ -640,6 +654,10 @@ def find_joint_ends(gray: np.ndarray, view: PipeView, depth: float, *, mask: np.
         problems.append(f"glare: {100 * share_glare:.0f} % of the pixels at the gap are saturated")
     if not tf > tg:
         problems.append("the far edge is not beyond the near one")
+    shown = len(np.unique(sector[seen]))
+    if shown < MIN_RING_SECTORS:                        # the far depth then rests on the fit's prior, not on edges
+        problems.append(f"the far end's own ring shows in {shown} of {SECTORS} sectors only (its edges elsewhere "
+                        "lie on the near pipe's rim): the far end's depth is not measured")
     u_depth = max(math.sqrt(cov[0, 0]), math.sqrt(cov[3, 3])) if m > 1 else 0.0
     if not u_depth <= MAX_RING_U_H:                    # nan: a part left out leaves no ring to fit
         moves = f"by {100 * u_depth:.1f} % of H" if math.isfinite(u_depth) else "beyond a fit"

@@ -549,3 +549,32 @@ def test_a_far_end_that_hardly_steps_is_read_on_its_own_ring_not_on_the_near_pip
     _, on_ring = joint_ends._far_edges(view, walls, far_u, near, fitted, radius)
     assert fitted[0] == pytest.approx(t_far, abs=2e-4)             # 0.16 mm in DN800
     assert np.hypot(*fitted[1:3]) < 1e-3 and on_ring.all()
+
+
+def test_a_far_end_whose_ring_shows_nowhere_is_not_measured(cert, monkeypatch):
+    """Where every far edge lies on the near pipe's rim, the far end's depth is the fit's prior, not a measurement:
+    the frame says so and is not trusted. A joint without a step, 0.5 m before the camera (the pose known): read on
+    its own ring, and then with the fit pushed to the rim's reading (its ring moved behind the rim, twice as far)."""
+    from pipeline.vision.contour import joint_ends
+    from pipeline.vision.contour.view import PipeView
+
+    scene = Scene(Pipe("circular", H, "concrete", 1000.0 * JOINT_M), features=(DisplacedJoint("j", 1, GAP, 0.0),))
+    und = Undistorter(cert, cert.image_width_px, cert.image_height_px)
+    gray = cv2.cvtColor(und.frame(Renderer(scene, cert, seed=3).render(1000.0 * (JOINT_M - 0.5))), cv2.COLOR_BGR2GRAY)
+    K = und.K
+    view = PipeView("circular", K[0, 0], K[1, 1], K[0, 2], K[1, 2])
+    ends = joint_ends.find_joint_ends(gray, view, 500.0 / H)
+    assert ends is not None and ends.confident
+    assert (ends.far_depth - ends.near_depth) * H == pytest.approx(GAP, abs=1.0)
+    real = joint_ends._fit_far
+
+    def on_the_rim(view, walls, far_u, near, t0, radius, x0=None):
+        x, rms = real(view, walls, far_u, near, t0, radius, x0)
+        if x0 is not None:                                          # a refit from the rim's reading: kept
+            return np.asarray(x0, float), rms
+        return np.array([2 * x[0] - near[0], x[1] - 0.15, x[2], x[0]]), rms
+
+    monkeypatch.setattr(joint_ends, "_fit_far", on_the_rim)
+    ends = joint_ends.find_joint_ends(gray, view, 500.0 / H)
+    assert ends is not None and not ends.confident
+    assert any("far end's own ring shows in 0 of 8 sectors" in p and "not measured" in p for p in ends.problems)

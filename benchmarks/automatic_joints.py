@@ -49,7 +49,7 @@ from pipeline.core.errors import PipegaugeError
 from pipeline.domain.records import Observation
 from pipeline.formats.certificate import load_certificate
 from pipeline.measurement.frames import frame_values
-from pipeline.measurement.joints import _px_per_depth, joint_points, measure_joint
+from pipeline.measurement.joints import _px_per_depth, joint_points, measure_joint, video_px_per_px
 from pipeline.maths.profiles import clock_to_theta
 from pipeline.synth.appearance import SENSOR_NOISE, Appearance
 from pipeline.synth.joint_cases import JointCase, case_renderer, random_case, read_truth, write_case
@@ -65,6 +65,8 @@ from looks import add_appearance_argument, look_of  # noqa: E402
 from coverage_stats import robust_sd, wilson  # noqa: E402
 
 CODECS = {"mpeg4": None, "h264": "h264"}
+VIDEO_GAP_BANDS = (8.0, 12.0, 16.0, 25.0)     # the gap's and the step's size in the video [video px], ``--rendered``
+VIDEO_STEP_BANDS = (3.0, 6.0, 12.0, 20.0)
 FOURCC = {"mpeg4": "mp4v", "h264": "avc1"}     # what the night reads from each video (``codecs.codec_edge_u``)
 
 
@@ -200,12 +202,16 @@ def rendered_pairs(case: JointCase, video: Path, truth: dict, cert, cache: Path 
         px = float(contour.view.p_H(s.depth)[0]) / H           # px per mm across the pipe at the joint
         step = [(float(np.dot(e.step, along)) * H - case.step_mm) * px for e in (s.ends, ends)]
         gap = [(e.far_depth - e.near_depth) * H - case.gap_mm for e in (s.ends, ends)]
-        size = {q: joint_points(_obs(q), s, contour.view, cert).separation_px for q in ("A", "B")}
+        points = {q: joint_points(_obs(q), s, contour.view, cert) for q in ("A", "B")}
+        size = {q: m.separation_px for q, m in points.items()}
+        # the recorded video's px per ideal px over each quantity's points: the codec works on the video's pixels
+        scale = {q: video_px_per_px(m.a, m.b, cert) for q, m in points.items()}
         gap_mm = (s.ends.far_depth - s.ends.near_depth) * H
         per_mm = size["A"] / gap_mm if gap_mm > 0 else math.nan     # px of the gap's separation per mm of gap
         out.append({"case": case.case_id, "shape": case.shape, "step_h": case.step_mm / H, "H": H,
                     "depth": s.depth, "step_px": step, "gap_mm": gap,
-                    "gap_px": [g * per_mm for g in gap], "size_gap_px": size["A"], "size_step_px": size["B"]})
+                    "gap_px": [g * per_mm for g in gap], "size_gap_px": size["A"], "size_step_px": size["B"],
+                    "video_gap": scale["A"], "video_step": scale["B"]})
     return out
 
 
@@ -215,7 +221,7 @@ def _p68(x) -> float:
     return float(np.percentile(np.abs(np.asarray(x, float)), 68))
 
 
-def shared_and_own(frames: list[dict], what: str, bands: Sequence[float]) -> list[str]:
+def shared_and_own(frames: list[dict], what: str, bands: Sequence[float], video: bool = False) -> list[str]:
     """The codec's shift (video less rendered) and the rendered frame's own error of the gap or the step, by band of
     the case's size in the image [px] (its frames' mean separation) and codec, each as the 68th percentile of its
     size (``_p68``): per frame; the case's mean over its frames; each frame's departure from it (times
@@ -223,10 +229,16 @@ def shared_and_own(frames: list[dict], what: str, bands: Sequence[float]) -> lis
     the frames' own that enters it taken out (sqrt(mean^2 - own^2 / n)): the shared edge's size (``codecs``'
     joint figures). The rendered frames' shared part is the edges' definition without a codec
     (``joints.gap_definition_u``). Frames whose rendered twin found another edge (more than 5 px off) are left out.
-    ``frames``: per frame, a ``rendered_pairs`` dict with ``codec``."""
+    ``video``: sizes and shifts in the recorded video's pixels (the codec's own, ``joints.video_px_per_px``), not
+    the ideal image's. ``frames``: per frame, a ``rendered_pairs`` dict with ``codec``."""
     err, size = ("gap_px", "size_gap_px") if what == "gap" else ("step_px", "size_step_px")
-    out = [f"| codec | {what} in the image [px] | cases | frames | the codec's shift: per frame [px] | the case's mean "
-           "[px] | each frame's own [px] | shared [px] | rendered, no codec: shared [px] |",
+    if video:       # each frame's errors and size in the video's px
+        frames = [f | {err: [x * f[f"video_{what}"] for x in f[err]], size: f[size] * f[f"video_{what}"]}
+                  for f in frames]
+    unit = "video px" if video else "px"
+    out = [f"| codec | {what} in the {'video' if video else 'image'} [{unit}] | cases | frames | the codec's shift: "
+           f"per frame [{unit}] | the case's mean [{unit}] | each frame's own [{unit}] | shared [{unit}] | rendered, "
+           f"no codec: shared [{unit}] |",
            "|---|---|---|---|---|---|---|---|---|"]
     for codec in ("mpeg4", "h264"):
         cases: dict[str, list[dict]] = {}
@@ -511,7 +523,15 @@ def main() -> None:
         print()
         print("\n".join(shared_and_own(sized, "step", (4.0, 8.0, 15.0, 25.0))))
         print()
+        # the same in the recorded video's pixels, where the codec works (``codecs``' joint figures since
+        # 2026-12-07, third session)
+        print("\n".join(shared_and_own(sized, "gap", VIDEO_GAP_BANDS, video=True)))
+        print()
+        print("\n".join(shared_and_own(sized, "step", VIDEO_STEP_BANDS, video=True)))
+        print()
         print("\n".join(gap_by_step(sized)))
+        if args.json:                    # the frames' pairs, to read again by other bands
+            args.json.write_text(json.dumps(sized, indent=1, default=str))
         return
     print(f"{len(cases)} cases in {time.perf_counter() - t0:.0f} s")
     print("\n".join(table(rows)))

@@ -299,8 +299,11 @@ def test_a_point_s_u_is_its_ring_s_and_the_gap_s_shared_edge_its_definition_by_w
 def test_a_joint_s_codec_term_is_taken_by_the_size_of_what_it_measures(joint, cert):
     """Edges moved alike around both rings move their depths (the gap), hardly their centres (the step): B's shared
     edge is a fraction of A's in the same frame; the codec's term is added to each by the gap's width or the step's
-    size in the frame, a codec without a figure taking the largest known there."""
+    size in the recorded video (where the codec works: the lens crowds this nearest frame's joint, near the image's
+    edge, into fewer of the video's pixels) and spread as the frame is undistorted, a codec without a figure taking
+    the largest known there."""
     from pipeline.measurement.codecs import codec_edge_u
+    from pipeline.measurement.joints import video_px_per_px
 
     frames, contour = joint
     sightings, _ = follow_joint(frames, contour.view, H)
@@ -309,10 +312,13 @@ def test_a_joint_s_codec_term_is_taken_by_the_size_of_what_it_measures(joint, ce
     b = joint_points(_obs("B"), s, contour.view, cert)
     assert 0.0 < b.u_edge < 0.5 * a.u_edge
     for char1, clean, edge in (("A", a, "gap"), ("B", b, "step")):
-        size = clean.separation_px
+        scale = video_px_per_px(clean.a, clean.b, cert)
+        assert 0.5 < scale < 0.9                   # 0.2 m before the joint in DN300: its ring by the frame's edge
+        size = clean.separation_px * scale
         for fourcc in ("mp4v", "avc1"):
             coded = joint_points(_obs(char1), s, contour.view, cert, fourcc)
-            assert coded.u_edge == pytest.approx(math.hypot(clean.u_edge, codec_edge_u(fourcc, edge=edge, size_px=size)))
+            assert coded.u_edge == pytest.approx(
+                math.hypot(clean.u_edge, codec_edge_u(fourcc, edge=edge, size_px=size) / scale))
         unknown = joint_points(_obs(char1), s, contour.view, cert, "MJPG")
         assert unknown.u_edge == pytest.approx(joint_points(_obs(char1), s, contour.view, cert, "mpg2").u_edge)
         assert unknown.u_edge >= joint_points(_obs(char1), s, contour.view, cert, "avc1").u_edge > clean.u_edge
@@ -578,3 +584,14 @@ def test_a_far_end_whose_ring_shows_nowhere_is_not_measured(cert, monkeypatch):
     ends = joint_ends.find_joint_ends(gray, view, 500.0 / H)
     assert ends is not None and not ends.confident
     assert any("far end's own ring shows in 0 of 8 sectors" in p and "not measured" in p for p in ends.problems)
+
+
+def test_a_segment_spans_fewer_video_pixels_towards_a_wide_angle_lens_s_edge(cert):
+    """The recorded video's px per ideal px: about one at the image's centre, under two thirds 300 px out
+    (SYN-720x576's barrel distortion, k1 = -0.28), radially and across alike for a short segment."""
+    from pipeline.measurement.joints import video_px_per_px
+
+    cx, cy = cert.camera_matrix()[0, 2], cert.camera_matrix()[1, 2]
+    assert video_px_per_px((cx, cy), (cx + 2.0, cy), cert) == pytest.approx(1.0, abs=0.01)
+    assert video_px_per_px((cx + 300.0, cy), (cx + 302.0, cy), cert) == pytest.approx(0.63, abs=0.02)
+    assert video_px_per_px((cx, cy), (cx, cy), cert) == 1.0                     # no segment: no scale

@@ -48,27 +48,31 @@ CODEC_RIM_U_PX: dict[str, float] = CODEC_EDGE_U_PX | {fourcc: 0.1 for fourcc in 
 # A displaced joint's ends are placed where the blur is taken back too (``joint_ends._blur``, ``blurred_gap``), so
 # what a codec leaves in them is read on them: the same cases' frames rendered again without a codec, the error in
 # the video less that in the rendered frame (``benchmarks/automatic_joints.py --rendered 150``, seed 354, 448
-# frames of 150 cases; docs/measurement.md, "A joint's edge terms by the size of what they measure"). What the
-# codec does depends on how large the feature is in the image, so each figure is by band of that size, the two
-# points' separation in the frame [px]: the gap's width along the wall, the step across the pipe.
+# frames of 150 cases; docs/measurement.md, "A joint's codec term in the video's pixels"). What the codec does
+# depends on how large the feature is where the codec works, in the recorded video's pixels: each figure is by band
+# of the two points' separation there [video px] (the gap's width along the wall, the step across the pipe) and in
+# video px, spread by the undistortion into the ideal image (``joints._codec_u``). A wide-angle lens crowds a
+# joint near the frame's edge into fewer video pixels (SYN-720x576: 0.63 video px per ideal px 300 px out), as a
+# large pipe's nearest frames show it: until 2026-12-07 (third session) the figures were by the size in the ideal
+# image, and H.264's DN 800-1000 gaps, narrowed by 0.69 px where the same size near the centre hardly moved, held
+# 89 % over five seeds.
 # The gap's figure is the part of the shift the frames of one approach share (the case's mean over its frames,
 # less what each frame's own part puts into it: ``shared_and_own``), to the nearest 0.05 px, at least 0.05 px:
 # each frame's own part (0.1-0.3 px) is in its rings' jackknife, which sees the codec's noise on the edges.
-# H.264 narrows a gap under 16 px by about 0.9 px, one of 16-25 px by 0.45 px, and leaves a wider one nearly alone:
-# its blocks smooth a dark line a macroblock or so across. MPEG-4 Part 2: 0.25, 0.1 and 0.05 px.
-# The step's figure is its shift per frame (68th percentile of its size): its shared codec part (0-0.2 px) and its
-# shared definition in rendered frames (0.06-0.24 px) are alike in size, and the single edges' scatter the step
-# takes besides (``joints.edge_u``) is a tenth of the gap's. A step of a few px stands hardly into the pipe: 0.05
-# px (MPEG-4 Part 2) and 0.1 px (H.264) under 4 px, 0.15 and 0.25 px from 8 px.
-# Until 2026-12-07 one figure per codec (the gap 0.15 and 0.35 px, the step 0.15 and 0.25 px), and the gap took the
-# single edges' scatter about their rings beside it: a wide gap's interval was three times its error, a narrow
-# H.264 gap's too short (docs/measurement.md). MPEG-2, without a figure, takes H.264's, the largest at every size.
-Bands = tuple[tuple[float, float], ...]     # (up to this size [px], u [px]), by increasing size; the last open
-_H264_GAP: Bands = ((16.0, 0.9), (25.0, 0.45), (40.0, 0.15), (math.inf, 0.05))
-_H264_STEP: Bands = ((4.0, 0.1), (8.0, 0.15), (math.inf, 0.25))
-CODEC_GAP_U_PX: dict[str, Bands] = ({fourcc: ((16.0, 0.25), (25.0, 0.1), (math.inf, 0.05)) for fourcc in MPEG4_PART2}
+# H.264 narrows a gap under 16 video px (a macroblock) by 0.6-0.7 video px, a wider one by 0.05-0.15: its blocks
+# smooth a dark line a macroblock or so across. MPEG-4 Part 2: 0.15 under 12 video px, 0.05 beyond.
+# The step's figure is its shift per frame (68th percentile of its size): its shared codec part and its shared
+# definition in rendered frames are alike in size, and the single edges' scatter the step takes besides
+# (``joints.edge_u``) is a tenth of the gap's. A step of a few px stands hardly into the pipe: H.264 0.1 video px
+# under 3, 0.2 to 6, 0.25 to 12 and 0.15 beyond; MPEG-4 Part 2 0.05 under 6 and 0.1 beyond.
+# MPEG-2, without a figure, takes H.264's, the largest at every size.
+Bands = tuple[tuple[float, float], ...]     # (up to this size [video px], u [video px]), by increasing size; the
+                                            # last open
+_H264_GAP: Bands = ((16.0, 0.7), (math.inf, 0.15))
+_H264_STEP: Bands = ((3.0, 0.1), (6.0, 0.2), (12.0, 0.25), (math.inf, 0.15))
+CODEC_GAP_U_PX: dict[str, Bands] = ({fourcc: ((12.0, 0.15), (math.inf, 0.05)) for fourcc in MPEG4_PART2}
                                     | {fourcc: _H264_GAP for fourcc in H264 | MPEG2})
-CODEC_STEP_U_PX: dict[str, Bands] = ({fourcc: ((4.0, 0.05), (8.0, 0.1), (math.inf, 0.15)) for fourcc in MPEG4_PART2}
+CODEC_STEP_U_PX: dict[str, Bands] = ({fourcc: ((6.0, 0.05), (math.inf, 0.1)) for fourcc in MPEG4_PART2}
                                      | {fourcc: _H264_STEP for fourcc in H264 | MPEG2})
 
 
@@ -93,15 +97,16 @@ def codec_edge_u(codec: str | None, *, without_figure: float | None = 0.0, edge:
     intruding lateral's base and tip (``CODEC_EDGE_U_PX``); ``"rim"``, an opening's rim placed where the blur was
     taken back (``CODEC_RIM_U_PX``); ``"gap"`` and ``"step"``, a displaced joint's ends, its gap's and its step's
     points (``CODEC_GAP_U_PX``, ``CODEC_STEP_U_PX``), by ``size_px``, the gap's width or the step's size in the
-    frame [px]. 0 for frames not through a codec (None). A codec without a figure gets ``without_figure``: 0 where
+    recorded video [video px], the figure in video px too (``joints._codec_u`` spreads it into the ideal image).
+    0 for frames not through a codec (None). A codec without a figure gets ``without_figure``: 0 where
     the code is not validated in it anyway (``connections.validation_doubt``: found, not measured); None, the
     largest figure known for that edge and size, for a code measured in any codec (a displaced joint): its blocks
     move edges too, by an amount no benchmark measured.
 
     >>> codec_edge_u("XVID"), codec_edge_u("XVID", edge="rim"), codec_edge_u("avc1", edge="step"), codec_edge_u(None)
-    (0.2, 0.1, 0.25, 0.0)
+    (0.2, 0.1, 0.15, 0.0)
     >>> codec_edge_u("avc1", edge="gap", size_px=9.0), codec_edge_u("avc1", edge="gap", size_px=50.0)
-    (0.9, 0.05)
+    (0.7, 0.15)
     >>> codec_edge_u("MJPG", edge="step", size_px=2.0, without_figure=None)
     0.1
     """

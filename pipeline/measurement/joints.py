@@ -31,6 +31,7 @@ from typing import Sequence
 import numpy as np
 
 from pipeline.camera import Certificate
+from pipeline.camera.undistort import distort_points
 from pipeline.core.errors import MeasurementError, ModelError
 from pipeline.domain.records import Observation
 from pipeline.measurement.codecs import codec_edge_u
@@ -107,7 +108,8 @@ def joint_points(obs: Observation, sighting: JointSighting, view: PipeView,
 
     codec : the video's FourCC (None: a frame not through a codec). What the codec does to the ends is part of
     both quantities' shared edge (``codecs.codec_edge_u`` with ``edge="gap"`` for A, ``"step"`` for B, by the
-    gap's width or the step's size in this frame; a codec without a figure the largest known): it moves the far
+    gap's width or the step's size in this frame of the recorded video, ``_codec_u``; a codec without a figure the
+    largest known): it moves the far
     end's rim where it stands into the pipe, and it moves the gap's edges, the same way in every frame of one
     approach (seed 354's frames against the same frames rendered without a codec: docs/measurement.md).
     The gap's other shared part is its edges' definition (``gap_definition_u``), the step's the single edges'
@@ -130,11 +132,12 @@ def joint_points(obs: Observation, sighting: JointSighting, view: PipeView,
         b = view.project(np.array([[*(wall + e.far_centre), e.far_depth]]))[0]
         u_a = math.hypot(e.u_near * _px_per_depth(view, wall, e.near_depth), u_near_img)
         u_b = math.hypot(e.u_far * _px_per_depth(view, wall, e.far_depth), u_far_img)
-        # shared by the frames: the edges' definition and the codec's shift, both by the gap's width in this frame,
+        # shared by the frames: the edges' definition and the codec's shift, both by the gap's width in this frame
+        # (the codec's in the recorded video's pixels),
         # and the u of the blur's correction (its model shared too)
         width = float(np.hypot(*(b - a)))
         u_edge = math.sqrt(gap_definition_u(width, e.blur_px) ** 2 + e.blur_u_px ** 2
-                           + codec_edge_u(codec, without_figure=None, edge="gap", size_px=width) ** 2)
+                           + _codec_u(codec, "gap", a, b, cert) ** 2)
         return MarkedQuantity("BAJ", "A", "Q1", "axial", (float(a[0]), float(a[1])), (float(b[0]), float(b[1])),
                               u_a, u_b, origin=ORIGIN, u_edge=u_edge)
     face = direction + math.pi                         # the far end stands into the pipe opposite its shift
@@ -147,9 +150,34 @@ def joint_points(obs: Observation, sighting: JointSighting, view: PipeView,
         else 0.0
     u_a = math.hypot(e.u_near * _px_per_depth(view, wall, t), u_near_img)
     u_b = math.hypot(u_step * px_per_h, u_far_img)
-    codec_u = codec_edge_u(codec, without_figure=None, edge="step", size_px=float(np.hypot(*(b - a))))
+    codec_u = _codec_u(codec, "step", a, b, cert)
     return MarkedQuantity("BAJ", "B", "Q1", "step", (float(a[0]), float(a[1])), (float(b[0]), float(b[1])),
                           u_a, u_b, origin=ORIGIN, u_edge=math.hypot(edge_u(e, "B", px_per_h), codec_u))
+
+
+def video_px_per_px(a, b, cert: Certificate) -> float:
+    """How many of the recorded video's pixels the ideal image's segment from a to b (points [px]) spans, per ideal
+    px: under 1 towards a wide-angle lens's edge, where its barrel distortion crowds the scene into fewer pixels
+    (SYN-720x576: 0.63 at 300 px from the centre) and undistorting the frame spreads them out again."""
+    ideal = np.array([a, b], float)
+    length = float(np.hypot(*(ideal[1] - ideal[0])))
+    if not length > 0:
+        return 1.0
+    video = distort_points(cert.camera_matrix(), cert.opencv_distortion(), ideal)
+    scale = float(np.hypot(*(video[1] - video[0]))) / length
+    return scale if math.isfinite(scale) and scale > 0 else 1.0
+
+
+def _codec_u(codec: str | None, edge: str, a, b, cert: Certificate) -> float:
+    """What the codec gives the separation of the points a and b [ideal px]: the codec works on the recorded
+    video's pixels, so its figure is looked up by the feature's size there and spread, as the frame is
+    undistorted, by the ideal pixels per video pixel (``video_px_per_px``): a joint near the frame's edge, as a
+    large pipe's nearest frames show it, is narrower in the video than in the ideal image, and what the codec does
+    to it there grows as it is undistorted (seed 354, H.264: DN 800-1000 gaps under 12 ideal px narrowed by 2.1 mm,
+    those of DN <= 600 hardly at all)."""
+    scale = video_px_per_px(a, b, cert)
+    size = float(np.hypot(*(np.asarray(b, float) - np.asarray(a, float)))) * scale
+    return codec_edge_u(codec, without_figure=None, edge=edge, size_px=size) / scale
 
 
 def gap_definition_u(width_px: float, blur_px: float = math.nan) -> float:

@@ -109,9 +109,8 @@ def joint_points(obs: Observation, sighting: JointSighting, view: PipeView,
     codec : the video's FourCC (None: a frame not through a codec). What the codec does to the ends is part of
     both quantities' shared edge (``codecs.codec_edge_u`` with ``edge="gap"`` for A, ``"step"`` for B, by the
     gap's width or the step's size in this frame of the recorded video, ``_codec_u``; a codec without a figure the
-    largest known): it moves the far
-    end's rim where it stands into the pipe, and it moves the gap's edges, the same way in every frame of one
-    approach (seed 354's frames against the same frames rendered without a codec: docs/measurement.md).
+    largest known): it moves the far end's rim where it stands into the pipe, and it moves the gap's edges, the
+    same way in every frame of one approach (seed 354's frames against the same frames rendered without a codec: docs/measurement.md).
     The gap's other shared part is its edges' definition (``gap_definition_u``), the step's the single edges'
     scatter carried to it (``edge_u``).
     """
@@ -133,8 +132,7 @@ def joint_points(obs: Observation, sighting: JointSighting, view: PipeView,
         u_a = math.hypot(e.u_near * _px_per_depth(view, wall, e.near_depth), u_near_img)
         u_b = math.hypot(e.u_far * _px_per_depth(view, wall, e.far_depth), u_far_img)
         # shared by the frames: the edges' definition and the codec's shift, both by the gap's width in this frame
-        # (the codec's in the recorded video's pixels),
-        # and the u of the blur's correction (its model shared too)
+        # (the codec's in the recorded video's pixels), and the u of the blur's correction (its model shared too)
         width = float(np.hypot(*(b - a)))
         u_edge = math.sqrt(gap_definition_u(width, e.blur_px) ** 2 + e.blur_u_px ** 2
                            + _codec_u(codec, "gap", a, b, cert) ** 2)

@@ -510,9 +510,10 @@ def _fit_far(view, walls, far_u, near, t0, radius, x0=None) -> tuple[np.ndarray,
     if not fits:                                        # no far ring fits: the caller finds no joint here
         return np.full(4, np.nan), math.nan
     # Where the far end hardly steps, its ring and the near pipe's rim coincide: the far edges then fit the rim
-    # at the joint's plane as well as the ring, and the prior alone puts the far end twice as far from the near
-    # one (seed 358, two DN800 joints read 19 mm for 9.5). Of the fits as good as the best, the one whose ring
-    # takes the most edges is kept: the far end's ring, where the edges show it.
+    # at the joint's plane too, and the prior alone puts the far end twice as far from the near one (seed 358:
+    # two DN800 joints read 19 mm for 9.5, every start having gone to the rim). Hence the start through the far
+    # edges themselves (``_far_starts``), and of the fits as good as the best, the one whose ring takes the most
+    # edges: the far end's ring, where the edges show it.
     least = min(sol.cost for sol in fits)
     best = max((sol for sol in fits if sol.cost <= least * (1 + TIED_COST) + 1e-15),
                key=lambda sol: int(_far_edges(view, walls, far_u, near, sol.x, radius)[1].sum()))

@@ -13,7 +13,8 @@ all around, as before 2026-12-07 (docs/measurement.md, "The gap's two ends over 
 ``--placement``: instead, frames of joints (circular and egg, with and without a step) rendered with the pose
 known and found with it: each end's depth error, the gap's and the step's, and the blur the frame's edges tell.
 ``--plateau N,...`` with it: the same frames with the edges' plateau read within N samples (a quarter pixel each)
-of each edge (``joint_ends.LOCAL``, 40 in the night).
+of each edge (``joint_ends.LOCAL``, 40 in the night). ``--clocks``: the same for one circular DN500 joint stepped to
+each quarter of the clock, and without its step.
 """
 
 from __future__ import annotations
@@ -48,36 +49,40 @@ PLACEMENT = (("egg", 500, 15, 12, 12, 0.60), ("egg", 500, 15, 0, 12, 0.60), ("ci
              ("circular", 800, 20, 30, 12, 1.00))
 
 
-def placement(cert, plateaus: list[int]) -> None:
-    """The ``PLACEMENT`` joints' ends found with the pose known (the camera on the axis, level), per plateau."""
+# ``--clocks``: one of them stepped to each quarter, and without its step
+CLOCKS = tuple(("circular", 500, 15, step, clock, 0.60) for step, clock in ((12, 12), (12, 3), (12, 6), (12, 9), (0, 12)))
+
+
+def placement(cert, plateaus: list[int], joints=PLACEMENT) -> None:
+    """The ``joints``' ends found with the pose known (the camera on the axis, level), per plateau."""
     und = Undistorter(cert, cert.image_width_px, cert.image_height_px)
     K = und.K
     frames = []
-    for shape, h, gap, step, clock, dist in PLACEMENT:
+    for shape, h, gap, step, clock, dist in joints:
         scene = Scene(Pipe(shape, float(h), "concrete", 2000.0),
                       features=(DisplacedJoint("j", 1, float(gap), float(step), clock=clock),))
         frames.append(cv2.cvtColor(und.frame(Renderer(scene, cert, seed=3).render(2000.0 - 1000.0 * dist)),
                                    cv2.COLOR_BGR2GRAY))
     kept = joint_ends.LOCAL
-    print("| plateau [samples] | shape | DN | gap, step [mm] | camera before it [m] | near end's error [mm] "
+    print("| plateau [samples] | shape | DN | gap, step [mm] | its clock | camera before it [m] | near end's error [mm] "
           "| far end's [mm] | gap's [mm] | step's [mm] | blur read [px] |")
-    print("|---|---|---|---|---|---|---|---|---|---|")
+    print("|---|---|---|---|---|---|---|---|---|---|---|")
     try:
         for local in plateaus:
             joint_ends.LOCAL = local
             errors = []
-            for (shape, h, gap, step, clock, dist), gray in zip(PLACEMENT, frames):
+            for (shape, h, gap, step, clock, dist), gray in zip(joints, frames):
                 view = PipeView(shape, K[0, 0], K[1, 1], K[0, 2], K[1, 2])
                 e = joint_ends.find_joint_ends(gray, view, 1000.0 * dist / h)
                 near, far = (1000.0 * dist - gap / 2) / h, (1000.0 * dist + gap / 2) / h
                 if e is None:
-                    print(f"| {local} | {shape} | {h} | {gap}, {step} | {dist:.2f} | not found | | | | |")
+                    print(f"| {local} | {shape} | {h} | {gap}, {step} | {clock} | {dist:.2f} | not found | | | | |")
                     continue
                 errors.append((e.far_depth - e.near_depth) * h - gap)
-                print(f"| {local} | {shape} | {h} | {gap}, {step} | {dist:.2f} | {(e.near_depth - near) * h:+.2f} "
+                print(f"| {local} | {shape} | {h} | {gap}, {step} | {clock} | {dist:.2f} | {(e.near_depth - near) * h:+.2f} "
                       f"| {(e.far_depth - far) * h:+.2f} | {errors[-1]:+.2f} | {np.hypot(*e.step) * h - step:+.2f} "
                       f"| {e.blur_px:.2f} |")
-            print(f"| {local} | all | | | | | | rms {math.sqrt(np.mean(np.square(errors))):.2f} | | |")
+            print(f"| {local} | all | | | | | | | rms {math.sqrt(np.mean(np.square(errors))):.2f} | | |")
     finally:
         joint_ends.LOCAL = kept
 
@@ -97,12 +102,14 @@ def _windows(text: str) -> list[int]:
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--placement", action="store_true", help="where the edges lie with the pose known, not the tilt")
+    ap.add_argument("--clocks", action="store_true",
+                    help="with the pose known, one circular joint stepped to 12, 3, 6 and 9 o'clock and without a step")
     ap.add_argument("--plateau", type=_windows, default=[joint_ends.LOCAL],
                     help="with --placement: the edges' plateau windows to try [samples, comma-separated]")
     args = ap.parse_args()
     cert = load_certificate(DEFAULT_CAMERA)
-    if args.placement:
-        placement(cert, args.plateau)
+    if args.placement or args.clocks:
+        placement(cert, args.plateau, CLOCKS if args.clocks else PLACEMENT)
         return
     scene = Scene(Pipe("egg", H, "concrete", 2000.0), features=(DisplacedJoint("j", 1, GAP, STEP, clock=CLOCK),))
     und = Undistorter(cert, cert.image_width_px, cert.image_height_px)

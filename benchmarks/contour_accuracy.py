@@ -43,6 +43,7 @@ from pipeline.vision.video.overlay_ocr import OverlayReader
 from pipeline.vision.video.pipe_contour import STEP_M, contours_at_frames, overlay_mask_of
 from pipeline.camera.undistort import Undistorter
 
+from cameras import true_view     # benchmarks/cameras.py
 from ingest import decode_only   # benchmarks/ingest.py, the same grab loop
 
 SAMPLES = Path(__file__).resolve().parent.parent / "sample_videos"
@@ -57,9 +58,9 @@ def plane_points(code: str, char1: str, quantity: str) -> list[int]:
 
 
 def truth_view(truth: dict, K: np.ndarray) -> PipeView:
-    cam, H = truth["camera"], truth["pipe"]["height_mm"]
-    return PipeView(truth["pipe"]["shape"], K[0, 0], K[1, 1], K[0, 2], K[1, 2], cam["offset_mm"][0] / H,
-                    cam["offset_mm"][1] / H, *np.radians([cam["yaw_deg"], cam["pitch_deg"], cam["roll_deg"]]))
+    cam = truth["camera"]
+    return true_view(truth["pipe"]["shape"], K, truth["pipe"]["height_mm"], cam["offset_mm"], cam["yaw_deg"],
+                     cam["pitch_deg"], cam["roll_deg"])
 
 
 def main() -> None:

@@ -29,7 +29,8 @@ from pipeline.formats.certificate import load_certificate
 from pipeline.synth.appearance import Appearance
 from pipeline.synth.joint_cases import JointCase, case_renderer
 from pipeline.vision.contour import joint_ends
-from pipeline.vision.contour.view import PipeView
+
+from cameras import true_view  # benchmarks/cameras.py
 
 BASE = JointCase("S02-like", "circular", 400.0, "concrete", 2000.0, 18.0, 8.0, 12.0, 0.0, (0.0, 0.0), 0.0, 0.0, 0.0,
                  1.2, True, 1, noise=0.0)
@@ -44,8 +45,7 @@ def ends_by_depth(case: JointCase, depths, certificate: str) -> list[tuple[float
     cert = load_certificate(certificate)
     und = Undistorter(cert, cert.image_width_px, cert.image_height_px)
     K, H = und.K, case.height_mm
-    view = PipeView(case.shape, K[0, 0], K[1, 1], K[0, 2], K[1, 2], case.offset_mm[0] / H, case.offset_mm[1] / H,
-                    *np.radians([case.yaw_deg, case.pitch_deg, case.roll_deg]))
+    view = true_view(case.shape, K, H, case.offset_mm, case.yaw_deg, case.pitch_deg, case.roll_deg)
     r = case_renderer(case, cert)
     out = []
     for t in depths:

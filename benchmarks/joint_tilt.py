@@ -32,10 +32,9 @@ from pipeline.formats.certificate import load_certificate
 from pipeline.synth.render import Renderer
 from pipeline.synth.scene import DisplacedJoint, Pipe, Scene
 from pipeline.vision.contour import joint_ends
-from pipeline.vision.contour.view import PipeView
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from cameras import DEFAULT_CAMERA  # noqa: E402
+from cameras import DEFAULT_CAMERA, true_view  # noqa: E402
 
 H, GAP, STEP, CLOCK, DISTANCE_MM = 600.0, 13.0, 9.0, 9, 450.0
 OFFSET_MM, YAW_DEG, PITCH_DEG = (12.8, -8.3), -1.83, -1.45
@@ -72,7 +71,7 @@ def placement(cert, plateaus: list[int], joints=PLACEMENT) -> None:
             joint_ends.LOCAL = local
             errors = []
             for (shape, h, gap, step, clock, dist), gray in zip(joints, frames):
-                view = PipeView(shape, K[0, 0], K[1, 1], K[0, 2], K[1, 2])
+                view = true_view(shape, K, h)
                 e = joint_ends.find_joint_ends(gray, view, 1000.0 * dist / h)
                 near, far = (1000.0 * dist - gap / 2) / h, (1000.0 * dist + gap / 2) / h
                 if e is None:
@@ -121,8 +120,7 @@ def main() -> None:
           "| near end all around [mm] |")
     print("|---|---|---|")
     for d_yaw, d_pitch in TILTS_DEG:
-        view = PipeView("egg", K[0, 0], K[1, 1], K[0, 2], K[1, 2], ox=OFFSET_MM[0] / H, oy=OFFSET_MM[1] / H,
-                        yaw=math.radians(YAW_DEG + d_yaw), pitch=math.radians(PITCH_DEG + d_pitch))
+        view = true_view("egg", K, H, OFFSET_MM, YAW_DEG + d_yaw, PITCH_DEG + d_pitch)
         e = joint_ends.find_joint_ends(gray, view, DISTANCE_MM / H)
         if e is None:
             print(f"| {d_yaw:+.1f}, {d_pitch:+.1f} | not found | not found |")

@@ -312,8 +312,7 @@ def test_a_click_on_the_undistorted_view_is_kept_as_recorded():
     recorded undistorts back to itself (to 1e-6 px) over the image; the review keeps marks as recorded."""
     import numpy as np
 
-    from pipeline.app.review import recorded_points
-    from pipeline.camera.undistort import Undistorter
+    from pipeline.camera.undistort import Undistorter, recorded_points
     from pipeline.formats.certificate import load_certificate
 
     cert = load_certificate(SAMPLES / "certificates" / "SYN-720x576.json")

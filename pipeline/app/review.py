@@ -437,6 +437,8 @@ class ReviewService:
         """The fitted contour (the cross-section through the feature at chainage ``feature_m`` [m], else two pipe
         heights ahead) and the clock positions on it, in both the recorded and the ideal image [px]; the contour's
         trust and its reasons."""
+        from pipeline.camera.undistort import recorded_points
+
         pkg = self.package(inspection_id)
         contour = self.contour(pkg, frame)
         H = pkg.delivery.header.height_mm
@@ -467,6 +469,8 @@ class ReviewService:
         """Image points [px] carried between the frame as recorded and the undistorted (ideal) one with the
         certificate: ``to`` "recorded" (a click on the undistorted view, kept as recorded like marks.csv) or
         "ideal" (a mark drawn on the undistorted view)."""
+        from pipeline.camera.undistort import recorded_points
+
         pkg = self.package(inspection_id)
         pts = np.array([_point(p) for p in points], float).reshape(-1, 2)
         if to == "ideal":
@@ -665,15 +669,6 @@ def _inside(path: Path, root: Path) -> Path:
     if resolved != base and base not in resolved.parents:
         raise NotFound(f"{path} leads outside {root}")
     return resolved
-
-
-def recorded_points(cert, ideal) -> np.ndarray:
-    """Points (n, 2) [px] of the frame as recorded whose undistortion is ``ideal`` (n, 2) [px]: the certificate's
-    distortion model applied forward (``pipeline.camera.undistort.distort_points``), exact where
-    ``Undistorter.points`` inverts it (the ideal image keeps the certificate's camera matrix)."""
-    from pipeline.camera.undistort import distort_points
-
-    return distort_points(cert.camera_matrix(), cert.opencv_distortion(), ideal)
 
 
 def _clock_positions(polygon: np.ndarray) -> list[tuple[int, tuple[float, float]]]:

@@ -39,6 +39,13 @@ def distort_points(K: np.ndarray, dist: np.ndarray, ideal) -> np.ndarray:
     return out.reshape(-1, 2)
 
 
+def recorded_points(cert: Certificate, ideal) -> np.ndarray:
+    """Points (n, 2) [px] of the frame as recorded whose undistortion is ``ideal`` (n, 2) [px]: the certificate's
+    distortion model applied forward (``distort_points``), exact where ``Undistorter.points`` inverts it (the ideal
+    image keeps the certificate's camera matrix)."""
+    return distort_points(cert.camera_matrix(), cert.opencv_distortion(), ideal)
+
+
 class Undistorter:
     """Undistorts frames and points of one video with one certificate.
 

@@ -31,7 +31,7 @@ from typing import Sequence
 import numpy as np
 
 from pipeline.camera import Certificate
-from pipeline.camera.undistort import distort_points
+from pipeline.camera.undistort import recorded_points
 from pipeline.core.errors import MeasurementError, ModelError
 from pipeline.domain.records import Observation
 from pipeline.measurement.codecs import codec_edge_u
@@ -161,7 +161,7 @@ def video_px_per_px(a, b, cert: Certificate) -> float:
     length = float(np.hypot(*(ideal[1] - ideal[0])))
     if not length > 0:
         return 1.0
-    video = distort_points(cert.camera_matrix(), cert.opencv_distortion(), ideal)
+    video = recorded_points(cert, ideal)
     scale = float(np.hypot(*(video[1] - video[0]))) / length
     return scale if math.isfinite(scale) and scale > 0 else 1.0
 

@@ -621,8 +621,8 @@ def find_joint_ends(gray: np.ndarray, view: PipeView, depth: float, *, mask: np.
     # the step's error larger, not smaller
     _, seen = _far_edges(view, walls, far_u, (tn, *cn), (tf, *cf, tp), radius)
     sector = np.floor((ang + np.pi) / (2 * np.pi) * SECTORS).astype(int) % SECTORS
-    matched = not seen.all() and seen.sum() >= MIN_EDGES * len(angles) / 2 \
-        and len(np.unique(sector[seen])) >= MIN_MATCHED_SECTORS
+    shown = len(np.unique(sector[seen]))               # sectors in which the far end's own ring shows
+    matched = not seen.all() and seen.sum() >= MIN_EDGES * len(angles) / 2 and shown >= MIN_MATCHED_SECTORS
     tg = float(_fit_ring(view, near_px[seen], tn, radius)[0][0]) if matched else tn
     # the residuals in the image along the generators [px]: the near ring's radial [H] at depth tn, the far
     # ring's in 1 / t [1/H] (a wall point at radius r lies f r / t from the vanishing point)
@@ -655,7 +655,6 @@ def find_joint_ends(gray: np.ndarray, view: PipeView, depth: float, *, mask: np.
         problems.append(f"glare: {100 * share_glare:.0f} % of the pixels at the gap are saturated")
     if not tf > tg:
         problems.append("the far edge is not beyond the near one")
-    shown = len(np.unique(sector[seen]))
     if shown < MIN_RING_SECTORS:                        # the far depth then rests on the fit's prior, not on edges
         problems.append(f"the far end's own ring shows in {shown} of {SECTORS} sectors only (its edges elsewhere "
                         "lie on the near pipe's rim): the far end's depth is not measured")

@@ -24,6 +24,8 @@ gap and of the step by codec and DN (``codec_shifts``), and by the size of what 
 into what a case's frames share and what each adds (``shared_and_own``: ``codecs``' joint figures and
 ``joints.gap_definition_u``); and the gap's error in both by pipe shape and the step's size (``gap_by_step``).
 ``--shapes ROWS...`` prints each pipe shape's results at DN >= 200 from ``--json`` rows, per run and pooled.
+``--strata ROWS...`` prints the circular joints' results by codec and DN band, the runs' rows pooled.
+``--pairs FILE`` prints the codec's shift by size again from the pairs ``--rendered`` kept with ``--json``.
 ``--widths FILE`` prints each trusted frame's gap error by the gap's width in the image from a ``--json`` file, with
 the blur each frame's edges gave.
 """
@@ -238,8 +240,8 @@ def shared_and_own(frames: list[dict], what: str, bands: Sequence[float], video:
     unit = "video px" if video else "px"
     out = [f"| codec | {what} in the {'video' if video else 'image'} [{unit}] | cases | frames | the codec's shift: "
            f"per frame [{unit}] | the case's mean [{unit}] | each frame's own [{unit}] | shared [{unit}] | rendered, "
-           f"no codec: shared [{unit}] |",
-           "|---|---|---|---|---|---|---|---|---|"]
+           f"no codec: shared [{unit}] | the case's mean shift, signed: median [{unit}] |",
+           "|---|---|---|---|---|---|---|---|---|---|"]
     for codec in ("mpeg4", "h264"):
         cases: dict[str, list[dict]] = {}
         for f in frames:
@@ -257,10 +259,20 @@ def shared_and_own(frames: list[dict], what: str, bands: Sequence[float], video:
                 own = _p68(np.concatenate([(v - v.mean()) * math.sqrt(len(v) / (len(v) - 1)) for v in values]))
                 parts.append((_p68(np.concatenate(values)), mean, own, math.sqrt(max(mean ** 2 - own ** 2 / n, 0.0))))
             (every, mean, own, shared), rendered = parts
+            # which way the codec moves it: a one-signed shift has a median near its size
+            signed = float(np.median([np.mean([f[err][0] - f[err][1] for f in fs]) for fs in group]))
             label = f"{lo:.0f}-{hi:.0f}" if math.isfinite(hi) else f"{lo:.0f}-"
             out.append(f"| {codec} | {label} | {len(group)} | {sum(len(fs) for fs in group)} | {every:.2f} | {mean:.2f} | "
-                       f"{own:.2f} | {shared:.2f} | {rendered[3]:.2f} |")
+                       f"{own:.2f} | {shared:.2f} | {rendered[3]:.2f} | {signed:+.2f} |")
     return out
+
+
+def pairs_tables(frames: list[dict]) -> list[list[str]]:
+    """``shared_and_own``'s tables of the gap and the step by their size in the ideal image, then in the recorded
+    video's pixels, where the codec works (``codecs``' joint figures since 2026-12-07, third session)."""
+    return [shared_and_own(frames, "gap", (16.0, 25.0, 40.0)), shared_and_own(frames, "step", (4.0, 8.0, 15.0, 25.0)),
+            shared_and_own(frames, "gap", VIDEO_GAP_BANDS, video=True),
+            shared_and_own(frames, "step", VIDEO_STEP_BANDS, video=True)]
 
 
 def gap_by_step(frames: list[dict], bands: Sequence[float] = (0.025, 0.05)) -> list[str]:
@@ -342,6 +354,32 @@ def shapes(runs: dict[str, list[dict]]) -> list[str]:
                 inside, (lo, hi), z = _coverage(ok)
                 out.append(f"| BAJ {q} | {shape} | {name} | {len(ok)} of {len(g)} | {100 * inside / len(ok):.1f} % "
                            f"({inside}) | {100 * lo:.1f}-{100 * hi:.1f} % | {np.median(z):+.2f} | {robust_sd(z):.2f} |")
+    return out
+
+
+DN_BANDS = ((200.0, 500.0), (500.0, 800.0), (800.0, math.inf))     # ``--strata``' pipe sizes [mm]
+
+
+def strata(rows: list[dict]) -> list[str]:
+    """Per quantity, circular pipes at DN >= 200, by codec and band of DN (``DN_BANDS``), all the rows pooled (several
+    runs' ``--json``): measured, coverage with its Wilson interval, median and robust SD of z, median U95. A stratum
+    the pooled figures hide (a large pipe's nearest frames lie near the frame's edge, where the lens crowds them into
+    fewer of the video's pixels) shows here."""
+    out = ["| quantity | codec | DN [mm] | measured | coverage | Wilson 95 % | median z | robust SD z | median U95 [mm] |",
+           "|---|---|---|---|---|---|---|---|---|"]
+    for q in ("A", "B"):
+        for codec in ("mpeg4", "h264"):
+            for lo, hi in DN_BANDS:
+                g = [r for r in rows if r["displaced"] and r["quantity"] == q and r["shape"] == "circular"
+                     and r["codec"] == codec and lo <= r["H"] < hi]
+                ok = [r for r in g if r["status"] == "measured"]
+                if not ok:
+                    continue
+                inside, (w_lo, w_hi), z = _coverage(ok)
+                label = f"{lo:.0f}-{hi:.0f}" if math.isfinite(hi) else f"{lo:.0f}-"
+                out.append(f"| BAJ {q} | {codec} | {label} | {len(ok)} of {len(g)} | {100 * inside / len(ok):.1f} % "
+                           f"({inside}) | {100 * w_lo:.1f}-{100 * w_hi:.1f} % | {np.median(z):+.2f} | {robust_sd(z):.2f} "
+                           f"| {np.median([r['U95'] for r in ok]):.1f} |")
     return out
 
 
@@ -445,6 +483,12 @@ def main() -> None:
                     "by --json")
     ap.add_argument("--shapes", type=Path, nargs="+", metavar="ROWS",
                     help="only print each pipe shape's results at DN >= 200, per file of rows kept by --json and pooled")
+    ap.add_argument("--pairs", type=Path, metavar="PAIRS",
+                    help="only print the codec's shift by size (ideal and video px) from the pairs --rendered kept by "
+                    "--json")
+    ap.add_argument("--strata", type=Path, nargs="+", metavar="ROWS",
+                    help="only print circular joints' results by codec and DN band, the files of rows kept by --json "
+                    "pooled")
     add_camera_argument(ap)
     add_appearance_argument(ap)
     args = ap.parse_args()
@@ -456,6 +500,12 @@ def main() -> None:
         return
     if args.shapes:
         print("\n".join(shapes({f.stem: json.loads(f.read_text()) for f in args.shapes})))
+        return
+    if args.pairs:
+        print("\n\n".join("\n".join(t) for t in pairs_tables(json.loads(args.pairs.read_text()))))
+        return
+    if args.strata:
+        print("\n".join(strata([r for f in args.strata for r in json.loads(f.read_text())])))
         return
     cert = load_certificate(args.camera)
     if args.widths:
@@ -519,16 +569,9 @@ def main() -> None:
         print("\n".join(codec_shifts(steps, "step")))
         print()
         # by the size of what is measured, shared by a case's frames or each frame's own (``codecs``' figures)
-        print("\n".join(shared_and_own(sized, "gap", (16.0, 25.0, 40.0))))
-        print()
-        print("\n".join(shared_and_own(sized, "step", (4.0, 8.0, 15.0, 25.0))))
-        print()
-        # the same in the recorded video's pixels, where the codec works (``codecs``' joint figures since
-        # 2026-12-07, third session)
-        print("\n".join(shared_and_own(sized, "gap", VIDEO_GAP_BANDS, video=True)))
-        print()
-        print("\n".join(shared_and_own(sized, "step", VIDEO_STEP_BANDS, video=True)))
-        print()
+        for t in pairs_tables(sized):
+            print("\n".join(t))
+            print()
         print("\n".join(gap_by_step(sized)))
         if args.json:                    # the frames' pairs, to read again by other bands
             args.json.write_text(json.dumps(sized, indent=1, default=str))

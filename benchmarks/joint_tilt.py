@@ -14,7 +14,8 @@ all around, as before 2026-12-07 (docs/measurement.md, "The gap's two ends over 
 known and found with it: each end's depth error, the gap's and the step's, and the blur the frame's edges tell.
 ``--plateau N,...`` with it: the same frames with the edges' plateau read within N samples (a quarter pixel each)
 of each edge (``joint_ends.LOCAL``, 40 in the night). ``--clocks``: the same for one circular DN500 joint stepped to
-each quarter of the clock, and without its step.
+each quarter of the clock, and without its step. ``--blur PX`` and ``--groove SHARE`` with either: the frames
+rendered with that blur or that gap's darkness (``Appearance``; a value out of its range is refused).
 """
 
 from __future__ import annotations
@@ -29,6 +30,7 @@ import numpy as np
 
 from pipeline.camera.undistort import Undistorter
 from pipeline.formats.certificate import load_certificate
+from pipeline.synth.appearance import Appearance
 from pipeline.synth.render import Renderer
 from pipeline.synth.scene import DisplacedJoint, Pipe, Scene
 from pipeline.vision.contour import joint_ends
@@ -52,15 +54,16 @@ PLACEMENT = (("egg", 500, 15, 12, 12, 0.60), ("egg", 500, 15, 0, 12, 0.60), ("ci
 CLOCKS = tuple(("circular", 500, 15, step, clock, 0.60) for step, clock in ((12, 12), (12, 3), (12, 6), (12, 9), (0, 12)))
 
 
-def placement(cert, plateaus: list[int], joints=PLACEMENT) -> None:
-    """The ``joints``' ends found with the pose known (the camera on the axis, level), per plateau."""
+def placement(cert, plateaus: list[int], joints=PLACEMENT, look: Appearance = Appearance()) -> None:
+    """The ``joints``' ends found with the pose known (the camera on the axis, level), per plateau, rendered with
+    ``look``."""
     und = Undistorter(cert, cert.image_width_px, cert.image_height_px)
     K = und.K
     frames = []
     for shape, h, gap, step, clock, dist in joints:
         scene = Scene(Pipe(shape, float(h), "concrete", 2000.0),
                       features=(DisplacedJoint("j", 1, float(gap), float(step), clock=clock),))
-        frames.append(cv2.cvtColor(und.frame(Renderer(scene, cert, seed=3).render(2000.0 - 1000.0 * dist)),
+        frames.append(cv2.cvtColor(und.frame(Renderer(scene, cert, seed=3, appearance=look).render(2000.0 - 1000.0 * dist)),
                                    cv2.COLOR_BGR2GRAY))
     kept = joint_ends.LOCAL
     print("| plateau [samples] | shape | DN | gap, step [mm] | its clock | camera before it [m] | near end's error [mm] "
@@ -103,12 +106,21 @@ def main() -> None:
     ap.add_argument("--placement", action="store_true", help="where the edges lie with the pose known, not the tilt")
     ap.add_argument("--clocks", action="store_true",
                     help="with the pose known, one circular joint stepped to 12, 3, 6 and 9 o'clock and without a step")
+    ap.add_argument("--blur", type=float, default=Appearance().blur_px,
+                    help="with --placement or --clocks: the renderer's blur [px] (0.3-3; default the look's)")
+    ap.add_argument("--groove", type=float, default=Appearance().groove,
+                    help="with --placement or --clocks: the share of light a joint's gap swallows (0.3-1; default the "
+                    "look's)")
     ap.add_argument("--plateau", type=_windows, default=[joint_ends.LOCAL],
                     help="with --placement: the edges' plateau windows to try [samples, comma-separated]")
     args = ap.parse_args()
     cert = load_certificate(DEFAULT_CAMERA)
     if args.placement or args.clocks:
-        placement(cert, args.plateau, CLOCKS if args.clocks else PLACEMENT)
+        try:
+            look = Appearance(blur_px=args.blur, groove=args.groove)
+        except ValueError as exc:
+            ap.error(f"{exc} (--blur 0.3-3 px, --groove 0.3-1)")
+        placement(cert, args.plateau, CLOCKS if args.clocks else PLACEMENT, look)
         return
     scene = Scene(Pipe("egg", H, "concrete", 2000.0), features=(DisplacedJoint("j", 1, GAP, STEP, clock=CLOCK),))
     und = Undistorter(cert, cert.image_width_px, cert.image_height_px)

@@ -54,8 +54,8 @@ CODEC_RIM_U_PX: dict[str, float] = CODEC_EDGE_U_PX | {fourcc: 0.1 for fourcc in 
 # video px, spread by the undistortion into the ideal image (``joints._codec_u``). A wide-angle lens crowds a
 # joint near the frame's edge into fewer video pixels (SYN-720x576: 0.63 video px per ideal px 300 px out), as a
 # large pipe's nearest frames show it: until 2026-12-07 (third session) the figures were by the size in the ideal
-# image, and H.264's DN 800-1000 gaps, narrowed by 0.69 px where the same size near the centre hardly moved, held
-# 89 % over five seeds.
+# image, and H.264's DN 800-1000 gaps, narrowed by 0.69 px (DN 300-600: 0.07 px), held 89 % over five seeds
+# (``automatic_joints.py --strata``).
 # The gap's figure is the part of the shift the frames of one approach share (the case's mean over its frames,
 # less what each frame's own part puts into it: ``shared_and_own``), to the nearest 0.05 px, at least 0.05 px:
 # each frame's own part (0.1-0.3 px) is in its rings' jackknife, which sees the codec's noise on the edges.

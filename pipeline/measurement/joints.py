@@ -171,8 +171,8 @@ def _codec_u(codec: str | None, edge: str, a, b, cert: Certificate) -> float:
     video's pixels, so its figure is looked up by the feature's size there and spread, as the frame is
     undistorted, by the ideal pixels per video pixel (``video_px_per_px``): a joint near the frame's edge, as a
     large pipe's nearest frames show it, is narrower in the video than in the ideal image, and what the codec does
-    to it there grows as it is undistorted (seed 354, H.264: DN 800-1000 gaps under 12 ideal px narrowed by 2.1 mm,
-    those of DN <= 600 hardly at all)."""
+    to it there grows as it is undistorted (seed 354, H.264: DN 800-1000 gaps narrowed by 0.69 px, DN 300-600 ones by
+    0.07 px; ``benchmarks/automatic_joints.py --rendered``)."""
     scale = video_px_per_px(a, b, cert)
     size = float(np.hypot(*(np.asarray(b, float) - np.asarray(a, float)))) * scale
     return codec_edge_u(codec, without_figure=None, edge=edge, size_px=size) / scale

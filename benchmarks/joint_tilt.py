@@ -15,7 +15,8 @@ known and found with it: each end's depth error, the gap's and the step's, and t
 ``--plateau N,...`` with it: the same frames with the edges' plateau read within N samples (a quarter pixel each)
 of each edge (``joint_ends.LOCAL``, 40 in the night). ``--clocks``: the same for one circular DN500 joint stepped to
 each quarter of the clock, and without its step. ``--blur PX`` and ``--groove SHARE`` with either: the frames
-rendered with that blur or that gap's darkness (``Appearance``; a value out of its range is refused).
+rendered with that blur or that gap's darkness (``Appearance``; a value out of its range is refused). ``--ends apart``
+with either: the pipe ends rendered a gap apart, the far end's face beyond the gap (``DisplacedJoint.ends``).
 """
 
 from __future__ import annotations
@@ -32,7 +33,7 @@ from pipeline.camera.undistort import Undistorter
 from pipeline.formats.certificate import load_certificate
 from pipeline.synth.appearance import Appearance
 from pipeline.synth.render import Renderer
-from pipeline.synth.scene import DisplacedJoint, Pipe, Scene
+from pipeline.synth.scene import JOINT_ENDS, DisplacedJoint, Pipe, Scene
 from pipeline.vision.contour import joint_ends
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
@@ -54,15 +55,16 @@ PLACEMENT = (("egg", 500, 15, 12, 12, 0.60), ("egg", 500, 15, 0, 12, 0.60), ("ci
 CLOCKS = tuple(("circular", 500, 15, step, clock, 0.60) for step, clock in ((12, 12), (12, 3), (12, 6), (12, 9), (0, 12)))
 
 
-def placement(cert, plateaus: list[int], joints=PLACEMENT, look: Appearance = Appearance()) -> None:
+def placement(cert, plateaus: list[int], joints=PLACEMENT, look: Appearance = Appearance(),
+              ends: str = "painted") -> None:
     """The ``joints``' ends found with the pose known (the camera on the axis, level), per plateau, rendered with
-    ``look``."""
+    ``look`` and their pipe ends meeting as ``ends`` says (``DisplacedJoint.ends``)."""
     und = Undistorter(cert, cert.image_width_px, cert.image_height_px)
     K = und.K
     frames = []
     for shape, h, gap, step, clock, dist in joints:
         scene = Scene(Pipe(shape, float(h), "concrete", 2000.0),
-                      features=(DisplacedJoint("j", 1, float(gap), float(step), clock=clock),))
+                      features=(DisplacedJoint("j", 1, float(gap), float(step), clock=clock, ends=ends),))
         frames.append(cv2.cvtColor(und.frame(Renderer(scene, cert, seed=3, appearance=look).render(2000.0 - 1000.0 * dist)),
                                    cv2.COLOR_BGR2GRAY))
     kept = joint_ends.LOCAL
@@ -111,6 +113,9 @@ def main() -> None:
     ap.add_argument("--groove", type=float, default=Appearance().groove,
                     help="with --placement or --clocks: the share of light a joint's gap swallows (0.3-1; default the "
                     "look's)")
+    ap.add_argument("--ends", choices=JOINT_ENDS, default="painted",
+                    help="with --placement or --clocks: how the pipe ends meet (painted: the generator's band at the "
+                    "joint's plane, the step's face inside it; apart: a gap apart, the far end's face beyond the gap)")
     ap.add_argument("--plateau", type=_windows, default=[joint_ends.LOCAL],
                     help="with --placement: the edges' plateau windows to try [samples, comma-separated]")
     args = ap.parse_args()
@@ -120,7 +125,7 @@ def main() -> None:
             look = Appearance(blur_px=args.blur, groove=args.groove)
         except ValueError as exc:
             ap.error(f"{exc} (--blur 0.3-3 px, --groove 0.3-1)")
-        placement(cert, args.plateau, CLOCKS if args.clocks else PLACEMENT, look)
+        placement(cert, args.plateau, CLOCKS if args.clocks else PLACEMENT, look, args.ends)
         return
     scene = Scene(Pipe("egg", H, "concrete", 2000.0), features=(DisplacedJoint("j", 1, GAP, STEP, clock=CLOCK),))
     und = Undistorter(cert, cert.image_width_px, cert.image_height_px)

@@ -173,7 +173,7 @@ class Renderer:
         ``frame`` picks the sensor-noise pattern, so a frame renders the same
         whichever process renders it and in whatever order.
         """
-        hits = self._segments(z_cam)
+        hits, end_face = self._segments(z_cam)
         z = z_cam + hits.s * self.dz
         if self.scene.of_type(Deformation):
             # _deform may change a copy's hits in place: the wall positions must follow it either way
@@ -185,6 +185,7 @@ class Renderer:
         amp = np.minimum(2.0 * TEXEL_MM / hits.fp, 1.0)
         albedo = self.tex_mean + (self.tex[iz, hits.iu] - self.tex_mean) * amp
         groove, lip = self._joint_coverage(z, hits.fp)
+        groove[end_face] = 0.0          # a far pipe's own end face beyond the gap ("apart"): its concrete, not the gap
         albedo *= 1.0 - self.look.groove * groove
         region = np.zeros(z.shape, np.uint8)
         self._wall_marks(albedo, region, hits, z)
@@ -225,27 +226,37 @@ class Renderer:
         k = 2 * round(2.5 * self.look.blur_px) + 1       # 5 x 5 for the default 0.9 px
         return cv2.GaussianBlur(out, (k, k), self.look.blur_px)
 
-    def _segments(self, z_cam: float) -> _Hits:
-        """Wall hits for this frame: the first segment, the displaced one beyond its joint, and the step face."""
+    def _segments(self, z_cam: float) -> tuple[_Hits, np.ndarray]:
+        """Wall hits for this frame: the first segment, the displaced one beyond its joint, and the step face; and
+        the pixels on the far pipe's end face where the ends stand apart (``DisplacedJoint.ends``)."""
         seg1, seg2, dj = self.seg1, self.seg2, self.djoint
+        none = np.zeros(0, np.int64)
         if dj is None:
-            return seg1
+            return seg1, none
         zj = dj.joint * self.pipe.unit_length_mm
-        if zj <= z_cam:
-            return seg2
-        beyond = z_cam + seg1.s * self.dz > zj
+        # "painted": both pipes end at the joint's plane; "apart": the near one gap / 2 before it, the far one
+        # gap / 2 beyond it, with nothing between them (a ray reaching the near pipe's wall in between meets the
+        # dark of the gap, which ``_joint_coverage`` paints there)
+        half = 0.5 * dj.gap_mm if dj.ends == "apart" else 0.0
+        z_near, z_far = zj - half, zj + half
+        if z_far <= z_cam:
+            return seg2, none
+        z1 = z_cam + seg1.s * self.dz
+        beyond = z1 > z_near
         if not beyond.any():
-            return seg1
+            return seg1, none
         out = _copy(seg1)
         z2 = z_cam + seg2.s * self.dz
-        use2 = beyond & (z2 > zj)
+        use2 = beyond & (z2 > z_far)
         out.put(use2, seg2, use2)
-        face = np.nonzero(beyond & ~use2)[0]
+        # a ray that passes the near pipe's end inside its wall and would meet the far pipe's wall before that pipe
+        # begins meets the far pipe's end face
+        face = np.nonzero(beyond & ~use2 & (z1 > z_far))[0]
         if face.size:
-            sf = (zj - z_cam) / self.dz[face]
+            sf = (z_far - z_cam) / self.dz[face]
             X, Y = self.ox + sf * self.dx[face], self.oy + sf * self.dy[face]
             out.put(face, self._hits(sf, np.arctan2(Y, X), self.dz[face]))
-        return out
+        return out, (face if dj.ends == "apart" else none)
 
     def _deformed_hits(self, d: Deformation) -> tuple[np.ndarray, np.ndarray]:
         """(s, cos) of every ray against the fully deformed section: an ellipse, invert in place."""

@@ -16,7 +16,7 @@ from pipeline.maths.profiles import SHAPES, clock_to_theta, profile_width
 from pipeline.synth.texture import MATERIALS
 
 __all__ = [
-    "Pipe", "Crack", "Deformation", "DisplacedJoint", "Deposit", "Connection", "Marker", "Scene", "Feature",
+    "Pipe", "Crack", "Deformation", "DisplacedJoint", "JOINT_ENDS", "Deposit", "Connection", "Marker", "Scene", "Feature",
 ]
 
 
@@ -97,6 +97,15 @@ class DisplacedJoint:
 
     The pipe downstream of the joint is displaced by ``step_mm`` towards the
     clock position ``clock`` (6 = the next pipe sits lower).
+
+    ``ends`` is how the two pipes meet (``JOINT_ENDS``):
+
+    - "painted": the pipes meet at the joint's plane and the gap is a dark band painted across it, so where the far
+      pipe stands into the flow its end face lies at the plane, inside the band (the generator's joint until
+      2026-12-08, every benchmark's and sample's so far);
+    - "apart": the pipe ends stand the gap apart, as in a sewer: the near pipe ends gap / 2 before the plane, the
+      far one begins gap / 2 beyond it, and where it stands into the flow its end face, lit head-on, shows just
+      beyond the gap; where it stands out of the wall its end hides behind the near one's and the gap closes.
     """
 
     id: str
@@ -104,6 +113,14 @@ class DisplacedJoint:
     gap_mm: float
     step_mm: float
     clock: float = 6.0
+    ends: str = "painted"
+
+    def __post_init__(self) -> None:
+        if self.ends not in JOINT_ENDS:
+            raise ValueError(f"displaced joint {self.id}: ends {self.ends!r} is not one of {', '.join(JOINT_ENDS)}")
+
+
+JOINT_ENDS = ("painted", "apart")
 
 
 @dataclass(frozen=True)

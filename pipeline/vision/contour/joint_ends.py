@@ -87,6 +87,11 @@ LOG_BEHIND_M = 0.5         # a logged joint is looked for from this far behind t
                            # may give the joint's own distance (the camera at it, or just past it, when recorded)
 SEARCH_AHEAD_M = 3.5       # and at most this far ahead of it [m]: a camera stopped short of the joint (up to 2.5 m
                            # before a DN 1000's, where its ring shows whole from about 2 H)
+FACE_CONTRAST = 0.3        # a far end's own face beyond the gap: its fall to the far wall at least this share of its
+                           # rise from the gap's floor (the far wall's own fall-off with depth, over the plateau's
+                           # window, is a small share of it)
+FACE_RAMP = 2.0            # and that fall no wider than this many times the gap's far edge's ramp (the blur's)
+MIN_FACE_SECTORS = 2       # sectors in which the face must show for the far end's centre to be read from it
 MAX_STEP_H = 0.2           # the far ring's centre this far [H] off the near one's: not a pipe end (displaced joints
                            # step a few % of H; a far end 20 % off is another feature taken for it)
 
@@ -411,6 +416,43 @@ def _blur(found, pts) -> tuple[float, bool, list[tuple[float, float]], float]:
     return sigma, resolved, shifts, u
 
 
+def _face_edge(p: np.ndarray, i_far: float, r_far: float) -> float:
+    """Where [index] a far pipe's own end face, lit head-on just beyond the gap, gives way to that pipe's wall, in
+    one generator's grey profile p whose gap has its far edge at i_far with a ramp r_far [samples]; nan where no
+    face shows there.
+
+    Where the pipe ends stand apart and the far pipe stands into the flow (``synth.scene.DisplacedJoint``'s
+    "apart"), the gap's far edge is the far end's plane at the near pipe's radius, the far pipe's end face a
+    bright band beyond it, and the far pipe's own ring (its centre: the step) the face's inner edge, where the
+    face falls to the far wall's level. The fall is sought as the steepest over one ramp, deeper than the face's
+    brightest sample; it must be as sharp as the gap's edges (``FACE_RAMP``), not the far wall's gradual fall-off
+    with depth, and a share of the face's rise from the gap's floor (``FACE_CONTRAST``). Read at half-way between
+    the wall's and the face's levels, in linear light, as the gap's edges are.
+    """
+    if not (np.isfinite(p).all() and math.isfinite(r_far)):
+        return math.nan
+    q = _linear(p)
+    w = max(4, int(round(r_far)))
+    s0 = int(math.floor(i_far - max(2.0, 1.5 * r_far)))        # clear of the gap's far edge, on the face
+    if s0 - 2 * w < 0:
+        return math.nan
+    m = max(0, s0 - LOCAL) + int(np.argmax(q[max(0, s0 - LOCAL):s0 + 1]))   # the face's brightest sample
+    if m - 2 * w < 0:
+        return math.nan
+    rise = q[w:m + 1] - q[:m + 1 - w]                  # going shallower over one ramp, ending at k + w
+    k = int(np.argmax(rise))
+    wall = float(np.min(q[max(0, k - w):k + 1]))
+    face = float(np.max(q[k + w:m + 1])) if k + w <= m else float(q[m])
+    floor = float(np.min(q[int(math.floor(i_far)):int(math.ceil(i_far)) + LOCAL]))
+    if face - wall < FACE_CONTRAST * (face - floor) or p[m] - np.min(p[max(0, k - w):k + 1]) < MIN_CONTRAST:
+        return math.nan
+    start = max(0, k - w)
+    c25, c50, c75 = (_crossing(q, start, wall + share * (face - wall), 1) for share in (0.25, 0.5, 0.75))
+    if not (math.isfinite(c25) and math.isfinite(c75) and c50 < m) or c75 - c25 > FACE_RAMP * max(r_far, 1.0):
+        return math.nan
+    return float(c50)
+
+
 def _linear(grey: np.ndarray) -> np.ndarray:
     """Grey levels [0-255] to linear light [1] with a video camera's standard response (gamma ``RESPONSE_GAMMA``)."""
     return (np.clip(grey, 0.0, 255.0) / 255.0) ** RESPONSE_GAMMA
@@ -546,6 +588,41 @@ def _far_starts(walls, far_u, near, t0) -> list[tuple[float, float, float, float
     return starts
 
 
+def _fit_face(view, walls, face_u, t_far, c0, radius) -> tuple[np.ndarray, float]:
+    """The far end's centre (X, Y) [H] from its face's inner edges' 1 / t on their generators (nominal wall points
+    (n, 2) [H]), the far end's depth t_far [H] given (the gap's far edges'), started from c0; and the rms [1/H]."""
+    def residual(c):
+        return np.nan_to_num(face_u - _far_u(view, walls, t_far, c, radius), nan=1.0, posinf=1.0, neginf=-1.0)
+
+    sol = least_squares(residual, np.asarray(c0, float), loss="soft_l1", f_scale=0.005 / t_far, x_scale=[0.01, 0.01])
+    return sol.x, _robust_rms(sol.fun)
+
+
+def _fit_plane(view, walls, far_u, t0, centre, radius) -> float:
+    """The depth t [H] of the near pipe's profile, centred at ``centre`` [H], through the far edges' 1 / t on their
+    generators: the far end's plane where its face shows beyond the gap (``_face_edge``)."""
+    def residual(x):
+        return np.nan_to_num(far_u - _far_u(view, walls, x[0], centre, radius), nan=1.0, posinf=1.0, neginf=-1.0)
+
+    sol = least_squares(residual, np.array([t0], float), loss="soft_l1", f_scale=0.005 / t0, x_scale=[0.01 * t0])
+    return float(sol.x[0])
+
+
+def _face_sensitivity(view, near_px, deeper, walls, face_u, face_du, near, far, radius) -> tuple[float, float]:
+    """d(step)/d(px) [H per px] for the near ring's edges and for the far end's face edges moved towards the gap,
+    where the far end's centre is read from its face (``_edge_sensitivity``'s for the step)."""
+    tn, cxn, cyn = near
+    tf, cxf, cyf = far
+    step0 = float(np.hypot(cxf - cxn, cyf - cyn))
+    direction = np.array([cxf - cxn, cyf - cyn]) / step0 if step0 > 0 else np.array([1.0, 0.0])
+    d = EDGE_PROBE_PX
+    (_, *cn2), _ = _fit_ring(view, near_px + d * deeper, tn, radius)
+    c3, _ = _fit_face(view, walls, face_u + d * face_du, tf, (cxf, cyf), radius)
+    step_near = (float(np.dot([cxf - cn2[0], cyf - cn2[1]], direction)) - step0) / d
+    step_far = (float(np.dot([c3[0] - cxn, c3[1] - cyn], direction)) - step0) / d
+    return float(step_near), float(step_far)
+
+
 def _in_plane(view: PipeView, pts: np.ndarray, t: float) -> np.ndarray:
     d = view.rays(pts)
     s = t / d[:, 2]
@@ -574,11 +651,15 @@ def find_joint_ends(gray: np.ndarray, view: PipeView, depth: float, *, mask: np.
         # where both find the gap, the darkest sample's edges are those validated (docs/measurement.md)
         found = [(a, e) for a, e in enumerate(_edges(v, by_dip=True) for v in vals) if e is not None]
     blur, resolved, shift, u_blur = _blur(found, pts)
-    near, far, kept, near_u, far_u = [], [], [], [], []
+    near, far, kept, near_u, far_u, face_u, face_du = [], [], [], [], [], [], []
     glare, deeper, du_px = [], [], []                  # per edge: the generator's image direction away from the
                                                        # camera at the near edge; 1 / t per px at the far edge
-    for (a, (i_near, i_far, _, _)), (d_near, d_far) in zip(found, shift):
+    for (a, (i_near, i_far, _, r_far)), (d_near, d_far) in zip(found, shift):
         p, line = vals[a], pts[a]
+        i_face = _face_edge(p, i_far, r_far)           # the far end's own face beyond the gap, where it shows
+        face_u.append(float(np.interp(i_face, np.arange(len(inv_t)), inv_t)) if math.isfinite(i_face) else math.nan)
+        face_px = float(np.hypot(*(_at(line, i_face + 1) - _at(line, i_face)))) if math.isfinite(i_face) else 0.0
+        face_du.append((inv_t[1] - inv_t[0]) / face_px if face_px > 0 else 0.0)
         i_near, i_far = i_near - d_near, i_far + d_far   # the blur's widening taken out, half at each edge
         near.append(_at(line, i_near))
         far.append(_at(line, i_far))
@@ -595,6 +676,7 @@ def find_joint_ends(gray: np.ndarray, view: PipeView, depth: float, *, mask: np.
         return None
     near_px, far_px = np.array(near), np.array(far)
     near_u, far_u = np.array(near_u), np.array(far_u)
+    face_u, face_du = np.array(face_u), np.array(face_du)
     deeper, du_px = np.array(deeper), np.array(du_px)
     ang = angles[kept]
     radius = _radius_of(view.shape)
@@ -607,7 +689,7 @@ def find_joint_ends(gray: np.ndarray, view: PipeView, depth: float, *, mask: np.
     keep = (_ring_distance(view, near_px, tn, cn, radius) < max(3 * rms_n, 0.004)) & \
            (np.abs(_far_residual(view, walls, far_u, (tn, *cn), (tf, *cf, tp), radius)[:-1]) < max(3 * rms_f, 0.004 / tf))
     near_px, far_px, ang, walls, far_u = near_px[keep], far_px[keep], ang[keep], walls[keep], far_u[keep]
-    deeper, du_px = deeper[keep], du_px[keep]
+    deeper, du_px, face_u, face_du = deeper[keep], du_px[keep], face_u[keep], face_du[keep]
     if len(ang) < MIN_EDGES * len(angles) / 2:
         return None
     (tn, *cn), rms_n = _fit_ring(view, near_px, tn, radius)
@@ -624,17 +706,45 @@ def find_joint_ends(gray: np.ndarray, view: PipeView, depth: float, *, mask: np.
     shown = len(np.unique(sector[seen]))               # sectors in which the far end's own ring shows
     matched = not seen.all() and seen.sum() >= MIN_EDGES * len(angles) / 2 and shown >= MIN_MATCHED_SECTORS
     tg = float(_fit_ring(view, near_px[seen], tn, radius)[0][0]) if matched else tn
+    # where the pipe ends stand apart, the gap's far edges lie on the far end's plane at the near pipe's radius
+    # and tell its depth but not its centre, which its face's inner edges tell instead (``_face_edge``): taken
+    # where the face shows on at least half of a sector's generators, in at least ``MIN_FACE_SECTORS`` sectors,
+    # and follows one ring (a face's edges scattered about the circumference are the far wall's shading)
+    x_far = (tf, *cf, tp)
+    face_sectors = [k for k in np.unique(sector) if np.mean(np.isfinite(face_u[sector == k])) >= 0.5]
+    on_face = np.isfinite(face_u) & np.isin(sector, face_sectors)
+    by_face = len(face_sectors) >= MIN_FACE_SECTORS
+    rms_face = math.nan
+    if by_face:
+        # the far end's plane from the gap's far edges where the face shows (there they lie on it at the near
+        # pipe's radius; the far fit's rim may take them and leave the far ring to its prior), its centre then
+        # from the face
+        t_face = _fit_plane(view, walls[on_face], far_u[on_face], tf, cn, radius)
+        c_face, rms_face = _fit_face(view, walls[on_face], face_u[on_face], t_face, cn, radius)
+        by_face = bool(rms_face * t_face <= MAX_RING_RMS_H and np.all(np.isfinite(c_face)) and t_face > tn)
+    if by_face:
+        tf, cf = t_face, [float(c_face[0]), float(c_face[1])]
+        seen = on_face                                  # the gap's two ends over the arc its far plane is read on
+        matched = not seen.all() and len(face_sectors) >= MIN_MATCHED_SECTORS
+        tg = float(_fit_ring(view, near_px[seen], tn, radius)[0][0]) if matched else tn
+        sens = (sens[0], _face_sensitivity(view, near_px, deeper, walls[on_face], face_u[on_face],
+                                           face_du[on_face], (tn, *cn), (tf, *cf), radius))
     # the residuals in the image along the generators [px]: the near ring's radial [H] at depth tn, the far
     # ring's in 1 / t [1/H] (a wall point at radius r lies f r / t from the vanishing point)
     r_mean = float(np.mean(np.hypot(walls[:, 0] - view.ox, walls[:, 1] - view.oy)))
     scatter_near, scatter_far = rms_n * f / tn, rms_f * f * r_mean
+    if by_face:                                         # the step's far edges: the face's
+        scatter_far = max(scatter_far, rms_face * f * r_mean)
     rms_f *= tf                                         # in u [1/H] to a share of H at the far ring
     held = np.unique(sector)
     jack = []
     for s in held:
         rest = sector != s
         a_n, _ = _fit_ring(view, near_px[rest], tn, radius)
-        a_f, _ = _fit_far(view, walls[rest], far_u[rest], a_n, tf, radius, (tf, *cf, tp))
+        a_f, _ = _fit_far(view, walls[rest], far_u[rest], a_n, tf, radius, x_far)
+        if by_face and (rest & on_face).sum() >= 3:
+            a_f[0] = _fit_plane(view, walls[rest & on_face], far_u[rest & on_face], tf, a_n[1:], radius)
+            a_f[1:3] = _fit_face(view, walls[rest & on_face], face_u[rest & on_face], a_f[0], cf, radius)[0]
         if matched:                                     # (the near depth as the gap reads it)
             a_n[0] = _fit_ring(view, near_px[rest & seen], tg, radius)[0][0]
         jack.append(np.concatenate([a_n, a_f[:3]]))
@@ -655,7 +765,7 @@ def find_joint_ends(gray: np.ndarray, view: PipeView, depth: float, *, mask: np.
         problems.append(f"glare: {100 * share_glare:.0f} % of the pixels at the gap are saturated")
     if not tf > tg:
         problems.append("the far edge is not beyond the near one")
-    if shown < MIN_RING_SECTORS:                        # the far depth then rests on the fit's prior, not on edges
+    if shown < MIN_RING_SECTORS and not by_face:       # the far depth then rests on the fit's prior, not on edges
         problems.append(f"the far end's own ring shows in {shown} of {SECTORS} sectors only (its edges elsewhere "
                         "lie on the near pipe's rim): the far end's depth is not measured")
     u_depth = max(math.sqrt(cov[0, 0]), math.sqrt(cov[3, 3])) if m > 1 else 0.0

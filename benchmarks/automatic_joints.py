@@ -26,6 +26,8 @@ into what a case's frames share and what each adds (``shared_and_own``: ``codecs
 ``--shapes ROWS...`` prints each pipe shape's results at DN >= 200 from ``--json`` rows, per run and pooled.
 ``--strata ROWS...`` prints the circular joints' results by codec and DN band, the runs' rows pooled.
 ``--pairs FILE`` prints the codec's shift by size again from the pairs ``--rendered`` kept with ``--json``.
+``--ends apart`` renders the joints' pipe ends a gap apart, the far end's face beyond the gap where it stands into
+the flow (``DisplacedJoint.ends``; the default, "painted", is the generator's joint of every run before 2026-12-08).
 ``--widths FILE`` prints each trusted frame's gap error by the gap's width in the image from a ``--json`` file, with
 the blur each frame's edges gave.
 """
@@ -55,6 +57,7 @@ from pipeline.measurement.joints import _px_per_depth, joint_points, measure_joi
 from pipeline.maths.profiles import clock_to_theta
 from pipeline.synth.appearance import SENSOR_NOISE, Appearance
 from pipeline.synth.joint_cases import JointCase, case_renderer, random_case, read_truth, write_case
+from pipeline.synth.scene import JOINT_ENDS
 from pipeline.vision.contour import detect_contour
 from pipeline.vision.contour.detect import wall_u_from_tolerance
 from pipeline.vision.contour import joint_ends
@@ -468,6 +471,10 @@ def main() -> None:
     ap.add_argument("--cases", type=int, default=10, help="cases with a displaced joint (default 10)")
     ap.add_argument("--empty", type=int, default=4, help="cases without one (default 4)")
     ap.add_argument("--seed", type=int, default=34)
+    ap.add_argument("--ends", choices=JOINT_ENDS, default="painted",
+                    help="how the joints' pipe ends meet (painted: the generator's band at the joint's plane, the "
+                    "step's face inside it, every run's until 2026-12-08; apart: a gap apart, the far end's face beyond "
+                    "the gap)")
     ap.add_argument("--work", type=Path, default=Path("/tmp/joint-cases"), help="where the cases' videos are kept")
     ap.add_argument("--json", type=Path, help="write every row here")
     ap.add_argument("--contours", type=Path, help="keep each video's pose fit here (reruns skip the fits; a fresh "
@@ -518,7 +525,7 @@ def main() -> None:
     looks = np.random.default_rng([args.seed, 1])
     for k, c in enumerate(cases):
         noise, look = look_of(args.appearance, looks)
-        cases[k] = replace(c, noise=noise, appearance=look)
+        cases[k] = replace(c, noise=noise, appearance=look, ends=args.ends)
     rows: list[dict] = []
     t0 = time.perf_counter()
     if args.rendered:
@@ -534,7 +541,8 @@ def main() -> None:
         video = folder / "video.mp4" if codec == "mpeg4" else folder / f"{case.case_id}-h264.mp4"
         kept = read_truth(folder) if video.is_file() and (folder / "truth.json").is_file() else None
         # (cases kept before 2026-12-05 carry no look: theirs was the default)
-        if kept is None or {"noise": SENSOR_NOISE, "appearance": asdict(Appearance()), **kept["case"]} \
+        if kept is None or {"noise": SENSOR_NOISE, "appearance": asdict(Appearance()), "ends": "painted",
+                            **kept["case"]} \
                 != json.loads(json.dumps(asdict(case))) \
                 or kept.get("certificate_id", "SYN-720x576") != cert.certificate_id:   # (none before 2026-12-05)
             write_case(case, cert, args.work, codecs=(CODECS[codec],))

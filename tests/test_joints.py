@@ -595,3 +595,26 @@ def test_a_segment_spans_fewer_video_pixels_towards_a_wide_angle_lens_s_edge(cer
     assert video_px_per_px((cx, cy), (cx + 2.0, cy), cert) == pytest.approx(1.0, abs=0.01)
     assert video_px_per_px((cx + 300.0, cy), (cx + 302.0, cy), cert) == pytest.approx(0.63, abs=0.02)
     assert video_px_per_px((cx, cy), (cx, cy), cert) == 1.0                     # no segment: no scale
+
+
+@pytest.mark.parametrize("shape, h, gap, step, clock, dist", [("circular", 300.0, 10.0, 20.0, 3, 0.30),
+                                                               ("circular", 800.0, 20.0, 30.0, 12, 1.00),
+                                                               ("egg", 400.0, 20.0, 15.0, 3, 0.50)])
+def test_pipe_ends_a_gap_apart_have_their_step_read_from_the_far_end_s_face(cert, shape, h, gap, step, clock, dist):
+    """Where the pipe ends stand a gap apart (as in a sewer), the gap's far edges all lie on the far end's plane at
+    the near pipe's radius: they read the step as none (20 mm read as 0.2 mm, 30 as 3.9) and a large one's gap
+    a half too long (DN800: 32.5 mm for 20), as they did before 2026-12-08. The far end's face beyond the gap,
+    lit head-on where the far pipe stands into the flow, has the far pipe's own ring for its inner edge."""
+    from pipeline.vision.contour import joint_ends
+    from pipeline.vision.contour.view import PipeView
+
+    scene = Scene(Pipe(shape, h, "concrete", 2000.0),
+                  features=(DisplacedJoint("j", 1, gap, step, clock=clock, ends="apart"),))
+    und = Undistorter(cert, cert.image_width_px, cert.image_height_px)
+    gray = cv2.cvtColor(und.frame(Renderer(scene, cert, seed=3).render(2000.0 - 1000.0 * dist)), cv2.COLOR_BGR2GRAY)
+    K = und.K
+    view = PipeView(shape, K[0, 0], K[1, 1], K[0, 2], K[1, 2])
+    e = joint_ends.find_joint_ends(gray, view, 1000.0 * dist / h)
+    assert e is not None and e.confident, e and e.problems
+    assert np.hypot(*e.step) * h == pytest.approx(step, abs=1.5)
+    assert (e.far_depth - e.near_depth) * h == pytest.approx(gap, abs=2.0)

@@ -58,6 +58,7 @@ class JointCase:
     seed: int = 0
     noise: float = SENSOR_NOISE   # the sensor's noise [grey levels of 255]
     appearance: Appearance = Appearance()     # the video's look (``synth.appearance``)
+    ends: str = "painted"         # how the joint's pipe ends meet (``DisplacedJoint.ends``)
 
     @property
     def joint_mm(self) -> float:
@@ -88,7 +89,7 @@ def random_case(rng: np.random.Generator, case_id: str, *, displaced: bool = Tru
 def case_scene(case: JointCase) -> Scene:
     """The case's pipe and its displaced joint (number 2; none without one)."""
     pipe = Pipe(case.shape, case.height_mm, case.material, case.unit_length_mm)
-    joints = (DisplacedJoint("joint", 2, case.gap_mm, case.step_mm, clock=case.clock),) if case.displaced else ()
+    joints = (DisplacedJoint("joint", 2, case.gap_mm, case.step_mm, clock=case.clock, ends=case.ends),) if case.displaced else ()
     return Scene(pipe, water_percent=case.water_percent, features=joints)
 
 

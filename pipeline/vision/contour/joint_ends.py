@@ -604,7 +604,8 @@ def _fit_plane(view, walls, far_u, t0, centre, radius) -> float:
     def residual(x):
         return np.nan_to_num(far_u - _far_u(view, walls, x[0], centre, radius), nan=1.0, posinf=1.0, neginf=-1.0)
 
-    sol = least_squares(residual, np.array([t0], float), loss="soft_l1", f_scale=0.005 / t0, x_scale=[0.01 * t0])
+    sol = least_squares(residual, np.array([t0], float), loss="soft_l1", f_scale=0.005 / t0, x_scale=[0.01 * t0],
+                        bounds=([0.2 * t0], [5.0 * t0]))    # (a plane at or behind the camera is no plane)
     return float(sol.x[0])
 
 
@@ -742,7 +743,7 @@ def find_joint_ends(gray: np.ndarray, view: PipeView, depth: float, *, mask: np.
         rest = sector != s
         a_n, _ = _fit_ring(view, near_px[rest], tn, radius)
         a_f, _ = _fit_far(view, walls[rest], far_u[rest], a_n, tf, radius, x_far)
-        if by_face and (rest & on_face).sum() >= 3:
+        if by_face and (rest & on_face).sum() >= 3 and a_f[0] > 0:
             a_f[0] = _fit_plane(view, walls[rest & on_face], far_u[rest & on_face], tf, a_n[1:], radius)
             a_f[1:3] = _fit_face(view, walls[rest & on_face], face_u[rest & on_face], a_f[0], cf, radius)[0]
         if matched:                                     # (the near depth as the gap reads it)

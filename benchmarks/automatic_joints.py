@@ -27,7 +27,8 @@ into what a case's frames share and what each adds (``shared_and_own``: ``codecs
 ``--strata ROWS...`` prints the circular joints' results by codec and DN band, the runs' rows pooled.
 ``--pairs FILE`` prints the codec's shift by size again from the pairs ``--rendered`` kept with ``--json``.
 ``--ends apart`` renders the joints' pipe ends a gap apart, the far end's face beyond the gap where it stands into
-the flow (``DisplacedJoint.ends``; the default, "painted", is the generator's joint of every run before 2026-12-08).
+the flow (``DisplacedJoint.ends``; the default, "painted", is the generator's joint of every run before
+the fourth session of 2026-12-07).
 ``--widths FILE`` prints each trusted frame's gap error by the gap's width in the image from a ``--json`` file, with
 the blur each frame's edges gave.
 """
@@ -473,7 +474,7 @@ def main() -> None:
     ap.add_argument("--seed", type=int, default=34)
     ap.add_argument("--ends", choices=JOINT_ENDS, default="painted",
                     help="how the joints' pipe ends meet (painted: the generator's band at the joint's plane, the "
-                    "step's face inside it, every run's until 2026-12-08; apart: a gap apart, the far end's face beyond "
+                    "step's face inside it, every run's until 2026-12-07's fourth session; apart: a gap apart, the far end's face beyond "
                     "the gap)")
     ap.add_argument("--work", type=Path, default=Path("/tmp/joint-cases"), help="where the cases' videos are kept")
     ap.add_argument("--json", type=Path, help="write every row here")

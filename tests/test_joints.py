@@ -599,12 +599,18 @@ def test_a_segment_spans_fewer_video_pixels_towards_a_wide_angle_lens_s_edge(cer
 
 @pytest.mark.parametrize("shape, h, gap, step, clock, dist", [("circular", 300.0, 10.0, 20.0, 3, 0.30),
                                                                ("circular", 800.0, 20.0, 30.0, 12, 1.00),
-                                                               ("egg", 400.0, 20.0, 15.0, 3, 0.50)])
+                                                               ("egg", 400.0, 20.0, 15.0, 3, 0.50),
+                                                               ("circular", 1000.0, 22.0, 8.0, 12, 1.00),
+                                                               ("circular", 800.0, 15.0, 12.0, 6, 0.90)])
 def test_pipe_ends_a_gap_apart_have_their_step_read_from_the_far_end_s_face(cert, shape, h, gap, step, clock, dist):
     """Where the pipe ends stand a gap apart (as in a sewer), the gap's far edges all lie on the far end's plane at
     the near pipe's radius: they read the step as none (20 mm read as 0.2 mm, 30 as 3.9) and a large one's gap
-    a half too long (DN800: 32.5 mm for 20), as they did before 2026-12-08. The far end's face beyond the gap,
-    lit head-on where the far pipe stands into the flow, has the far pipe's own ring for its inner edge."""
+    a half too long (DN800: 32.5 mm for 20), as they did before the fourth session of 2026-12-07. The far end's
+    face beyond the gap, lit head-on where the far pipe stands into the flow, has the far pipe's own ring for its
+    inner edge; a small step shows it in one sector only (DN1000, 8 mm: read as 4 mm when two were asked for).
+    Where the far pipe stands out of the wall behind the near one's end the gap closes, and another dip is taken
+    for it there (DN800 stepped 12 mm at 0.9 m: a third of the generators, the near end read 23 mm short until
+    a Cauchy fit dropped them)."""
     from pipeline.vision.contour import joint_ends
     from pipeline.vision.contour.view import PipeView
 
@@ -617,4 +623,4 @@ def test_pipe_ends_a_gap_apart_have_their_step_read_from_the_far_end_s_face(cert
     e = joint_ends.find_joint_ends(gray, view, 1000.0 * dist / h)
     assert e is not None and e.confident, e and e.problems
     assert np.hypot(*e.step) * h == pytest.approx(step, abs=1.5)
-    assert (e.far_depth - e.near_depth) * h == pytest.approx(gap, abs=2.0)
+    assert (e.far_depth - e.near_depth) * h == pytest.approx(gap, abs=2.5)       # (DN800 at 0.9 m: +2.0 mm)

@@ -102,7 +102,7 @@ class DisplacedJoint:
 
     - "painted": the pipes meet at the joint's plane and the gap is a dark band painted across it, so where the far
       pipe stands into the flow its end face lies at the plane, inside the band (the generator's joint until
-      2026-12-08, every benchmark's and sample's so far);
+      2026-12-07's fourth session, every benchmark's and sample's so far);
     - "apart": the pipe ends stand the gap apart, as in a sewer: the near pipe ends gap / 2 before the plane, the
       far one begins gap / 2 beyond it, and where it stands into the flow its end face, lit head-on, shows just
       beyond the gap; where it stands out of the wall its end hides behind the near one's and the gap closes.

@@ -26,6 +26,15 @@ depth t [H] along that line is known. So:
    -1.1 mm, now by +0.2 and -0.1 mm; seed 354's egg frames with small steps rendered without a codec, the gap's
    median error +0.61e-3 H and 68th percentile of its size 0.99e-3 H before, +0.48e-3 H and 0.73e-3 H now;
    circular frames about as before; docs/measurement.md, "The gap's two ends over the same arc").
+4. that model is the synthetic generator's joint until the fourth session of 2026-12-07: both pipes end at the
+   joint's plane, the gap a dark band across it, the far pipe's end face at the plane inside the band. In a sewer
+   the pipe ends stand the gap apart (``synth.scene.DisplacedJoint``'s "apart"): the gap's far edges then lie on
+   the far end's plane all around, on the far pipe's own ring where it stands out of the wall (until it hides
+   behind the near pipe's end and the gap closes), at the near pipe's radius where it stands into the flow; there
+   its end face, lit head-on, shows beyond the gap, and its inner edge is the far pipe's ring (``_face_edge``).
+   The first model reads such a joint's step as none (``benchmarks/joint_tilt.py --placement --ends apart``:
+   steps of 9-30 mm read 0.3-3.9 mm). The ends-apart model (``_fit_apart``) is taken where the face shows and
+   follows one ring, or where it fits the far edges clearly better (``APART_GAIN``).
 
 Standard uncertainties of the rings' depths and centres come from a delete-one-sector jackknife (neighbouring
 edge points share the texture and the blur, so sectors, not points, are the independent observations). The
@@ -91,7 +100,9 @@ FACE_CONTRAST = 0.3        # a far end's own face beyond the gap: its fall to th
                            # rise from the gap's floor (the far wall's own fall-off with depth, over the plateau's
                            # window, is a small share of it)
 FACE_RAMP = 2.0            # and that fall no wider than this many times the gap's far edge's ramp (the blur's)
-MIN_FACE_SECTORS = 2       # sectors in which the face must show for the far end's centre to be read from it
+MIN_FACE_SECTORS = 1       # sectors in which the face must show for the far end's centre to be read from it
+APART_GAIN = 0.8           # the ends-apart model kept without a face when its cost is under this share of the other's
+GROSS_H = 0.02             # a near edge this far [H] off the near ring's Cauchy fit: no edge of this joint's
 MAX_STEP_H = 0.2           # the far ring's centre this far [H] off the near one's: not a pipe end (displaced joints
                            # step a few % of H; a far end 20 % off is another feature taken for it)
 
@@ -446,7 +457,7 @@ def _face_edge(p: np.ndarray, i_far: float, r_far: float) -> float:
     floor = float(np.min(q[int(math.floor(i_far)):int(math.ceil(i_far)) + LOCAL]))
     if face - wall < FACE_CONTRAST * (face - floor) or p[m] - np.min(p[max(0, k - w):k + 1]) < MIN_CONTRAST:
         return math.nan
-    start = max(0, k - w)
+    start = max(0, k - w) + int(np.argmin(q[max(0, k - w):k + 1]))     # on the wall, below every level sought
     c25, c50, c75 = (_crossing(q, start, wall + share * (face - wall), 1) for share in (0.25, 0.5, 0.75))
     if not (math.isfinite(c25) and math.isfinite(c75) and c50 < m) or c75 - c25 > FACE_RAMP * max(r_far, 1.0):
         return math.nan
@@ -458,9 +469,9 @@ def _linear(grey: np.ndarray) -> np.ndarray:
     return (np.clip(grey, 0.0, 255.0) / 255.0) ** RESPONSE_GAMMA
 
 
-def _fit_ring(view: PipeView, pts: np.ndarray, t0: float, radius) -> tuple[np.ndarray, float]:
+def _fit_ring(view: PipeView, pts: np.ndarray, t0: float, radius, loss: str = "soft_l1") -> tuple[np.ndarray, float]:
     """Depth t [H] and centre (X, Y) [H] of the profile ring through image points (n, 2) [px]: (t, cx, cy) and
-    the rms of the residual [H]."""
+    the rms of the residual [H]; ``loss`` least_squares'."""
     o = np.array([view.ox, view.oy])
     q = _in_plane(view, pts, t0) - o
 
@@ -469,7 +480,7 @@ def _fit_ring(view: PipeView, pts: np.ndarray, t0: float, radius) -> tuple[np.nd
         p = o + q * lam - (cx, cy)
         return np.hypot(p[:, 0], p[:, 1]) - radius(np.arctan2(p[:, 1], p[:, 0]))
 
-    sol = least_squares(residual, np.array([1.0, 0.0, 0.0]), loss="soft_l1", f_scale=0.005)
+    sol = least_squares(residual, np.array([1.0, 0.0, 0.0]), loss=loss, f_scale=0.005)
     return np.array([sol.x[0] * t0, sol.x[1], sol.x[2]]), _robust_rms(sol.fun)
 
 
@@ -588,40 +599,72 @@ def _far_starts(walls, far_u, near, t0) -> list[tuple[float, float, float, float
     return starts
 
 
-def _fit_face(view, walls, face_u, t_far, c0, radius) -> tuple[np.ndarray, float]:
-    """The far end's centre (X, Y) [H] from its face's inner edges' 1 / t on their generators (nominal wall points
-    (n, 2) [H]), the far end's depth t_far [H] given (the gap's far edges'), started from c0; and the rms [1/H]."""
-    def residual(c):
-        return np.nan_to_num(face_u - _far_u(view, walls, t_far, c, radius), nan=1.0, posinf=1.0, neginf=-1.0)
-
-    sol = least_squares(residual, np.asarray(c0, float), loss="soft_l1", f_scale=0.005 / t_far, x_scale=[0.01, 0.01])
-    return sol.x, _robust_rms(sol.fun)
+def _soft_cost(r: np.ndarray, scale: float) -> float:
+    """least_squares' soft_l1 cost of residuals r at ``scale``."""
+    z = (np.nan_to_num(r, nan=1.0, posinf=1.0, neginf=-1.0) / scale) ** 2
+    return float(0.5 * scale ** 2 * np.sum(2.0 * (np.sqrt(1.0 + z) - 1.0)))
 
 
-def _fit_plane(view, walls, far_u, t0, centre, radius) -> float:
-    """The depth t [H] of the near pipe's profile, centred at ``centre`` [H], through the far edges' 1 / t on their
-    generators: the far end's plane where its face shows beyond the gap (``_face_edge``)."""
+def _apart_residual(view, walls, far_u, face_u, near, x, radius) -> np.ndarray:
+    """The far edges' and the face's inner edges' 1 / t [1/H] against the ends-apart model: the gap's far edge on
+    the far end's plane ``x[0]`` at whichever of the far ring (centre ``x[1:]``) and the near pipe's radius (about
+    the near ring's centre) lies nearer along the generator, the face's inner edge (nan: none) on the far ring.
+    ``near`` is the near ring (t, cx, cy) [H]."""
+    t_far, cx, cy = x
+    ring = _far_u(view, walls, t_far, (cx, cy), radius)
+    rim = _far_u(view, walls, t_far, near[1:], radius)
+    face = np.isfinite(face_u)
+    r = np.concatenate([far_u - np.maximum(ring, rim), face_u[face] - ring[face]])
+    return np.nan_to_num(r, nan=1.0, posinf=1.0, neginf=-1.0)
+
+
+def _fit_apart(view, walls, far_u, face_u, near, x_far, radius, x0=None) -> tuple[np.ndarray, float, float]:
+    """(t, cx, cy) [H] of the far end by the ends-apart model (``_apart_residual``), its cost over the gap's far
+    edges (``_soft_cost``, comparable with the other model's) and the rms of the face's edges about the far ring
+    [1/H] (nan: no face). Started from ``x0`` when given, else from the other model's fit ``x_far`` and the
+    starts of ``_far_starts`` without their plane; the fit of least cost kept."""
+    scale = 0.005 / x_far[0]
+
     def residual(x):
-        return np.nan_to_num(far_u - _far_u(view, walls, x[0], centre, radius), nan=1.0, posinf=1.0, neginf=-1.0)
+        if not x[0] > 0:
+            return np.ones(len(far_u) + int(np.isfinite(face_u).sum()))
+        return _apart_residual(view, walls, far_u, face_u, near, x, radius)
 
-    sol = least_squares(residual, np.array([t0], float), loss="soft_l1", f_scale=0.005 / t0, x_scale=[0.01 * t0],
-                        bounds=([0.2 * t0], [5.0 * t0]))    # (a plane at or behind the camera is no plane)
-    return float(sol.x[0])
+    starts = [x0] if x0 is not None else [x_far[:3]] + [s[:3] for s in _far_starts(walls, far_u, near, x_far[0])]
+    best = None
+    for start in starts:
+        if not np.all(np.isfinite(start)):
+            continue
+        try:
+            sol = least_squares(residual, np.asarray(start, float), loss="soft_l1", f_scale=scale,
+                                x_scale=[0.01 * x_far[0], 0.01, 0.01])
+        except ValueError:
+            continue
+        if np.all(np.isfinite(sol.x)) and (best is None or sol.cost < best.cost):
+            best = sol
+    if best is None:
+        return np.full(3, np.nan), math.inf, math.nan
+    n = len(far_u)
+    face_r = best.fun[n:]
+    return best.x, _soft_cost(best.fun[:n], scale), (_robust_rms(face_r) if len(face_r) >= 3 else math.nan)
 
 
-def _face_sensitivity(view, near_px, deeper, walls, face_u, face_du, near, far, radius) -> tuple[float, float]:
-    """d(step)/d(px) [H per px] for the near ring's edges and for the far end's face edges moved towards the gap,
-    where the far end's centre is read from its face (``_edge_sensitivity``'s for the step)."""
+def _apart_sensitivity(view, near_px, deeper, walls, far_u, du_px, face_u, face_du, near, x, radius):
+    """``_edge_sensitivity``'s for the ends-apart model: d(gap)/d(px) and d(step)/d(px) [H per px] for the near
+    ring's edges and for the far edges (the gap's and the face's) moved into the gap, refitted from the fit."""
     tn, cxn, cyn = near
-    tf, cxf, cyf = far
+    tf, cxf, cyf = x
     step0 = float(np.hypot(cxf - cxn, cyf - cyn))
     direction = np.array([cxf - cxn, cyf - cyn]) / step0 if step0 > 0 else np.array([1.0, 0.0])
     d = EDGE_PROBE_PX
-    (_, *cn2), _ = _fit_ring(view, near_px + d * deeper, tn, radius)
-    c3, _ = _fit_face(view, walls, face_u + d * face_du, tf, (cxf, cyf), radius)
-    step_near = (float(np.dot([cxf - cn2[0], cyf - cn2[1]], direction)) - step0) / d
-    step_far = (float(np.dot([c3[0] - cxn, c3[1] - cyn], direction)) - step0) / d
-    return float(step_near), float(step_far)
+    x_far = (tf, cxf, cyf, tf)
+    near2, _ = _fit_ring(view, near_px + d * deeper, tn, radius)
+    x2, _, _ = _fit_apart(view, walls, far_u, face_u, near2, x_far, radius, x0=x)
+    x3, _, _ = _fit_apart(view, walls, far_u + d * du_px, face_u + d * face_du, near, x_far, radius, x0=x)
+    gap_near, gap_far = (x2[0] - near2[0] - (tf - tn)) / d, (x3[0] - tf) / d
+    step_near = (float(np.dot(np.subtract(x2[1:], near2[1:]), direction)) - step0) / d
+    step_far = (float(np.dot([x3[1] - cxn, x3[2] - cyn], direction)) - step0) / d
+    return (float(gap_near), float(gap_far)), (float(step_near), float(step_far))
 
 
 def _in_plane(view: PipeView, pts: np.ndarray, t: float) -> np.ndarray:
@@ -681,6 +724,16 @@ def find_joint_ends(gray: np.ndarray, view: PipeView, depth: float, *, mask: np.
     deeper, du_px = np.array(deeper), np.array(du_px)
     ang = angles[kept]
     radius = _radius_of(view.shape)
+    # part of the circumference may show no gap at all (pipe ends apart, the far one standing out of the wall
+    # behind the near one's end: there another dip is taken for the gap, tens of mm off, on a third of the
+    # generators of a DN800 stepped 12 mm); the soft_l1 fits below are pulled by so many, a Cauchy fit's pull
+    # falls off with the residual: the generators off its ring by more than ``GROSS_H`` are dropped first
+    (t0, *c0), _ = _fit_ring(view, near_px, depth, radius, loss="cauchy")
+    sane = _ring_distance(view, near_px, t0, c0, radius) <= GROSS_H
+    if not sane.all() and sane.sum() >= MIN_EDGES * len(angles) / 2:
+        near_px, far_px, near_u, far_u, ang = near_px[sane], far_px[sane], near_u[sane], far_u[sane], ang[sane]
+        face_u, face_du, deeper, du_px = face_u[sane], face_du[sane], deeper[sane], du_px[sane]
+        glare = [g for g, ok in zip(glare, sane) if ok]
     walls = _wall(view.shape, ang)
     (tn, *cn), rms_n = _fit_ring(view, near_px, depth, radius)
     (tf, *cf, tp), rms_f = _fit_far(view, walls, far_u, (tn, *cn), depth * 1.02, radius)
@@ -711,30 +764,38 @@ def find_joint_ends(gray: np.ndarray, view: PipeView, depth: float, *, mask: np.
     # and tell its depth but not its centre, which its face's inner edges tell instead (``_face_edge``): taken
     # where the face shows on at least half of a sector's generators, in at least ``MIN_FACE_SECTORS`` sectors,
     # and follows one ring (a face's edges scattered about the circumference are the far wall's shading)
+    # where the pipe ends stand apart (``synth.scene.DisplacedJoint``'s "apart", a sewer's), the gap's far edges lie
+    # on the far end's plane all around: on the far pipe's own ring where it stands out of the wall (nearer along
+    # the generator than the near pipe's radius there), at the near pipe's radius where it stands into the flow,
+    # and there its end face shows beyond the gap, its inner edge on the far pipe's ring (``_face_edge``, taken
+    # where it shows on at least half of a sector's generators). The model the far fit above follows, the step's
+    # face inside the gap at the joint's plane, reads such a joint's step as none (its far edges then lie on one
+    # ring about the near centre); it is kept unless the face shows in ``MIN_FACE_SECTORS`` sectors and follows
+    # one ring (no face shows beyond the gap in the other model), or the ends-apart model fits the far edges
+    # clearly better (``APART_GAIN``). Not by cost alone: where the far pipe stands out of the wall the gap
+    # narrows under the blur, its far edges read deeper, and the other model, with a plane of its own to put
+    # them on, fits them as well or better
     x_far = (tf, *cf, tp)
     face_sectors = [k for k in np.unique(sector) if np.mean(np.isfinite(face_u[sector == k])) >= 0.5]
     on_face = np.isfinite(face_u) & np.isin(sector, face_sectors)
-    by_face = len(face_sectors) >= MIN_FACE_SECTORS
-    rms_face = math.nan
-    if by_face:
-        # the far end's plane from the gap's far edges where the face shows (there they lie on it at the near
-        # pipe's radius; the far fit's rim may take them and leave the far ring to its prior), its centre then
-        # from the face
-        t_face = _fit_plane(view, walls[on_face], far_u[on_face], tf, cn, radius)
-        c_face, rms_face = _fit_face(view, walls[on_face], face_u[on_face], t_face, cn, radius)
-        by_face = bool(rms_face * t_face <= MAX_RING_RMS_H and np.all(np.isfinite(c_face)) and t_face > tn)
-    if by_face:
-        tf, cf = t_face, [float(c_face[0]), float(c_face[1])]
-        seen = on_face                                  # the gap's two ends over the arc its far plane is read on
-        matched = not seen.all() and len(face_sectors) >= MIN_MATCHED_SECTORS
-        tg = float(_fit_ring(view, near_px[seen], tn, radius)[0][0]) if matched else tn
-        sens = (sens[0], _face_sensitivity(view, near_px, deeper, walls[on_face], face_u[on_face],
-                                           face_du[on_face], (tn, *cn), (tf, *cf), radius))
+    faced = len(face_sectors) >= MIN_FACE_SECTORS
+    x_apart, cost_apart, rms_face = _fit_apart(view, walls, far_u, np.where(on_face, face_u, np.nan), (tn, *cn),
+                                               x_far, radius)
+    cost_painted = _soft_cost(_far_residual(view, walls, far_u, (tn, *cn), x_far, radius)[:-1], 0.005 / tf)
+    apart = bool(np.all(np.isfinite(x_apart)) and x_apart[0] > tn and (
+        cost_apart < APART_GAIN * cost_painted
+        or (faced and rms_face * x_apart[0] <= MAX_RING_RMS_H)))
+    if apart:
+        tf, cf = float(x_apart[0]), [float(x_apart[1]), float(x_apart[2])]
+        seen = np.ones(len(ang), bool)                  # the far plane read all around, as the near one
+        matched, tg = False, tn
+        sens = _apart_sensitivity(view, near_px, deeper, walls, far_u, du_px, np.where(on_face, face_u, np.nan),
+                                  face_du, (tn, *cn), x_apart, radius)
     # the residuals in the image along the generators [px]: the near ring's radial [H] at depth tn, the far
     # ring's in 1 / t [1/H] (a wall point at radius r lies f r / t from the vanishing point)
     r_mean = float(np.mean(np.hypot(walls[:, 0] - view.ox, walls[:, 1] - view.oy)))
     scatter_near, scatter_far = rms_n * f / tn, rms_f * f * r_mean
-    if by_face:                                         # the step's far edges: the face's
+    if apart and math.isfinite(rms_face):               # the step's far edges: the face's too
         scatter_far = max(scatter_far, rms_face * f * r_mean)
     rms_f *= tf                                         # in u [1/H] to a share of H at the far ring
     held = np.unique(sector)
@@ -743,9 +804,9 @@ def find_joint_ends(gray: np.ndarray, view: PipeView, depth: float, *, mask: np.
         rest = sector != s
         a_n, _ = _fit_ring(view, near_px[rest], tn, radius)
         a_f, _ = _fit_far(view, walls[rest], far_u[rest], a_n, tf, radius, x_far)
-        if by_face and (rest & on_face).sum() >= 3 and a_f[0] > 0:
-            a_f[0] = _fit_plane(view, walls[rest & on_face], far_u[rest & on_face], tf, a_n[1:], radius)
-            a_f[1:3] = _fit_face(view, walls[rest & on_face], face_u[rest & on_face], a_f[0], cf, radius)[0]
+        if apart:
+            a_f[:3] = _fit_apart(view, walls[rest], far_u[rest], np.where(on_face, face_u, np.nan)[rest], a_n,
+                                 x_far, radius, x0=x_apart)[0]
         if matched:                                     # (the near depth as the gap reads it)
             a_n[0] = _fit_ring(view, near_px[rest & seen], tg, radius)[0][0]
         jack.append(np.concatenate([a_n, a_f[:3]]))
@@ -766,7 +827,7 @@ def find_joint_ends(gray: np.ndarray, view: PipeView, depth: float, *, mask: np.
         problems.append(f"glare: {100 * share_glare:.0f} % of the pixels at the gap are saturated")
     if not tf > tg:
         problems.append("the far edge is not beyond the near one")
-    if shown < MIN_RING_SECTORS and not by_face:       # the far depth then rests on the fit's prior, not on edges
+    if shown < MIN_RING_SECTORS and not apart:         # the far depth then rests on the fit's prior, not on edges
         problems.append(f"the far end's own ring shows in {shown} of {SECTORS} sectors only (its edges elsewhere "
                         "lie on the near pipe's rim): the far end's depth is not measured")
     u_depth = max(math.sqrt(cov[0, 0]), math.sqrt(cov[3, 3])) if m > 1 else 0.0

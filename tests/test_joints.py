@@ -624,3 +624,17 @@ def test_pipe_ends_a_gap_apart_have_their_step_read_from_the_far_end_s_face(cert
     assert e is not None and e.confident, e and e.problems
     assert np.hypot(*e.step) * h == pytest.approx(step, abs=1.5)
     assert (e.far_depth - e.near_depth) * h == pytest.approx(gap, abs=2.5)       # (DN800 at 0.9 m: +2.0 mm)
+
+
+def test_a_sector_in_view_without_the_gap_is_closed_one_out_of_view_is_not():
+    """Where the far pipe stands out of the wall by more than the gap shows, the gap closes: a sector whose
+    generators lie in the image but hold no edges. One off the frame (its profiles nan) says nothing."""
+    from pipeline.vision.contour import joint_ends
+
+    angles = np.linspace(-np.pi, np.pi, 2 * joint_ends.N_ANGLES, endpoint=False)
+    sector = np.floor((angles + np.pi) / (2 * np.pi) * joint_ends.SECTORS).astype(int) % joint_ends.SECTORS
+    vals = np.ones((len(angles), 50))
+    vals[sector == 5] = np.nan                                      # off the frame
+    held_at = np.flatnonzero(~np.isin(sector, (2, 5)))              # no edges in sectors 2 and 5
+    assert joint_ends._closed_sectors(vals, angles, held_at) == [2]
+    assert joint_ends._closed_sectors(vals, angles, np.flatnonzero(sector != 5)) == []

@@ -96,12 +96,17 @@ LOG_BEHIND_M = 0.5         # a logged joint is looked for from this far behind t
                            # may give the joint's own distance (the camera at it, or just past it, when recorded)
 SEARCH_AHEAD_M = 3.5       # and at most this far ahead of it [m]: a camera stopped short of the joint (up to 2.5 m
                            # before a DN 1000's, where its ring shows whole from about 2 H)
-FACE_CONTRAST = 0.3        # a far end's own face beyond the gap: its fall to the far wall at least this share of its
+FACE_CONTRAST = 0.15       # a far end's own face beyond the gap: its fall to the far wall at least this share of its
                            # rise from the gap's floor (the far wall's own fall-off with depth, over the plateau's
                            # window, is a small share of it)
 FACE_RAMP = 2.0            # and that fall no wider than this many times the gap's far edge's ramp (the blur's)
 MIN_FACE_SECTORS = 1       # sectors in which the face must show for the far end's centre to be read from it
 APART_GAIN = 0.8           # the ends-apart model kept without a face when its cost is under this share of the other's
+CLOSED_IN_VIEW = 0.75      # a sector in view: this share of its generators' profiles whole in the image
+CLOSED_HELD = 0.25         # and the gap closed there: its edges kept on at most this share of them
+CLOSED_EXPLAINED = 0.5     # the step read explains a closed sector when at least this share of the step that closes
+                           # it (a sector under water the mask leaves, or read at its frame's edge, may show no
+                           # gap either: sample S02's joint, 2.1 % of H read against 2.3 % that would close it)
 GROSS_H = 0.02             # a near edge this far [H] off the near ring's Cauchy fit: no edge of this joint's
 MAX_STEP_H = 0.2           # the far ring's centre this far [H] off the near one's: not a pipe end (displaced joints
                            # step a few % of H; a far end 20 % off is another feature taken for it)
@@ -146,6 +151,8 @@ class JointEnds:
     blur_u_px: float = 0.0
     # whether the gap is wide enough against the blur for its width to be read (2.5 sigma)
     gap_resolved: bool = True
+    # what keeps the step (B) from being measured in this frame while the gap (A) is
+    step_problems: tuple[str, ...] = ()
 
     @property
     def step(self) -> np.ndarray:
@@ -440,7 +447,8 @@ def _face_edge(p: np.ndarray, i_far: float, r_far: float) -> float:
     with depth, and a share of the face's rise from the gap's floor (``FACE_CONTRAST``). Read at half-way between
     the wall's and the face's levels, in linear light, as the gap's edges are.
     """
-    if not (np.isfinite(p).all() and math.isfinite(r_far)):
+    if not (math.isfinite(r_far) and math.isfinite(i_far)
+            and np.isfinite(p[:min(len(p), int(math.ceil(i_far)) + LOCAL)]).all()):
         return math.nan
     q = _linear(p)
     w = max(4, int(round(r_far)))
@@ -599,6 +607,18 @@ def _far_starts(walls, far_u, near, t0) -> list[tuple[float, float, float, float
     return starts
 
 
+def _closed_sectors(vals: np.ndarray, angles: np.ndarray, held_at: np.ndarray) -> list[int]:
+    """The sectors whose generators lie in the image (their profiles whole: not off the frame, not under the mask)
+    on at least ``CLOSED_IN_VIEW`` of them, yet hold the joint's edges on at most ``CLOSED_HELD`` of them: there
+    the gap closes (or something hides it that the mask does not)."""
+    in_view = np.isfinite(vals).all(axis=1)
+    held = np.zeros(len(angles), bool)
+    held[held_at] = True
+    sector = np.floor((angles + np.pi) / (2 * np.pi) * SECTORS).astype(int) % SECTORS
+    return [k for k in range(SECTORS)
+            if np.mean(in_view[sector == k]) >= CLOSED_IN_VIEW and np.mean(held[sector == k]) <= CLOSED_HELD]
+
+
 def _soft_cost(r: np.ndarray, scale: float) -> float:
     """least_squares' soft_l1 cost of residuals r at ``scale``."""
     z = (np.nan_to_num(r, nan=1.0, posinf=1.0, neginf=-1.0) / scale) ** 2
@@ -722,7 +742,7 @@ def find_joint_ends(gray: np.ndarray, view: PipeView, depth: float, *, mask: np.
     near_u, far_u = np.array(near_u), np.array(far_u)
     face_u, face_du = np.array(face_u), np.array(face_du)
     deeper, du_px = np.array(deeper), np.array(du_px)
-    ang = angles[kept]
+    ang, held_at = angles[kept], np.array(kept)
     radius = _radius_of(view.shape)
     # part of the circumference may show no gap at all (pipe ends apart, the far one standing out of the wall
     # behind the near one's end: there another dip is taken for the gap, tens of mm off, on a third of the
@@ -732,6 +752,7 @@ def find_joint_ends(gray: np.ndarray, view: PipeView, depth: float, *, mask: np.
     sane = _ring_distance(view, near_px, t0, c0, radius) <= GROSS_H
     if not sane.all() and sane.sum() >= MIN_EDGES * len(angles) / 2:
         near_px, far_px, near_u, far_u, ang = near_px[sane], far_px[sane], near_u[sane], far_u[sane], ang[sane]
+        held_at = held_at[sane]
         face_u, face_du, deeper, du_px = face_u[sane], face_du[sane], deeper[sane], du_px[sane]
         glare = [g for g, ok in zip(glare, sane) if ok]
     walls = _wall(view.shape, ang)
@@ -743,7 +764,7 @@ def find_joint_ends(gray: np.ndarray, view: PipeView, depth: float, *, mask: np.
     keep = (_ring_distance(view, near_px, tn, cn, radius) < max(3 * rms_n, 0.004)) & \
            (np.abs(_far_residual(view, walls, far_u, (tn, *cn), (tf, *cf, tp), radius)[:-1]) < max(3 * rms_f, 0.004 / tf))
     near_px, far_px, ang, walls, far_u = near_px[keep], far_px[keep], ang[keep], walls[keep], far_u[keep]
-    deeper, du_px, face_u, face_du = deeper[keep], du_px[keep], face_u[keep], face_du[keep]
+    deeper, du_px, face_u, face_du, held_at = deeper[keep], du_px[keep], face_u[keep], face_du[keep], held_at[keep]
     if len(ang) < MIN_EDGES * len(angles) / 2:
         return None
     (tn, *cn), rms_n = _fit_ring(view, near_px, tn, radius)
@@ -830,6 +851,21 @@ def find_joint_ends(gray: np.ndarray, view: PipeView, depth: float, *, mask: np.
     if shown < MIN_RING_SECTORS and not apart:         # the far depth then rests on the fit's prior, not on edges
         problems.append(f"the far end's own ring shows in {shown} of {SECTORS} sectors only (its edges elsewhere "
                         "lie on the near pipe's rim): the far end's depth is not measured")
+    # where the pipe ends stand apart and the far one stands out of the wall by more than the gap shows, the gap
+    # closes there: its far end hides behind the near one's. Read on the rest (the far end's face out of view, or
+    # too thin to show) the step comes out smaller than that (seed 354 with the ends apart: DN1000 joints stepped
+    # 16-22 mm read 0.2-1.9 mm, their face below the frame); a closed sector that the step read is far from
+    # explaining (``CLOSED_EXPLAINED``) leaves the step unmeasured
+    closed = _closed_sectors(vals, angles, held_at)
+    step_problems = []
+    if closed:
+        mid = (np.array(closed) + 0.5) * (2 * np.pi / SECTORS) - np.pi
+        closes = float(np.min(radius(mid))) * (tf - tg) / tg          # the step that hides the far end there [H]
+        if math.hypot(cf[0] - cn[0], cf[1] - cn[1]) < CLOSED_EXPLAINED * closes:
+            step_problems.append(f"the gap closes in {len(closed)} of {SECTORS} sectors in view, where a step of at "
+                                 f"least about {100 * closes:.1f} % of H would hide the far end, but "
+                                 f"{100 * math.hypot(cf[0] - cn[0], cf[1] - cn[1]):.1f} % is read: the step is not "
+                                 "measured")
     u_depth = max(math.sqrt(cov[0, 0]), math.sqrt(cov[3, 3])) if m > 1 else 0.0
     if not u_depth <= MAX_RING_U_H:                    # nan: a part left out leaves no ring to fit
         moves = f"by {100 * u_depth:.1f} % of H" if math.isfinite(u_depth) else "beyond a fit"
@@ -848,7 +884,8 @@ def find_joint_ends(gray: np.ndarray, view: PipeView, depth: float, *, mask: np.
     return JointEnds(float(tg), float(tf), (float(cn[0]), float(cn[1])), (float(cf[0]), float(cf[1])),
                      float(math.sqrt(cov[0, 0])), float(math.sqrt(cov[3, 3])), d_step @ cov @ d_step.T,
                      near_px, far_px, ang, coverage, share_glare, tuple(problems), float(scatter_near),
-                     float(scatter_far), *sens, blur_px=blur, blur_u_px=u_blur, gap_resolved=resolved)
+                     float(scatter_far), *sens, blur_px=blur, blur_u_px=u_blur, gap_resolved=resolved,
+                     step_problems=tuple(step_problems))
 
 
 EDGE_PROBE_PX = 0.5         # how far the edges are moved to read the fit's sensitivity to their placement [px]

@@ -638,3 +638,20 @@ def test_a_sector_in_view_without_the_gap_is_closed_one_out_of_view_is_not():
     held_at = np.flatnonzero(~np.isin(sector, (2, 5)))              # no edges in sectors 2 and 5
     assert joint_ends._closed_sectors(vals, angles, held_at) == [2]
     assert joint_ends._closed_sectors(vals, angles, np.flatnonzero(sector != 5)) == []
+
+
+def test_a_joint_read_by_its_far_end_s_face_is_found_not_measured_until_that_model_is_validated(cert):
+    """Pipe ends a gap apart (DN300, gap 20 mm, step 12 mm, the far pipe lower): its step is read from the far end's
+    face, near the truth, but that model's intervals held too rarely on a generated seed: the result says so and is
+    not trusted, for the step and for the gap."""
+    from pipeline.measurement.joints import ENDS_APART_NOT_VALIDATED
+
+    scene = Scene(Pipe("circular", H, "concrete", 1000.0 * JOINT_M),
+                  features=(DisplacedJoint("j", 1, GAP, 12.0, clock=6, ends="apart"),))
+    frames, contour = _approach(scene, cert, [JOINT_M - d for d in TRAVEL])
+    sightings, _ = follow_joint(frames, contour.view, H)
+    assert sightings and any(s.ends.ends_apart for s in sightings)
+    for char1 in "AB":
+        _, res = measure_joint(_obs(char1), sightings, contour, cert, H=H, tolerance=0.0, seed=3)
+        assert not res.confident and ENDS_APART_NOT_VALIDATED in res.reasons
+    assert np.hypot(*sightings[0].ends.step) * H == pytest.approx(12.0, abs=1.5)

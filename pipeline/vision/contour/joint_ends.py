@@ -153,6 +153,8 @@ class JointEnds:
     gap_resolved: bool = True
     # what keeps the step (B) from being measured in this frame while the gap (A) is
     step_problems: tuple[str, ...] = ()
+    # whether the ends were read by the ends-apart model (the far end's face beyond the gap, ``_fit_apart``)
+    ends_apart: bool = False
 
     @property
     def step(self) -> np.ndarray:
@@ -885,7 +887,7 @@ def find_joint_ends(gray: np.ndarray, view: PipeView, depth: float, *, mask: np.
                      float(math.sqrt(cov[0, 0])), float(math.sqrt(cov[3, 3])), d_step @ cov @ d_step.T,
                      near_px, far_px, ang, coverage, share_glare, tuple(problems), float(scatter_near),
                      float(scatter_far), *sens, blur_px=blur, blur_u_px=u_blur, gap_resolved=resolved,
-                     step_problems=tuple(step_problems))
+                     step_problems=tuple(step_problems), ends_apart=apart)
 
 
 EDGE_PROBE_PX = 0.5         # how far the edges are moved to read the fit's sensitivity to their placement [px]

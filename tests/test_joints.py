@@ -636,8 +636,8 @@ def test_a_sector_in_view_without_the_gap_is_closed_one_out_of_view_is_not():
     vals = np.ones((len(angles), 50))
     vals[sector == 5] = np.nan                                      # off the frame
     held_at = np.flatnonzero(~np.isin(sector, (2, 5)))              # no edges in sectors 2 and 5
-    assert joint_ends._closed_sectors(vals, angles, held_at) == [2]
-    assert joint_ends._closed_sectors(vals, angles, np.flatnonzero(sector != 5)) == []
+    assert joint_ends._closed_sectors(vals, angles, held_at) == ([2], [0, 1, 3, 4, 6, 7])
+    assert joint_ends._closed_sectors(vals, angles, np.flatnonzero(sector != 5))[0] == []
 
 
 def test_a_joint_read_by_its_far_end_s_face_is_found_not_measured_until_that_model_is_validated(cert):

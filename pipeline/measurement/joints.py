@@ -53,7 +53,7 @@ ORIGIN = "joint ends fit"
 AGREE_P = 0.01
 # pipe ends a gap apart, their step read from the far end's face (``joint_ends._fit_apart``): one generated seed so
 # far, and its intervals held too rarely (seed 354 with the ends apart, DN >= 200: A 89.7 %, median z -0.31; B
-# 61.5 %, median z -1.63: the face's inner edge read about 0.2 px outward, the step a few % short)
+# 61.5 %, median z -1.63: the steps read short; the face's inner edge, in a trial with the pose known, outward)
 ENDS_APART_NOT_VALIDATED = ("the joint's pipe ends stand a gap apart (the far end's face shows beyond it): its "
                             "ends read so are not validated yet, their stated U95 missed the generated truth too "
                             "often (docs/measurement.md, \"Pipe ends a gap apart\")")

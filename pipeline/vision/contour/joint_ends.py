@@ -609,16 +609,17 @@ def _far_starts(walls, far_u, near, t0) -> list[tuple[float, float, float, float
     return starts
 
 
-def _closed_sectors(vals: np.ndarray, angles: np.ndarray, held_at: np.ndarray) -> list[int]:
+def _closed_sectors(vals: np.ndarray, angles: np.ndarray, held_at: np.ndarray) -> tuple[list[int], list[int]]:
     """The sectors whose generators lie in the image (their profiles whole: not off the frame, not under the mask)
     on at least ``CLOSED_IN_VIEW`` of them, yet hold the joint's edges on at most ``CLOSED_HELD`` of them: there
-    the gap closes (or something hides it that the mask does not)."""
+    the gap closes (or something hides it that the mask does not); and the sectors holding edges on more."""
     in_view = np.isfinite(vals).all(axis=1)
     held = np.zeros(len(angles), bool)
     held[held_at] = True
     sector = np.floor((angles + np.pi) / (2 * np.pi) * SECTORS).astype(int) % SECTORS
-    return [k for k in range(SECTORS)
-            if np.mean(in_view[sector == k]) >= CLOSED_IN_VIEW and np.mean(held[sector == k]) <= CLOSED_HELD]
+    share = [float(np.mean(held[sector == k])) for k in range(SECTORS)]
+    return ([k for k in range(SECTORS) if np.mean(in_view[sector == k]) >= CLOSED_IN_VIEW and share[k] <= CLOSED_HELD],
+            [k for k in range(SECTORS) if share[k] > CLOSED_HELD])
 
 
 def _soft_cost(r: np.ndarray, scale: float) -> float:
@@ -858,9 +859,12 @@ def find_joint_ends(gray: np.ndarray, view: PipeView, depth: float, *, mask: np.
     # too thin to show) the step comes out smaller than that (seed 354 with the ends apart: DN1000 joints stepped
     # 16-22 mm read 0.2-1.9 mm, their face below the frame); a closed sector that the step read is far from
     # explaining (``CLOSED_EXPLAINED``) leaves the step unmeasured
-    closed = _closed_sectors(vals, angles, held_at)
+    closed, held = _closed_sectors(vals, angles, held_at)
     step_problems = []
-    if closed:
+    # (a sector across from a closed one holding the gap's edges shows where the far end would stand into the flow:
+    # a step there would show its face or its deeper ring, and a step of none read there says the sector closed for
+    # another reason, water the mask leaves, glare, texture: seed 354's painted DN150 joints, 4 of them)
+    if closed and not any((k + SECTORS // 2) % SECTORS in held for k in closed):
         mid = (np.array(closed) + 0.5) * (2 * np.pi / SECTORS) - np.pi
         closes = float(np.min(radius(mid))) * (tf - tg) / tg          # the step that hides the far end there [H]
         if math.hypot(cf[0] - cn[0], cf[1] - cn[1]) < CLOSED_EXPLAINED * closes:

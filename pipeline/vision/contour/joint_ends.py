@@ -33,7 +33,7 @@ depth t [H] along that line is known. So:
    behind the near pipe's end and the gap closes), at the near pipe's radius where it stands into the flow; there
    its end face, lit head-on, shows beyond the gap, and its inner edge is the far pipe's ring (``_face_edge``).
    The first model reads such a joint's step as none (``benchmarks/joint_tilt.py --placement --ends apart``:
-   steps of 9-30 mm read 0.3-3.9 mm). The ends-apart model (``_fit_apart``) is taken where the face shows and
+   steps of 9-30 mm read 0.2-3.9 mm). The ends-apart model (``_fit_apart``) is taken where the face shows and
    follows one ring, or where it fits the far edges clearly better (``APART_GAIN``).
 
 Standard uncertainties of the rings' depths and centres come from a delete-one-sector jackknife (neighbouring
@@ -107,7 +107,7 @@ CLOSED_HELD = 0.25         # and the gap closed there: its edges kept on at most
 CLOSED_EXPLAINED = 0.5     # the step read explains a closed sector when at least this share of the step that closes
                            # it (a sector under water the mask leaves, or read at its frame's edge, may show no
                            # gap either: sample S02's joint, 2.1 % of H read against 2.3 % that would close it)
-GROSS_H = 0.02             # a near edge this far [H] off the near ring's Cauchy fit: no edge of this joint's
+GROSS_H = 0.02             # a near edge this far [H] off the near ring's Cauchy fit is not this joint's
 MAX_STEP_H = 0.2           # the far ring's centre this far [H] off the near one's: not a pipe end (displaced joints
                            # step a few % of H; a far end 20 % off is another feature taken for it)
 

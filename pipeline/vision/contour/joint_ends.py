@@ -616,10 +616,15 @@ def _closed_sectors(vals: np.ndarray, angles: np.ndarray, held_at: np.ndarray) -
     in_view = np.isfinite(vals).all(axis=1)
     held = np.zeros(len(angles), bool)
     held[held_at] = True
-    sector = np.floor((angles + np.pi) / (2 * np.pi) * SECTORS).astype(int) % SECTORS
+    sector = _sector_of(angles)
     share = [float(np.mean(held[sector == k])) for k in range(SECTORS)]
     return ([k for k in range(SECTORS) if np.mean(in_view[sector == k]) >= CLOSED_IN_VIEW and share[k] <= CLOSED_HELD],
             [k for k in range(SECTORS) if share[k] > CLOSED_HELD])
+
+
+def _sector_of(angles: np.ndarray) -> np.ndarray:
+    """The sector (0 to ``SECTORS`` - 1) of each generator's angle [rad]."""
+    return np.floor((angles + np.pi) / (2 * np.pi) * SECTORS).astype(int) % SECTORS
 
 
 def _soft_cost(r: np.ndarray, scale: float) -> float:
@@ -780,14 +785,10 @@ def find_joint_ends(gray: np.ndarray, view: PipeView, depth: float, *, mask: np.
     # centre stays the one fitted all around: in a trial on one seed's egg frames, both centres over the arc made
     # the step's error larger, not smaller
     _, seen = _far_edges(view, walls, far_u, (tn, *cn), (tf, *cf, tp), radius)
-    sector = np.floor((ang + np.pi) / (2 * np.pi) * SECTORS).astype(int) % SECTORS
+    sector = _sector_of(ang)
     shown = len(np.unique(sector[seen]))               # sectors in which the far end's own ring shows
     matched = not seen.all() and seen.sum() >= MIN_EDGES * len(angles) / 2 and shown >= MIN_MATCHED_SECTORS
     tg = float(_fit_ring(view, near_px[seen], tn, radius)[0][0]) if matched else tn
-    # where the pipe ends stand apart, the gap's far edges lie on the far end's plane at the near pipe's radius
-    # and tell its depth but not its centre, which its face's inner edges tell instead (``_face_edge``): taken
-    # where the face shows on at least half of a sector's generators, in at least ``MIN_FACE_SECTORS`` sectors,
-    # and follows one ring (a face's edges scattered about the circumference are the far wall's shading)
     # where the pipe ends stand apart (``synth.scene.DisplacedJoint``'s "apart", a sewer's), the gap's far edges lie
     # on the far end's plane all around: on the far pipe's own ring where it stands out of the wall (nearer along
     # the generator than the near pipe's radius there), at the near pipe's radius where it stands into the flow,
@@ -803,8 +804,8 @@ def find_joint_ends(gray: np.ndarray, view: PipeView, depth: float, *, mask: np.
     face_sectors = [k for k in np.unique(sector) if np.mean(np.isfinite(face_u[sector == k])) >= 0.5]
     on_face = np.isfinite(face_u) & np.isin(sector, face_sectors)
     faced = len(face_sectors) >= MIN_FACE_SECTORS
-    x_apart, cost_apart, rms_face = _fit_apart(view, walls, far_u, np.where(on_face, face_u, np.nan), (tn, *cn),
-                                               x_far, radius)
+    face_used = np.where(on_face, face_u, np.nan)
+    x_apart, cost_apart, rms_face = _fit_apart(view, walls, far_u, face_used, (tn, *cn), x_far, radius)
     cost_painted = _soft_cost(_far_residual(view, walls, far_u, (tn, *cn), x_far, radius)[:-1], 0.005 / tf)
     apart = bool(np.all(np.isfinite(x_apart)) and x_apart[0] > tn and (
         cost_apart < APART_GAIN * cost_painted
@@ -813,8 +814,8 @@ def find_joint_ends(gray: np.ndarray, view: PipeView, depth: float, *, mask: np.
         tf, cf = float(x_apart[0]), [float(x_apart[1]), float(x_apart[2])]
         seen = np.ones(len(ang), bool)                  # the far plane read all around, as the near one
         matched, tg = False, tn
-        sens = _apart_sensitivity(view, near_px, deeper, walls, far_u, du_px, np.where(on_face, face_u, np.nan),
-                                  face_du, (tn, *cn), x_apart, radius)
+        sens = _apart_sensitivity(view, near_px, deeper, walls, far_u, du_px, face_used, face_du, (tn, *cn),
+                                  x_apart, radius)
     # the residuals in the image along the generators [px]: the near ring's radial [H] at depth tn, the far
     # ring's in 1 / t [1/H] (a wall point at radius r lies f r / t from the vanishing point)
     r_mean = float(np.mean(np.hypot(walls[:, 0] - view.ox, walls[:, 1] - view.oy)))
@@ -827,10 +828,8 @@ def find_joint_ends(gray: np.ndarray, view: PipeView, depth: float, *, mask: np.
     for s in held:
         rest = sector != s
         a_n, _ = _fit_ring(view, near_px[rest], tn, radius)
-        a_f, _ = _fit_far(view, walls[rest], far_u[rest], a_n, tf, radius, x_far)
-        if apart:
-            a_f[:3] = _fit_apart(view, walls[rest], far_u[rest], np.where(on_face, face_u, np.nan)[rest], a_n,
-                                 x_far, radius, x0=x_apart)[0]
+        a_f = _fit_apart(view, walls[rest], far_u[rest], face_used[rest], a_n, x_far, radius, x0=x_apart)[0] \
+            if apart else _fit_far(view, walls[rest], far_u[rest], a_n, tf, radius, x_far)[0]
         if matched:                                     # (the near depth as the gap reads it)
             a_n[0] = _fit_ring(view, near_px[rest & seen], tg, radius)[0][0]
         jack.append(np.concatenate([a_n, a_f[:3]]))
@@ -859,19 +858,19 @@ def find_joint_ends(gray: np.ndarray, view: PipeView, depth: float, *, mask: np.
     # too thin to show) the step comes out smaller than that (seed 354 with the ends apart: DN1000 joints stepped
     # 16-22 mm read 0.2-1.9 mm, their face below the frame); a closed sector that the step read is far from
     # explaining (``CLOSED_EXPLAINED``) leaves the step unmeasured
-    closed, held = _closed_sectors(vals, angles, held_at)
+    closed, holding = _closed_sectors(vals, angles, held_at)
     step_problems = []
     # (a sector across from a closed one holding the gap's edges shows where the far end would stand into the flow:
     # a step there would show its face or its deeper ring, and a step of none read there says the sector closed for
     # another reason, water the mask leaves, glare, texture: seed 354's painted DN150 joints, 4 of them)
-    if closed and not any((k + SECTORS // 2) % SECTORS in held for k in closed):
+    if closed and not any((k + SECTORS // 2) % SECTORS in holding for k in closed):
         mid = (np.array(closed) + 0.5) * (2 * np.pi / SECTORS) - np.pi
         closes = float(np.min(radius(mid))) * (tf - tg) / tg          # the step that hides the far end there [H]
-        if math.hypot(cf[0] - cn[0], cf[1] - cn[1]) < CLOSED_EXPLAINED * closes:
+        read = math.hypot(cf[0] - cn[0], cf[1] - cn[1])
+        if read < CLOSED_EXPLAINED * closes:
             step_problems.append(f"the gap closes in {len(closed)} of {SECTORS} sectors in view, where a step of at "
                                  f"least about {100 * closes:.1f} % of H would hide the far end, but "
-                                 f"{100 * math.hypot(cf[0] - cn[0], cf[1] - cn[1]):.1f} % is read: the step is not "
-                                 "measured")
+                                 f"{100 * read:.1f} % is read: the step is not measured")
     u_depth = max(math.sqrt(cov[0, 0]), math.sqrt(cov[3, 3])) if m > 1 else 0.0
     if not u_depth <= MAX_RING_U_H:                    # nan: a part left out leaves no ring to fit
         moves = f"by {100 * u_depth:.1f} % of H" if math.isfinite(u_depth) else "beyond a fit"

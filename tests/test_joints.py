@@ -607,9 +607,9 @@ def test_pipe_ends_a_gap_apart_have_their_step_read_from_the_far_end_s_face(cert
     the near pipe's radius: they read the step as none (20 mm read as 0.2 mm, 30 as 3.9) and a large one's gap
     a half too long (DN800: 32.5 mm for 20), as they did before the fourth session of 2026-12-07. The far end's
     face beyond the gap, lit head-on where the far pipe stands into the flow, has the far pipe's own ring for its
-    inner edge; a small step shows it in one sector only (DN1000, 8 mm: read as 4 mm when two were asked for).
+    inner edge; a small step shows it in one sector only (DN1000, 8 mm: read short when two were asked for).
     Where the far pipe stands out of the wall behind the near one's end the gap closes, and another dip is taken
-    for it there (DN800 stepped 12 mm at 0.9 m: a third of the generators, the near end read 23 mm short until
+    for it there (DN800 stepped 12 mm at 0.9 m: part of the generators, the near end read tens of mm short until
     a Cauchy fit dropped them)."""
     from pipeline.vision.contour import joint_ends
     from pipeline.vision.contour.view import PipeView

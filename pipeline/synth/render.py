@@ -180,10 +180,7 @@ class Renderer:
             hits = self._deform(hits, z, z_cam)
             z = z_cam + hits.s * self.dz
 
-        iz = (z * (1.0 / TEXEL_MM)).astype(np.int32) & (self.tex.shape[0] - 1)
-        # Where a pixel covers many texels, the texture averages out towards its mean.
-        amp = np.minimum(2.0 * TEXEL_MM / hits.fp, 1.0)
-        albedo = self.tex_mean + (self.tex[iz, hits.iu] - self.tex_mean) * amp
+        albedo = self._albedo(hits, z)
         groove, lip = self._joint_coverage(z, hits.fp)
         groove[end_face] = 0.0          # a far pipe's own end face beyond the gap ("apart"): its concrete, not the gap
         albedo *= 1.0 - self.look.groove * groove
@@ -194,6 +191,8 @@ class Renderer:
         # The socket's end face looks at the camera: lit almost head-on, unlike the grazing wall.
         faces = np.nonzero(lip)[0]
         lum[faces] *= 1.0 + lip[faces] * (np.minimum(self.look.face_gain / np.maximum(hits.cos[faces], 0.05), 8.0) - 1.0)
+        if end_face.size and not self.scene.of_type(Deformation):
+            self._face_edges(lum, z_cam)
         s_cur = hits.s.copy()
         self._deposits(lum, region, s_cur, z_cam)
         self._connections(lum, region, s_cur, z_cam)
@@ -257,6 +256,44 @@ class Renderer:
             X, Y = self.ox + sf * self.dx[face], self.oy + sf * self.dy[face]
             out.put(face, self._hits(sf, np.arctan2(Y, X), self.dz[face]))
         return out, (face if dj.ends == "apart" else none)
+
+    def _face_edges(self, lum: np.ndarray, z_cam: float) -> None:
+        """Anti-alias the far pipe's end face (``DisplacedJoint.ends`` "apart") in ``lum``, in place.
+
+        Each pixel's centre ray says whether it sees the face, the gap or the far pipe's wall; a pixel the face's
+        edge crosses sees part of each. The gap's own anti-aliasing (``_joint_coverage``) takes the wall beyond
+        its far edge for the other part, which is right where the far pipe stands out of the wall, not beside the
+        face: there it painted the gap's last half pixel as grazing wall where the bright face is, and the far
+        wall's first as half gap. The face's edges then read half a footprint onto the face from both sides (the
+        step read short: DN800 stepped 30 mm at 1 m, -1.4 mm; ``benchmarks/joint_tilt.py --placement --ends
+        apart`` before 2026-12-07's fifth session). Here each pixel near the face takes the face's share of its
+        footprint across each edge (the distance of its centre from the edge in footprints, as
+        ``_joint_coverage``), the rest from the surface beside that edge: the gap, dark throughout, or the far
+        wall, without the gap's darkening. Not under a deformation (its hits are not the segments' own)."""
+        dj, seg1, seg2 = self.djoint, self.seg1, self.seg2
+        z_far = dj.joint * self.pipe.unit_length_mm + 0.5 * dj.gap_mm
+        z1, z2 = z_cam + seg1.s * self.dz, z_cam + seg2.s * self.dz
+        with np.errstate(invalid="ignore", divide="ignore"):
+            d1 = (z1 - z_far) / seg1.fp          # > 0: past the near pipe's radius only beyond the far end's plane
+            d2 = (z_far - z2) / seg2.fp          # > 0: at the far pipe's radius before that pipe begins
+        band = np.nonzero((self.dz > 0) & (d1 > -0.5) & (d2 > -0.5) & (np.minimum(d1, d2) < 0.5))[0]
+        if not band.size:
+            return
+        b1, b2 = d1[band], d2[band]
+        cover = np.clip(b1 + 0.5, 0.0, 1.0) * np.clip(b2 + 0.5, 0.0, 1.0)
+        sf = (z_far - z_cam) / self.dz[band]
+        X, Y = self.ox + sf * self.dx[band], self.oy + sf * self.dy[band]
+        face = self._hits(sf, np.arctan2(Y, X), self.dz[band])
+        lum_face = self._albedo(face, np.full(band.size, z_far, np.float32)) * face.light
+        gap = (self._albedo(_take(seg1, band), z1[band]) * seg1.light[band]) * (1.0 - self.look.groove)
+        wall = self._albedo(_take(seg2, band), z2[band]) * seg2.light[band]
+        lum[band] = cover * lum_face + (1.0 - cover) * np.where(b1 <= b2, gap, wall)
+
+    def _albedo(self, hits: _Hits, z: np.ndarray) -> np.ndarray:
+        """The wall's albedo at hits whose Z is z [mm]: its texture, averaged out where a pixel covers many texels."""
+        iz = (z * (1.0 / TEXEL_MM)).astype(np.int32) & (self.tex.shape[0] - 1)
+        amp = np.minimum(2.0 * TEXEL_MM / hits.fp, 1.0)
+        return self.tex_mean + (self.tex[iz, hits.iu] - self.tex_mean) * amp
 
     def _deformed_hits(self, d: Deformation) -> tuple[np.ndarray, np.ndarray]:
         """(s, cos) of every ray against the fully deformed section: an ellipse, invert in place."""
@@ -452,6 +489,10 @@ class Renderer:
 
 def _copy(h: _Hits) -> _Hits:
     return _Hits(*(getattr(h, name).copy() for name in _Hits.FIELDS))
+
+
+def _take(h: _Hits, where: np.ndarray) -> _Hits:
+    return _Hits(*(getattr(h, name)[where] for name in _Hits.FIELDS))
 
 
 def _ramp(z, z0: float, z1: float, ramp: float):

@@ -119,7 +119,8 @@ def joint_points(obs: Observation, sighting: JointSighting, view: PipeView,
     largest known): it moves the far end's rim where it stands into the pipe, and it moves the gap's edges, the
     same way in every frame of one approach (seed 354's frames against the same frames rendered without a codec: docs/measurement.md).
     The gap's other shared part is its edges' definition (``gap_definition_u``), the step's the single edges'
-    scatter carried to it (``edge_u``).
+    scatter carried to it (``edge_u``); for ends read by the ends-apart model, both also carry where the blur acts
+    (on the light or on the grey levels: ``JointEnds.definition_u``).
     """
     e = sighting.ends
     step = e.step
@@ -142,7 +143,8 @@ def joint_points(obs: Observation, sighting: JointSighting, view: PipeView,
         # (the codec's in the recorded video's pixels), and the u of the blur's correction (its model shared too)
         width = float(np.hypot(*(b - a)))
         u_edge = math.sqrt(gap_definition_u(width, e.blur_px) ** 2 + e.blur_u_px ** 2
-                           + _codec_u(codec, "gap", a, b, cert) ** 2)
+                           + _codec_u(codec, "gap", a, b, cert) ** 2
+                           + (e.definition_u[0] * _px_per_depth(view, wall, e.far_depth)) ** 2)
         return MarkedQuantity("BAJ", "A", "Q1", "axial", (float(a[0]), float(a[1])), (float(b[0]), float(b[1])),
                               u_a, u_b, origin=ORIGIN, u_edge=u_edge)
     face = direction + math.pi                         # the far end stands into the pipe opposite its shift
@@ -157,7 +159,9 @@ def joint_points(obs: Observation, sighting: JointSighting, view: PipeView,
     u_b = math.hypot(u_step * px_per_h, u_far_img)
     codec_u = _codec_u(codec, "step", a, b, cert)
     return MarkedQuantity("BAJ", "B", "Q1", "step", (float(a[0]), float(a[1])), (float(b[0]), float(b[1])),
-                          u_a, u_b, origin=ORIGIN, u_edge=math.hypot(edge_u(e, "B", px_per_h), codec_u))
+                          u_a, u_b, origin=ORIGIN,
+                          u_edge=math.sqrt(edge_u(e, "B", px_per_h) ** 2 + codec_u ** 2
+                                           + (e.definition_u[1] * px_per_h) ** 2))
 
 
 def video_px_per_px(a, b, cert: Certificate) -> float:

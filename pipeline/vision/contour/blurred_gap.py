@@ -31,7 +31,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.special import ndtr
 
-__all__ = ["FWHM", "RHO_INFORMATIVE", "half_level_width", "unblurred_width", "blur_from_edges", "width_per_sigma"]
+__all__ = ["EDGE_RAMP", "FWHM", "RHO_INFORMATIVE", "half_level_width", "unblurred_width", "blur_from_edges", "width_per_sigma"]
 
 FWHM = 2.0 * np.sqrt(2.0 * np.log(2.0))     # the width [sigma] a gap far under the blur reads: the blur's own
 
@@ -52,6 +52,7 @@ _A = np.linspace(1e-4, 6.0, 1200)                              # half the gap [s
 _W, _READ = 2.0 * _A, 2.0 * _crossings(_A, 0.5)                 # the gap, the width read at half levels [sigma]
 _RAMP = _crossings(_A, 0.75) - _crossings(_A, 0.25)             # an edge's ramp, a quarter to three quarters [sigma]
 _RHO = _RAMP / _READ                                            # falls with w / sigma
+EDGE_RAMP = float(_RAMP[-1])                                    # a single edge's ramp [sigma]: 1.349
 RHO_INFORMATIVE = float(np.interp(2.5, _W, _RHO))              # ramp / width above this (w under 2.5 sigma): too flat
                                                                 # in w / sigma to give sigma
 

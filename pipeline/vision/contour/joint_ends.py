@@ -55,7 +55,7 @@ from scipy.signal import find_peaks
 from scipy.optimize import least_squares
 
 from pipeline.maths.profiles import exit_table, profile_polygon, theta_to_clock
-from pipeline.vision.contour.blurred_gap import RHO_INFORMATIVE, blur_from_edges, half_level_width, \
+from pipeline.vision.contour.blurred_gap import EDGE_RAMP, RHO_INFORMATIVE, blur_from_edges, half_level_width, \
     unblurred_width, width_per_sigma
 from pipeline.vision.contour.view import PipeView, in_image
 
@@ -101,6 +101,8 @@ FACE_CONTRAST = 0.15       # a far end's own face beyond the gap: its fall to th
                            # window, is a small share of it)
 FACE_RAMP = 2.0            # and that fall no wider than this many times the gap's far edge's ramp (the blur's)
 MIN_FACE_SECTORS = 1       # sectors in which the face must show for the far end's centre to be read from it
+FACE_RESOLVED = 4.0        # a face's edges kept where it reads at least this many blur sigmas wide: a band 4 sigma
+                           # wide reads 0.11 sigma wide at half levels, 3 sigma wide 0.33 (``blurred_gap``)
 APART_GAIN = 0.8           # the ends-apart model kept without a face when its cost is under this share of the other's
 CLOSED_IN_VIEW = 0.75      # a sector in view: this share of its generators' profiles whole in the image
 CLOSED_HELD = 0.25         # and the gap closed there: its edges kept on at most this share of them
@@ -155,6 +157,9 @@ class JointEnds:
     step_problems: tuple[str, ...] = ()
     # whether the ends were read by the ends-apart model (the far end's face beyond the gap, ``_fit_apart``)
     ends_apart: bool = False
+    # the edges' definition (the blur on the light or on the grey levels: ``find_joint_ends``), standard
+    # uncertainty of the far end's depth and of the step [H]; read for the ends-apart model only
+    definition_u: tuple[float, float] = (0.0, 0.0)
 
     @property
     def step(self) -> np.ndarray:
@@ -256,7 +261,7 @@ def joint_depths(gray: np.ndarray, view: PipeView, t_range: tuple[float, float],
     return found
 
 
-def _edges(p: np.ndarray, by_dip: bool = False) -> tuple[float, float, float, float] | None:
+def _edges(p: np.ndarray, by_dip: bool = False, gamma: float = RESPONSE_GAMMA) -> tuple[float, float, float, float] | None:
     """The gap's two edges in one generator's profile (index positions, near first: the profile runs from far
     to near, 1 / t growing) and the width of each edge's ramp, from a quarter to three quarters of the way from
     the floor to that side's plateau [samples]; or None.
@@ -271,6 +276,8 @@ def _edges(p: np.ndarray, by_dip: bool = False) -> tuple[float, float, float, fl
     ``by_dip``: the gap is the profile's most prominent dip instead (``_gap_basin``), each edge sought from the
     top of the dip's side and half-way between that top and the floor; for frames where the darkest sample
     does not find the gap (``find_joint_ends``).
+
+    ``gamma``: the response taken for the camera's (``_linear``; 1: the grey levels themselves).
     """
     if not np.isfinite(p).all():
         return None
@@ -291,7 +298,7 @@ def _edges(p: np.ndarray, by_dip: bool = False) -> tuple[float, float, float, fl
     # the edges are found in linear light: a blurred edge covers half of a pixel in the scene's light, and a
     # camera's response is concave (a gamma, a knee), so half-way between the grey levels lies on the dark side
     # of the edge: both edges moved into the gap, the gap found short (by 0.4 px at its nearest frames)
-    p = _linear(p)
+    p = _linear(p, gamma)
     floor, (near_level, far_level) = p[i], _side_levels(p, i, tops)
     half_near, half_far = 0.5 * (floor + near_level), 0.5 * (floor + far_level)
     # the near edge lies between j and j + 1, the far one between k - 1 and k: the samples below half-way nearest
@@ -436,7 +443,7 @@ def _blur(found, pts) -> tuple[float, bool, list[tuple[float, float]], float]:
     return sigma, resolved, shifts, u
 
 
-def _face_edge(p: np.ndarray, i_far: float, r_far: float) -> float:
+def _face_edge(p: np.ndarray, i_far: float, r_far: float, gamma: float = RESPONSE_GAMMA) -> float:
     """Where [index] a far pipe's own end face, lit head-on just beyond the gap, gives way to that pipe's wall, in
     one generator's grey profile p whose gap has its far edge at i_far with a ramp r_far [samples]; nan where no
     face shows there.
@@ -447,12 +454,12 @@ def _face_edge(p: np.ndarray, i_far: float, r_far: float) -> float:
     face falls to the far wall's level. The fall is sought as the steepest over one ramp, deeper than the face's
     brightest sample; it must be as sharp as the gap's edges (``FACE_RAMP``), not the far wall's gradual fall-off
     with depth, and a share of the face's rise from the gap's floor (``FACE_CONTRAST``). Read at half-way between
-    the wall's and the face's levels, in linear light, as the gap's edges are.
+    the wall's and the face's levels, in linear light (``gamma``, ``_linear``), as the gap's edges are.
     """
     if not (math.isfinite(r_far) and math.isfinite(i_far)
             and np.isfinite(p[:min(len(p), int(math.ceil(i_far)) + LOCAL)]).all()):
         return math.nan
-    q = _linear(p)
+    q = _linear(p, gamma)
     w = max(4, int(round(r_far)))
     s0 = int(math.floor(i_far - max(2.0, 1.5 * r_far)))        # clear of the gap's far edge, on the face
     if s0 - 2 * w < 0:
@@ -474,9 +481,9 @@ def _face_edge(p: np.ndarray, i_far: float, r_far: float) -> float:
     return float(c50)
 
 
-def _linear(grey: np.ndarray) -> np.ndarray:
-    """Grey levels [0-255] to linear light [1] with a video camera's standard response (gamma ``RESPONSE_GAMMA``)."""
-    return (np.clip(grey, 0.0, 255.0) / 255.0) ** RESPONSE_GAMMA
+def _linear(grey: np.ndarray, gamma: float = RESPONSE_GAMMA) -> np.ndarray:
+    """Grey levels [0-255] to linear light [1] with a video camera's standard response (``RESPONSE_GAMMA``)."""
+    return (np.clip(grey, 0.0, 255.0) / 255.0) ** gamma
 
 
 def _fit_ring(view: PipeView, pts: np.ndarray, t0: float, radius, loss: str = "soft_l1") -> tuple[np.ndarray, float]:
@@ -695,6 +702,29 @@ def _apart_sensitivity(view, near_px, deeper, walls, far_u, du_px, face_u, face_
     return (float(gap_near), float(gap_far)), (float(step_near), float(step_far))
 
 
+def _far_u_grey(vals, held_at, shifts, far_u, inv_t, by_dip) -> np.ndarray:
+    """The gap's far edges [1/H] of the generators ``held_at`` (profiles ``vals``) found in grey levels, moved by
+    the blur's correction as the linear ones (``shifts`` [samples]); the linear one ``far_u`` where none is found."""
+    out = np.array(far_u, float)
+    for j, a in enumerate(held_at):
+        grey = _edges(vals[a], by_dip, gamma=1.0)
+        if grey is not None:
+            out[j] = float(np.interp(grey[1] + shifts[j], np.arange(len(inv_t)), inv_t))
+    return out
+
+
+def _face_u_grey(vals, held_at, face_u, inv_t, by_dip) -> np.ndarray:
+    """The face's inner edges [1/H] found in grey levels where ``face_u`` holds one (nan elsewhere, and where the
+    grey levels find none)."""
+    out = np.full(len(held_at), np.nan)
+    for j in np.flatnonzero(np.isfinite(face_u)):
+        grey = _edges(vals[held_at[j]], by_dip, gamma=1.0)
+        i_face = _face_edge(vals[held_at[j]], grey[1], grey[3], gamma=1.0) if grey is not None else math.nan
+        if math.isfinite(i_face):
+            out[j] = float(np.interp(i_face, np.arange(len(inv_t)), inv_t))
+    return out
+
+
 def _in_plane(view: PipeView, pts: np.ndarray, t: float) -> np.ndarray:
     d = view.rays(pts)
     s = t / d[:, 2]
@@ -716,22 +746,28 @@ def find_joint_ends(gray: np.ndarray, view: PipeView, depth: float, *, mask: np.
     inv_t = np.arange(lo, hi, 0.25 / f)                  # about a quarter pixel a step
     angles = np.linspace(-np.pi, np.pi, 2 * N_ANGLES, endpoint=False)
     vals, pts = _profiles(gray, view, angles, inv_t, mask)
+    by_dip = False
     found = [(a, e) for a, e in enumerate(map(_edges, vals)) if e is not None]
     if len(found) < MIN_EDGES * len(angles) / 2:
         # the darkest sample is not the gap in most generators (a gap that swallows less light than the far pipe
         # loses to its distance, under a flat response): the generators' most prominent dip instead. Only then:
         # where both find the gap, the darkest sample's edges are those validated (docs/measurement.md)
+        by_dip = True
         found = [(a, e) for a, e in enumerate(_edges(v, by_dip=True) for v in vals) if e is not None]
     blur, resolved, shift, u_blur = _blur(found, pts)
     near, far, kept, near_u, far_u, face_u, face_du = [], [], [], [], [], [], []
     glare, deeper, du_px = [], [], []                  # per edge: the generator's image direction away from the
                                                        # camera at the near edge; 1 / t per px at the far edge
+    face_w, ramp_px, far_shift = [], [], []            # the face's width read and the far edge's ramp [px]
     for (a, (i_near, i_far, _, r_far)), (d_near, d_far) in zip(found, shift):
         p, line = vals[a], pts[a]
         i_face = _face_edge(p, i_far, r_far)           # the far end's own face beyond the gap, where it shows
         face_u.append(float(np.interp(i_face, np.arange(len(inv_t)), inv_t)) if math.isfinite(i_face) else math.nan)
         face_px = float(np.hypot(*(_at(line, i_face + 1) - _at(line, i_face)))) if math.isfinite(i_face) else 0.0
         face_du.append((inv_t[1] - inv_t[0]) / face_px if face_px > 0 else 0.0)
+        face_w.append((i_far - i_face) * face_px if math.isfinite(i_face) else math.nan)
+        ramp_px.append(r_far * float(np.hypot(*(_at(line, i_far + 1) - _at(line, i_far)))))
+        far_shift.append(d_far)
         i_near, i_far = i_near - d_near, i_far + d_far   # the blur's widening taken out, half at each edge
         near.append(_at(line, i_near))
         far.append(_at(line, i_far))
@@ -751,6 +787,15 @@ def find_joint_ends(gray: np.ndarray, view: PipeView, depth: float, *, mask: np.
     face_u, face_du = np.array(face_u), np.array(face_du)
     deeper, du_px = np.array(deeper), np.array(du_px)
     ang, held_at = angles[kept], np.array(kept)
+    # a face narrower than the blur resolves reads wide (its edges found half-way to a peak the blur has lowered),
+    # and its width trades against its brightness, so that a fit of the blurred band places its edges wherever the
+    # blur it is given puts them: where it shows, its edges are kept only ``FACE_RESOLVED`` blur sigmas wide or
+    # more (DN1000 stepped 8 mm, 1 m off: read 9.6 mm with them, ``tests/test_joints.py``)
+    sigma_face = blur if math.isfinite(blur) else float(np.nanmedian(ramp_px)) / EDGE_RAMP
+    face_seen = np.isfinite(face_u)
+    with np.errstate(invalid="ignore"):
+        face_u = np.where(np.array(face_w) >= FACE_RESOLVED * sigma_face, face_u, np.nan)
+    far_shift_a = np.array(far_shift)
     radius = _radius_of(view.shape)
     # part of the circumference may show no gap at all (pipe ends apart, the far one standing out of the wall
     # behind the near one's end: there another dip is taken for the gap, tens of mm off, on a third of the
@@ -762,6 +807,7 @@ def find_joint_ends(gray: np.ndarray, view: PipeView, depth: float, *, mask: np.
         near_px, far_px, near_u, far_u, ang = near_px[sane], far_px[sane], near_u[sane], far_u[sane], ang[sane]
         held_at = held_at[sane]
         face_u, face_du, deeper, du_px = face_u[sane], face_du[sane], deeper[sane], du_px[sane]
+        face_seen, far_shift_a = face_seen[sane], far_shift_a[sane]
         glare = [g for g, ok in zip(glare, sane) if ok]
     walls = _wall(view.shape, ang)
     (tn, *cn), rms_n = _fit_ring(view, near_px, depth, radius)
@@ -773,6 +819,7 @@ def find_joint_ends(gray: np.ndarray, view: PipeView, depth: float, *, mask: np.
            (np.abs(_far_residual(view, walls, far_u, (tn, *cn), (tf, *cf, tp), radius)[:-1]) < max(3 * rms_f, 0.004 / tf))
     near_px, far_px, ang, walls, far_u = near_px[keep], far_px[keep], ang[keep], walls[keep], far_u[keep]
     deeper, du_px, face_u, face_du, held_at = deeper[keep], du_px[keep], face_u[keep], face_du[keep], held_at[keep]
+    face_seen, far_shift_a = face_seen[keep], far_shift_a[keep]
     if len(ang) < MIN_EDGES * len(angles) / 2:
         return None
     (tn, *cn), rms_n = _fit_ring(view, near_px, tn, radius)
@@ -810,7 +857,21 @@ def find_joint_ends(gray: np.ndarray, view: PipeView, depth: float, *, mask: np.
     apart = bool(np.all(np.isfinite(x_apart)) and x_apart[0] > tn and (
         cost_apart < APART_GAIN * cost_painted
         or (faced and rms_face * x_apart[0] <= MAX_RING_RMS_H)))
+    definition_u = (0.0, 0.0)
     if apart:
+        # where the blur acts, on the light (a lens) or on the grey levels (a codec, a camera's sharpening, this
+        # project's generator), moves the half level of an edge as bright on one side as the face is: found in
+        # grey levels the face reads wider at both edges, so the step larger and the far end nearer (the frames of
+        # ``benchmarks/joint_tilt.py --placement --ends apart``: gap rms 0.84 mm in linear light, 0.53 mm midway).
+        # The far end is taken midway between the two readings, and their difference is the edges' definition: a
+        # rectangular distribution across it
+        x_grey = _fit_apart(view, walls, _far_u_grey(vals, held_at, far_shift_a, far_u, inv_t, by_dip),
+                            _face_u_grey(vals, held_at, face_used, inv_t, by_dip), (tn, *cn), x_far, radius,
+                            x0=x_apart)[0]
+        if np.all(np.isfinite(x_grey)):
+            step_lin, step_grey = (math.hypot(x[1] - cn[0], x[2] - cn[1]) for x in (x_apart, x_grey))
+            definition_u = (abs(x_apart[0] - x_grey[0]) / math.sqrt(12.0), abs(step_lin - step_grey) / math.sqrt(12.0))
+            x_apart = 0.5 * (np.asarray(x_apart) + np.asarray(x_grey))
         tf, cf = float(x_apart[0]), [float(x_apart[1]), float(x_apart[2])]
         seen = np.ones(len(ang), bool)                  # the far plane read all around, as the near one
         matched, tg = False, tn
@@ -860,6 +921,11 @@ def find_joint_ends(gray: np.ndarray, view: PipeView, depth: float, *, mask: np.
     # explaining (``CLOSED_EXPLAINED``) leaves the step unmeasured
     closed, holding = _closed_sectors(vals, angles, held_at)
     step_problems = []
+    seen_face = [k for k in np.unique(sector) if np.mean(face_seen[sector == k]) >= 0.5]
+    if seen_face and not face_sectors:
+        step_problems.append(f"the far end's face shows beyond the gap in {len(seen_face)} of {SECTORS} sectors, but "
+                             f"narrower than {FACE_RESOLVED:.0f} times the blur ({sigma_face:.1f} px): the step is "
+                             "not measured")
     # (a sector across from a closed one holding the gap's edges shows where the far end would stand into the flow:
     # a step there would show its face or its deeper ring, and a step of none read there says the sector closed for
     # another reason, water the mask leaves, glare, texture: seed 354's painted DN150 joints, 4 of them)
@@ -890,7 +956,7 @@ def find_joint_ends(gray: np.ndarray, view: PipeView, depth: float, *, mask: np.
                      float(math.sqrt(cov[0, 0])), float(math.sqrt(cov[3, 3])), d_step @ cov @ d_step.T,
                      near_px, far_px, ang, coverage, share_glare, tuple(problems), float(scatter_near),
                      float(scatter_far), *sens, blur_px=blur, blur_u_px=u_blur, gap_resolved=resolved,
-                     step_problems=tuple(step_problems), ends_apart=apart)
+                     step_problems=tuple(step_problems), ends_apart=apart, definition_u=definition_u)
 
 
 EDGE_PROBE_PX = 0.5         # how far the edges are moved to read the fit's sensitivity to their placement [px]

@@ -28,7 +28,9 @@ into what a case's frames share and what each adds (``shared_and_own``: ``codecs
 ``--pairs FILE`` prints the codec's shift by size again from the pairs ``--rendered`` kept with ``--json``.
 ``--ends apart`` renders the joints' pipe ends a gap apart, the far end's face beyond the gap where it stands into
 the flow (``DisplacedJoint.ends``; the default, "painted", is the generator's joint of every run before
-the fourth session of 2026-12-07).
+the fourth session of 2026-12-07). ``--release-apart`` measures the joints the finder reads by its ends-apart model
+as if that model were validated (the night holds them back: ``joints.ENDS_APART_NOT_VALIDATED``), so that it can be;
+the table then counts them, and each row says whether it was read so (``ends_apart``).
 ``--widths FILE`` prints each trusted frame's gap error by the gap's width in the image from a ``--json`` file, with
 the blur each frame's edges gave.
 """
@@ -133,9 +135,10 @@ def _px_across(view, depth: float, char1: str) -> float:
 
 
 def measure_case(video: Path, truth: dict, cert, cache: Path | None = None, kept: Path | None = None,
-                 fourcc: str | None = None) -> list[dict]:
+                 fourcc: str | None = None, hold_apart: bool = True) -> list[dict]:
     """Both quantities of one encoding of a case: rows with the truth, the result or why none; ``fourcc`` the
-    video's codec as the night reads it."""
+    video's codec as the night reads it; ``hold_apart`` False: joints read by the ends-apart model released
+    (``measure_joint``'s ``hold_ends_apart``), the rows saying which they are."""
     case = truth["case"]
     H = case["height_mm"]
     contour, sightings, following = case_sightings(video, truth, cert, cache, kept)
@@ -145,6 +148,7 @@ def measure_case(video: Path, truth: dict, cert, cache: Path | None = None, kept
         row = {"case": case["case_id"], "H": H, "shape": case["shape"], "displaced": case["displaced"],
                "quantity": char1, "truth": truth_value, "n_frames": len(sightings), "water": case["water_percent"],
                "contour_confident": contour.confident,
+               "ends_apart": any(s.ends.ends_apart for s in sightings), "held_apart": hold_apart,
                # each frame's own ends (for looking into a case): gap and step [mm], their depths [H], problems
                "frames": [{"frame": s.frame, "depth": s.depth, "gap_mm": (s.ends.far_depth - s.ends.near_depth) * H,
                            "step_mm": float(np.hypot(*s.ends.step)) * H, "u_near": s.ends.u_near,
@@ -161,12 +165,12 @@ def measure_case(video: Path, truth: dict, cert, cache: Path | None = None, kept
                           for s in sightings]}
         try:
             points, res = measure_joint(_obs(char1), sightings, contour, cert, H=H, tolerance=0.0, seed=7,
-                                          codec=fourcc)
+                                        codec=fourcc, hold_ends_apart=hold_apart)
             # each frame's own value and u from its own inputs (what the frames share left out): ``--split``
             own_values, own_u = frame_values([(q, contour) for q in points], cert, H=H, tolerance=0.0)
             # the same against the sources the generator draws (``cameras.generators_certificate``)
             _, own = measure_joint(_obs(char1), sightings, contour, generators_certificate(cert), H=H, tolerance=0.0,
-                                   seed=7, codec=fourcc)
+                                   seed=7, codec=fourcc, hold_ends_apart=hold_apart)
             row.update(status="measured" if res.confident else "found, not measured", value=res.value, u=res.u,
                        u_own=own.u,
                        U95=res.U95, low=res.low, high=res.high, reasons="; ".join(res.reasons),
@@ -324,6 +328,12 @@ def table(rows: list[dict]) -> list[str]:
                               f"{robust_sd(z):.2f} | {np.median(U):.1f} | "
                               f"{np.median(U300) if U300 else float('nan'):.1f} | {own} |" if ok
                               else "- | - | - | - | - | - | - |"))
+    released = [r for r in rows if r["displaced"] and r.get("ends_apart") and r["H"] >= 200
+                and r["status"] == "measured" and not r.get("held_apart", True)]
+    if released:
+        out.append("")
+        out.append("read by the ends-apart model and released (--release-apart; the night holds them back), DN >= 200: "
+                   + ", ".join(f"BAJ {q} {sum(r['quantity'] == q for r in released)}" for q in "AB"))
     empty = {(r["case"], r["codec"]) for r in rows if not r["displaced"]}
     if empty:
         false = {(r["case"], r["codec"]) for r in rows if not r["displaced"] and r["status"] != "not found"}
@@ -497,6 +507,9 @@ def main() -> None:
     ap.add_argument("--strata", type=Path, nargs="+", metavar="ROWS",
                     help="only print circular joints' results by codec and DN band, the files of rows kept by --json "
                     "pooled")
+    ap.add_argument("--release-apart", action="store_true",
+                    help="measure joints read by the ends-apart model as if it were validated (the night holds them "
+                    "back), to validate it")
     add_camera_argument(ap)
     add_appearance_argument(ap)
     args = ap.parse_args()
@@ -560,7 +573,8 @@ def main() -> None:
                       f"{video_px:+.2f} px in the video, {raw_px:+.2f} px rendered; gap error {video_gap:+.2f} mm, "
                       f"{raw_gap:+.2f} mm; separations {f['size_gap_px']:.1f} and {f['size_step_px']:.1f} px")
             continue
-        for row in measure_case(video, truth, cert, args.contours, args.sightings, FOURCC[codec]):
+        for row in measure_case(video, truth, cert, args.contours, args.sightings, FOURCC[codec],
+                                hold_apart=not args.release_apart):
             rows.append({**row, "codec": codec, "camera": cert.certificate_id, "noise": case.noise,
                          "look": asdict(case.appearance)})
         if args.json:                    # kept as it goes: a long run's rows survive an interruption

@@ -255,13 +255,15 @@ def _on_nominal(shape: str, near: float, shift: np.ndarray) -> float:
 def measure_joint(obs: Observation, sightings: Sequence[JointSighting], contour: PipeContour, cert: Certificate, *,
                   H: float, tolerance: float, model: str = "perspective", seed: int = 1,
                   edges: tuple[float, ...] = (), codec: str | None = None,
-                  monte_carlo: bool = True) -> tuple[list[MarkedQuantity], QuantityResult]:
+                  monte_carlo: bool = True, hold_ends_apart: bool = True) -> tuple[list[MarkedQuantity], QuantityResult]:
     """Measure a BAJ A or B from the joint's ends seen in one or more frames (nearest first), with U95 and budget.
 
     contour : the pose fit the frames share (their approach's); H, tolerance : the header's [mm]; codec : the
     video's FourCC (``codecs.codec_edge_u``; None: frames not through a codec; one without a figure: the largest);
     monte_carlo : False: the law of propagation only (a joint the caller already knows it will not trust, a pipe
-    shape its U95 was not validated in: its Monte Carlo would be spent for nothing).
+    shape its U95 was not validated in: its Monte Carlo would be spent for nothing); hold_ends_apart : False: a
+    joint read by the ends-apart model is not held back (``ENDS_APART_NOT_VALIDATED``), for the benchmark that
+    validates that model (``benchmarks/automatic_joints.py --release-apart``).
     The result is not confident, with the reasons, when the contour is not trusted, when the joint was found in
     one frame only, when a frame's ends say so (glare, part of the ring hidden...) or its edges scatter about their
     rings beyond ``MAX_EDGE_SCATTER_PX``, or, for the gap, when no frame resolves it against its blur
@@ -308,7 +310,7 @@ def measure_joint(obs: Observation, sightings: Sequence[JointSighting], contour:
     reasons = list(res.reasons) + unresolved
     if not contour.confident:
         reasons.append("contour untrusted: " + "; ".join(contour.problems))
-    if any(s.ends.ends_apart for s in sightings):
+    if hold_ends_apart and any(s.ends.ends_apart for s in sightings):
         reasons.append(ENDS_APART_NOT_VALIDATED)
     if len(sightings) == 1:
         reasons.append("the joint was found in only one frame")

@@ -477,6 +477,29 @@ def codec_shifts(pairs: list[tuple[str, float, float, float]], what: str = "gap"
     return out
 
 
+ROW_FIELDS = ("case", "H", "shape", "displaced", "quantity", "truth", "status", "codec")
+PAIR_FIELDS = ("case", "codec", "shape", "gap_mm", "step_h")
+
+
+def read_rows(path: Path, fields: Sequence[str] = ROW_FIELDS) -> list[dict]:
+    """The rows a run kept with ``--json`` (``PAIR_FIELDS`` for the pairs of ``--rendered``), or a clear exit naming
+    the file, the row and the field missing."""
+    try:
+        rows = json.loads(path.read_text())
+    except OSError as exc:
+        raise SystemExit(f"{path}: cannot be read ({exc.strerror or exc})") from None
+    except ValueError as exc:
+        raise SystemExit(f"{path}: not JSON ({exc}): give a file this benchmark kept with --json") from None
+    if not isinstance(rows, list) or not all(isinstance(r, dict) for r in rows):
+        raise SystemExit(f"{path}: not a list of rows: give a file this benchmark kept with --json")
+    for i, r in enumerate(rows):
+        missing = [f for f in fields if f not in r]
+        if missing:
+            raise SystemExit(f"{path}: row {i}: no field {missing[0]!r}: give a file this benchmark kept with --json"
+                             + (" (with --rendered, for --pairs)" if fields is PAIR_FIELDS else ""))
+    return rows
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--cases", type=int, default=10, help="cases with a displaced joint (default 10)")
@@ -514,23 +537,23 @@ def main() -> None:
     add_appearance_argument(ap)
     args = ap.parse_args()
     if args.table:
-        print("\n".join(table(json.loads(args.table.read_text()))))
+        print("\n".join(table(read_rows(args.table))))
         return
     if args.split:
-        print("\n".join(split(json.loads(args.split.read_text()))))
+        print("\n".join(split(read_rows(args.split))))
         return
     if args.shapes:
-        print("\n".join(shapes({f.stem: json.loads(f.read_text()) for f in args.shapes})))
+        print("\n".join(shapes({f.stem: read_rows(f) for f in args.shapes})))
         return
     if args.pairs:
-        print("\n\n".join("\n".join(t) for t in pairs_tables(json.loads(args.pairs.read_text()))))
+        print("\n\n".join("\n".join(t) for t in pairs_tables(read_rows(args.pairs, PAIR_FIELDS))))
         return
     if args.strata:
-        print("\n".join(strata([r for f in args.strata for r in json.loads(f.read_text())])))
+        print("\n".join(strata([r for f in args.strata for r in read_rows(f)])))
         return
     cert = load_certificate(args.camera)
     if args.widths:
-        print("\n".join(widths(json.loads(args.widths.read_text()), cert.focal_px[0])))
+        print("\n".join(widths(read_rows(args.widths), cert.focal_px[0])))
         return
     rng = np.random.default_rng(args.seed)
     cases = [random_case(rng, f"J{i:03d}", seed=i) for i in range(args.cases)]

@@ -328,12 +328,8 @@ def table(rows: list[dict]) -> list[str]:
                               f"{robust_sd(z):.2f} | {np.median(U):.1f} | "
                               f"{np.median(U300) if U300 else float('nan'):.1f} | {own} |" if ok
                               else "- | - | - | - | - | - | - |"))
-    released = [r for r in rows if r["displaced"] and r.get("ends_apart") and r["H"] >= 200
-                and r["status"] == "measured" and not r.get("held_apart", True)]
-    if released:
-        out.append("")
-        out.append("read by the ends-apart model and released (--release-apart; the night holds them back), DN >= 200: "
-                   + ", ".join(f"BAJ {q} {sum(r['quantity'] == q for r in released)}" for q in "AB"))
+    if any(r["displaced"] and not r.get("held_apart", True) for r in rows):
+        out += [""] + by_model(rows)
     empty = {(r["case"], r["codec"]) for r in rows if not r["displaced"]}
     if empty:
         false = {(r["case"], r["codec"]) for r in rows if not r["displaced"] and r["status"] != "not found"}
@@ -341,6 +337,26 @@ def table(rows: list[dict]) -> list[str]:
         out.append("")
         out.append(f"false finds (cases with no displaced joint within reach): {len(false)} of {len(empty)} "
                    f"({100 * len(false) / len(empty):.1f} %, Wilson {100 * lo:.1f}-{100 * hi:.1f} %)")
+    return out
+
+
+def by_model(rows: list[dict]) -> list[str]:
+    """Of a ``--release-apart`` run's measured rows at DN >= 200 (both codecs), those the finder read by its
+    ends-apart model (the night holds them back) and those by the other (the night's own, released): coverage with
+    its Wilson interval, median and robust SD of z, median U95."""
+    out = ["| quantity | read by | measured | coverage | Wilson 95 % | median z | robust SD z | median U95 [mm] |",
+           "|---|---|---|---|---|---|---|---|"]
+    for q in ("A", "B"):
+        g = [r for r in rows if r["displaced"] and r["quantity"] == q and r["H"] >= 200]
+        for name, apart in (("the ends-apart model (held back in the night)", True), ("the other (released)", False)):
+            ok = [r for r in g if r["status"] == "measured" and bool(r.get("ends_apart")) == apart]
+            if not ok:
+                out.append(f"| BAJ {q} | {name} | 0 of {len(g)} | - | - | - | - | - |")
+                continue
+            inside, (lo, hi), z = _coverage(ok)
+            out.append(f"| BAJ {q} | {name} | {len(ok)} of {len(g)} | {100 * inside / len(ok):.1f} % | "
+                       f"{100 * lo:.1f}-{100 * hi:.1f} % | {np.median(z):+.2f} | {robust_sd(z):.2f} | "
+                       f"{np.median([r['U95'] for r in ok]):.1f} |")
     return out
 
 

@@ -861,8 +861,9 @@ def find_joint_ends(gray: np.ndarray, view: PipeView, depth: float, *, mask: np.
     if apart:
         # where the blur acts, on the light (a lens) or on the grey levels (a codec, a camera's sharpening, this
         # project's generator), moves the half level of an edge as bright on one side as the face is: found in
-        # grey levels the face reads wider at both edges, so the step larger and the far end nearer (the frames of
-        # ``benchmarks/joint_tilt.py --placement --ends apart``: gap rms 0.84 mm in linear light, 0.53 mm midway).
+        # grey levels the face reads wider at both edges, so the step larger and the far end nearer (this
+        # project's generator blurs the grey levels: the frames of ``benchmarks/joint_tilt.py --placement --ends
+        # apart`` read their gap with an rms of 0.84 mm at d96f591, 0.53 mm with this and ``FACE_RESOLVED``).
         # The far end is taken midway between the two readings, and their difference is the edges' definition: a
         # rectangular distribution across it
         x_grey = _fit_apart(view, walls, _far_u_grey(vals, held_at, far_shift_a, far_u, inv_t, by_dip),

@@ -161,7 +161,9 @@ def measure_case(video: Path, truth: dict, cert, cache: Path | None = None, kept
                            # the u of the blur's correction [px], and how far its single edges scatter about their
                            # rings [px] (the larger of the two ends': ``joints.MAX_EDGE_SCATTER_PX``)
                            "blur_u_px": s.ends.blur_u_px,
-                           "scatter_px": max(s.ends.scatter_near_px, s.ends.scatter_far_px)}
+                           "scatter_px": max(s.ends.scatter_near_px, s.ends.scatter_far_px),
+                           # the ends-apart model's cost against the other's, and which was taken
+                           "apart_cost": s.ends.apart_cost, "ends_apart": s.ends.ends_apart}
                           for s in sightings]}
         try:
             points, res = measure_joint(_obs(char1), sightings, contour, cert, H=H, tolerance=0.0, seed=7,

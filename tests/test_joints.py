@@ -665,6 +665,33 @@ def test_the_far_end_s_face_is_drawn_where_its_ring_lies(cert, h, gap, step, clo
     assert abs(np.median(errors)) <= 0.1, np.median(errors)
 
 
+@pytest.mark.parametrize("h, gap, step, clock, dist", [(500.0, 36.9, 1.2, 5, 0.35), (1000.0, 22.3, 7.9, 12, 0.65),
+                                                        (800.0, 21.4, 2.3, 2, 0.55), (300.0, 15.0, 3.0, 6, 0.25)])
+def test_the_two_models_costs_tell_a_sewer_s_joint_from_a_painted_one(cert, h, gap, step, clock, dist):
+    """Small steps whose face does not show (or not resolved): the gap's far edges alone tell the two models apart.
+    Drawn with the ends apart, the ends-apart model fits them at under ``APART_GAIN`` of the other's cost and is
+    taken; drawn painted, at over ten times it, and the step is read by the other model, with no ties said
+    (``APART_TIED``: where the two come closer, through a codec and a fitted pose, the step is not measured)."""
+    from pipeline.vision.contour import joint_ends
+    from pipeline.vision.contour.view import PipeView
+
+    und = Undistorter(cert, cert.image_width_px, cert.image_height_px)
+    K = und.K
+    view = PipeView("circular", K[0, 0], K[1, 1], K[0, 2], K[1, 2])
+    found = {}
+    for ends in ("apart", "painted"):
+        scene = Scene(Pipe("circular", h, "concrete", 2000.0),
+                      features=(DisplacedJoint("j", 1, gap, step, clock=clock, ends=ends),))
+        gray = cv2.cvtColor(und.frame(Renderer(scene, cert, seed=3).render(2000.0 - 1000.0 * dist)),
+                            cv2.COLOR_BGR2GRAY)
+        found[ends] = joint_ends.find_joint_ends(gray, view, 1000.0 * dist / h)
+    apart, painted = found["apart"], found["painted"]
+    assert apart.ends_apart and apart.apart_cost < joint_ends.APART_GAIN
+    assert not painted.ends_apart and painted.apart_cost > 10.0
+    assert not any("nearly as well" in p for p in painted.step_problems)
+    assert np.hypot(*painted.step) * h == pytest.approx(step, abs=0.5)
+
+
 def test_a_face_narrower_than_the_blur_resolves_leaves_the_step_unmeasured(cert):
     """DN1000 stepped 8 mm, 1 m off: the far end's face beyond the gap is 3 px wide (8 mm at 1011 mm, f = 382 px)
     under a blur the frame reads at 1.1 px. Read at half levels so narrow a band reads wide, and its width trades

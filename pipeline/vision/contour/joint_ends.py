@@ -104,6 +104,10 @@ MIN_FACE_SECTORS = 1       # sectors in which the face must show for the far end
 FACE_RESOLVED = 4.0        # a face's edges kept where it reads at least this many blur sigmas wide: a band 4 sigma
                            # wide reads 0.11 sigma wide at half levels, 3 sigma wide 0.33 (``blurred_gap``)
 APART_GAIN = 0.8           # the ends-apart model kept without a face when its cost is under this share of the other's
+APART_TIED = 3.0           # and the other kept with its step unmeasured while its cost is over a third of the ends-apart
+                           # model's and their steps differ: in frames drawn with the pose known and no codec, the
+                           # ends-apart model's cost is under 0.8 of the other's on joints drawn with the ends apart,
+                           # over 10 times it on painted ones (``JointEnds.apart_cost``; tests/test_joints.py)
 CLOSED_IN_VIEW = 0.75      # a sector in view: this share of its generators' profiles whole in the image
 CLOSED_HELD = 0.25         # and the gap closed there: its edges kept on at most this share of them
 CLOSED_EXPLAINED = 0.5     # the step read explains a closed sector when at least this share of the step that closes
@@ -160,6 +164,8 @@ class JointEnds:
     # the edges' definition (the blur on the light or on the grey levels: ``find_joint_ends``), standard
     # uncertainty of the far end's depth and of the step [H]; read for the ends-apart model only
     definition_u: tuple[float, float] = (0.0, 0.0)
+    # the ends-apart model's cost over the gap's far edges against the other model's (nan: not fitted)
+    apart_cost: float = math.nan
 
     @property
     def step(self) -> np.ndarray:
@@ -922,6 +928,19 @@ def find_joint_ends(gray: np.ndarray, view: PipeView, depth: float, *, mask: np.
     # explaining (``CLOSED_EXPLAINED``) leaves the step unmeasured
     closed, holding = _closed_sectors(vals, angles, held_at)
     step_problems = []
+    # where no face shows, which model holds is told by how well each fits the gap's far edges; a painted joint's
+    # far edges misfit the ends-apart model by far, a sewer's joint through a codec and a fitted pose may fit both
+    # alike: the step read then rests on the model taken, the other's step differs by more than the step's U95
+    # (seed 354 with the ends apart: 7 of the 130 joints at DN >= 200 read by the other model, their steps of
+    # 0.2-7.9 mm read 0.03-1.22 mm, 1 of 7 covered; ``automatic_joints.py --release-apart`` at 231ee54)
+    if not apart and np.all(np.isfinite(x_apart)) and x_apart[0] > tn and cost_apart < APART_TIED * cost_painted:
+        other = math.hypot(x_apart[1] - cn[0], x_apart[2] - cn[1])
+        read = math.hypot(cf[0] - cn[0], cf[1] - cn[1])
+        u_read = math.sqrt(max(float(np.max(np.linalg.eigvalsh(d_step @ cov @ d_step.T))), 0.0)) if m > 1 else 0.0
+        if abs(other - read) > 2.0 * u_read:
+            step_problems.append(f"the gap's far edges fit pipe ends a gap apart nearly as well (at "
+                                 f"{cost_apart / cost_painted:.2f} times the cost), with a step of {100 * other:.1f} % "
+                                 f"of H against {100 * read:.1f} % read: the step is not measured")
     seen_face = [k for k in np.unique(sector) if np.mean(face_seen[sector == k]) >= 0.5]
     if seen_face and not face_sectors:
         step_problems.append(f"the far end's face shows beyond the gap in {len(seen_face)} of {SECTORS} sectors, but "
@@ -957,7 +976,8 @@ def find_joint_ends(gray: np.ndarray, view: PipeView, depth: float, *, mask: np.
                      float(math.sqrt(cov[0, 0])), float(math.sqrt(cov[3, 3])), d_step @ cov @ d_step.T,
                      near_px, far_px, ang, coverage, share_glare, tuple(problems), float(scatter_near),
                      float(scatter_far), *sens, blur_px=blur, blur_u_px=u_blur, gap_resolved=resolved,
-                     step_problems=tuple(step_problems), ends_apart=apart, definition_u=definition_u)
+                     step_problems=tuple(step_problems), ends_apart=apart, definition_u=definition_u,
+                     apart_cost=float(cost_apart / cost_painted) if cost_painted > 0 else math.nan)
 
 
 EDGE_PROBE_PX = 0.5         # how far the edges are moved to read the fit's sensitivity to their placement [px]

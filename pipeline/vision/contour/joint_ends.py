@@ -930,10 +930,19 @@ def find_joint_ends(gray: np.ndarray, view: PipeView, depth: float, *, mask: np.
     step_problems = []
     # where no face shows, which model holds is told by how well each fits the gap's far edges; a painted joint's
     # far edges misfit the ends-apart model by far, a sewer's joint through a codec and a fitted pose may fit both
-    # alike: the step read then rests on the model taken, the other's step differs by more than the step's U95
-    # (seed 354 with the ends apart: 7 of the 130 joints at DN >= 200 read by the other model, their steps of
-    # 0.2-7.9 mm read 0.03-1.22 mm, 1 of 7 covered; ``automatic_joints.py --release-apart`` at 231ee54)
-    if not apart and np.all(np.isfinite(x_apart)) and x_apart[0] > tn and cost_apart < APART_TIED * cost_painted:
+    # alike (``APART_TIED``): the step read then rests on the model taken. Where a face shows too narrow to be read,
+    # or the other model's step differs by more than the step's U95, the step is not measured (seed 354 with the
+    # ends apart: 7 of the 130 joints at DN >= 200 read by the other model, their steps of 0.2-7.9 mm read
+    # 0.03-1.22 mm, 1 of 7 covered; ``automatic_joints.py --release-apart`` at 231ee54). Not where the far edges
+    # reject the ends apart: a painted joint's far wall beyond its gap often shows a narrow bright band, and seed
+    # 354's painted joints lost their steps by the dozen to it without this condition (a partial run at 231ee54)
+    tied = bool(np.all(np.isfinite(x_apart)) and x_apart[0] > tn and cost_apart < APART_TIED * cost_painted)
+    seen_face = [k for k in np.unique(sector) if np.mean(face_seen[sector == k]) >= 0.5]
+    if seen_face and not face_sectors and (apart or tied):
+        step_problems.append(f"the far end's face shows beyond the gap in {len(seen_face)} of {SECTORS} sectors, but "
+                             f"narrower than {FACE_RESOLVED:.0f} times the blur ({sigma_face:.1f} px): the step is "
+                             "not measured")
+    elif tied and not apart:
         other = math.hypot(x_apart[1] - cn[0], x_apart[2] - cn[1])
         read = math.hypot(cf[0] - cn[0], cf[1] - cn[1])
         u_read = math.sqrt(max(float(np.max(np.linalg.eigvalsh(d_step @ cov @ d_step.T))), 0.0)) if m > 1 else 0.0
@@ -941,11 +950,6 @@ def find_joint_ends(gray: np.ndarray, view: PipeView, depth: float, *, mask: np.
             step_problems.append(f"the gap's far edges fit pipe ends a gap apart nearly as well (at "
                                  f"{cost_apart / cost_painted:.2f} times the cost), with a step of {100 * other:.1f} % "
                                  f"of H against {100 * read:.1f} % read: the step is not measured")
-    seen_face = [k for k in np.unique(sector) if np.mean(face_seen[sector == k]) >= 0.5]
-    if seen_face and not face_sectors:
-        step_problems.append(f"the far end's face shows beyond the gap in {len(seen_face)} of {SECTORS} sectors, but "
-                             f"narrower than {FACE_RESOLVED:.0f} times the blur ({sigma_face:.1f} px): the step is "
-                             "not measured")
     # (a sector across from a closed one holding the gap's edges shows where the far end would stand into the flow:
     # a step there would show its face or its deeper ring, and a step of none read there says the sector closed for
     # another reason, water the mask leaves, glare, texture: seed 354's painted DN150 joints, 4 of them)

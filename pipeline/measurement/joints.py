@@ -120,8 +120,7 @@ def joint_points(obs: Observation, sighting: JointSighting, view: PipeView,
     same way in every frame of one approach (seed 354's frames against the same frames rendered without a codec: docs/measurement.md).
     The gap's other shared part is its edges' definition (``gap_definition_u``), the step's the single edges'
     scatter carried to it (``edge_u``); for ends read by the ends-apart model, both also carry where the blur acts
-    (on the light or on the grey levels: ``JointEnds.definition_u``), and where the two models tie, the other's
-    reading (``JointEnds.model_u``).
+    (on the light or on the grey levels: ``JointEnds.definition_u``).
     """
     e = sighting.ends
     step = e.step
@@ -145,7 +144,7 @@ def joint_points(obs: Observation, sighting: JointSighting, view: PipeView,
         width = float(np.hypot(*(b - a)))
         u_edge = math.sqrt(gap_definition_u(width, e.blur_px) ** 2 + e.blur_u_px ** 2
                            + _codec_u(codec, "gap", a, b, cert) ** 2
-                           + (math.hypot(e.definition_u[0], e.model_u[0]) * _px_per_depth(view, wall, e.far_depth)) ** 2)
+                           + (e.definition_u[0] * _px_per_depth(view, wall, e.far_depth)) ** 2)
         return MarkedQuantity("BAJ", "A", "Q1", "axial", (float(a[0]), float(a[1])), (float(b[0]), float(b[1])),
                               u_a, u_b, origin=ORIGIN, u_edge=u_edge)
     face = direction + math.pi                         # the far end stands into the pipe opposite its shift
@@ -162,7 +161,7 @@ def joint_points(obs: Observation, sighting: JointSighting, view: PipeView,
     return MarkedQuantity("BAJ", "B", "Q1", "step", (float(a[0]), float(a[1])), (float(b[0]), float(b[1])),
                           u_a, u_b, origin=ORIGIN,
                           u_edge=math.sqrt(edge_u(e, "B", px_per_h) ** 2 + codec_u ** 2
-                                           + (math.hypot(e.definition_u[1], e.model_u[1]) * px_per_h) ** 2))
+                                           + (e.definition_u[1] * px_per_h) ** 2))
 
 
 def video_px_per_px(a, b, cert: Certificate) -> float:
@@ -323,7 +322,7 @@ def measure_joint(obs: Observation, sightings: Sequence[JointSighting], contour:
     limit = MAX_EDGE_SCATTER_PX * focal_scale(contour.view)
     for s in sightings:
         reasons += [f"frame {s.frame}: {p}" for p in s.ends.problems
-                    + (s.ends.step_problems if obs.char1 == "B" else ())]
+                    + (s.ends.step_problems if obs.char1 == "B" else s.ends.gap_problems)]
         scatter = max(s.ends.scatter_near_px, s.ends.scatter_far_px)
         if scatter > limit:
             reasons.append(f"frame {s.frame}: the gap's edges scatter {scatter:.1f} px about the pipe ends' rings "

@@ -104,10 +104,10 @@ MIN_FACE_SECTORS = 1       # sectors in which the face must show for the far end
 FACE_RESOLVED = 4.0        # a face's edges kept where it reads at least this many blur sigmas wide: a band 4 sigma
                            # wide reads 0.11 sigma wide at half levels, 3 sigma wide 0.33 (``blurred_gap``)
 APART_GAIN = 0.8           # the ends-apart model kept without a face when its cost is under this share of the other's
-APART_TIED = 3.0           # and the two models tie while the ends-apart one's cost is under this many times the other's:
-                           # in frames drawn with the pose known and no codec it is under 0.8 of the other's on joints
-                           # drawn with the ends apart, over 10 times it on painted ones (``JointEnds.apart_cost``;
-                           # tests/test_joints.py)
+APART_TIED = 3.0           # and the other kept with its step unmeasured while its cost is over a third of the ends-apart
+                           # model's and their steps differ: in frames drawn with the pose known and no codec, the
+                           # ends-apart model's cost is under 0.8 of the other's on joints drawn with the ends apart,
+                           # over 10 times it on painted ones (``JointEnds.apart_cost``; tests/test_joints.py)
 CLOSED_IN_VIEW = 0.75      # a sector in view: this share of its generators' profiles whole in the image
 CLOSED_HELD = 0.25         # and the gap closed there: its edges kept on at most this share of them
 CLOSED_EXPLAINED = 0.5     # the step read explains a closed sector when at least this share of the step that closes
@@ -159,9 +159,8 @@ class JointEnds:
     gap_resolved: bool = True
     # what keeps the step (B) from being measured in this frame while the gap (A) is
     step_problems: tuple[str, ...] = ()
-    # which of the two models holds, where the far edges do not tell (``APART_TIED``): standard uncertainty of the
-    # gap and of the step [H], the other model's reading a rectangular distribution's half width away
-    model_u: tuple[float, float] = (0.0, 0.0)
+    # and what keeps the gap (A) from being measured while the step (B) is
+    gap_problems: tuple[str, ...] = ()
     # whether the ends were read by the ends-apart model (the far end's face beyond the gap, ``_fit_apart``)
     ends_apart: bool = False
     # the edges' definition (the blur on the light or on the grey levels: ``find_joint_ends``), standard
@@ -932,25 +931,36 @@ def find_joint_ends(gray: np.ndarray, view: PipeView, depth: float, *, mask: np.
     closed, holding = _closed_sectors(vals, angles, held_at)
     step_problems = []
     # where no face shows, which model holds is told by how well each fits the gap's far edges; a painted joint's
-    # far edges misfit the ends-apart model by far in clean frames, but through a codec and a fitted pose the two
-    # may fit alike (``APART_TIED``), and the gap and step read then rest on the model taken: seed 354 with the ends
-    # apart read 7 steps by the other model, 1 of them covered, and 13 gaps, 3 missed (``automatic_joints.py
-    # --release-apart`` at 231ee54); the same joints drawn painted were read right. Where they tie, the other
-    # model's reading is a rectangular distribution's half width away (``model_u``): the interval reaches it. A face
-    # too narrow to read leaves the step unmeasured where the ends-apart model is taken or ties, not where the far
-    # edges reject it: a painted joint's far wall often shows a narrow bright band beyond its gap, and seed 354's
-    # painted joints lost their steps by the dozen to it without this condition (a partial run at e512804)
+    # far edges misfit the ends-apart model by far, a sewer's joint through a codec and a fitted pose may fit both
+    # alike (``APART_TIED``): the step read then rests on the model taken. Where a face shows too narrow to be read,
+    # or the other model's step differs by more than the step's U95, the step is not measured (seed 354 with the
+    # ends apart: 7 of the 130 joints at DN >= 200 read by the other model, their steps of 0.2-7.9 mm read
+    # 0.03-1.22 mm, 1 of 7 covered; ``automatic_joints.py --release-apart`` at 231ee54). Not where the far edges
+    # reject the ends apart: a painted joint's far wall beyond its gap often shows a narrow bright band, and seed
+    # 354's painted joints lost their steps by the dozen to it without this condition (a partial run at 231ee54)
     tied = bool(np.all(np.isfinite(x_apart)) and x_apart[0] > tn and cost_apart < APART_TIED * cost_painted)
-    model_u = (0.0, 0.0)
-    if tied and not apart:
-        model_u = (abs((x_apart[0] - tn) - (tf - tg)) / math.sqrt(3.0),
-                   abs(math.hypot(x_apart[1] - cn[0], x_apart[2] - cn[1]) - math.hypot(cf[0] - cn[0], cf[1] - cn[1]))
-                   / math.sqrt(3.0))
     seen_face = [k for k in np.unique(sector) if np.mean(face_seen[sector == k]) >= 0.5]
     if seen_face and not face_sectors and (apart or tied):
         step_problems.append(f"the far end's face shows beyond the gap in {len(seen_face)} of {SECTORS} sectors, but "
                              f"narrower than {FACE_RESOLVED:.0f} times the blur ({sigma_face:.1f} px): the step is "
                              "not measured")
+    elif tied and not apart:
+        other = math.hypot(x_apart[1] - cn[0], x_apart[2] - cn[1])
+        read = math.hypot(cf[0] - cn[0], cf[1] - cn[1])
+        u_read = math.sqrt(max(float(np.max(np.linalg.eigvalsh(d_step @ cov @ d_step.T))), 0.0)) if m > 1 else 0.0
+        if abs(other - read) > 2.0 * u_read:
+            step_problems.append(f"the gap's far edges fit pipe ends a gap apart nearly as well (at "
+                                 f"{cost_apart / cost_painted:.2f} times the cost), with a step of {100 * other:.1f} % "
+                                 f"of H against {100 * read:.1f} % read: the step is not measured")
+    # the gap alike (the same run: 13 of its 130 gaps at DN >= 200 read by the other model, 3 of them missed)
+    gap_problems = []
+    if tied and not apart and m > 1:
+        gap_other, gap_read = x_apart[0] - tn, tf - tg
+        u_gap = math.sqrt(max(cov[0, 0] + cov[3, 3] - 2 * cov[0, 3], 0.0))
+        if abs(gap_other - gap_read) > 2.0 * u_gap:
+            gap_problems.append(f"the gap's far edges fit pipe ends a gap apart nearly as well (at "
+                                f"{cost_apart / cost_painted:.2f} times the cost), with a gap of {100 * gap_other:.2f} % "
+                                f"of H against {100 * gap_read:.2f} % read: the gap is not measured")
     # (a sector across from a closed one holding the gap's edges shows where the far end would stand into the flow:
     # a step there would show its face or its deeper ring, and a step of none read there says the sector closed for
     # another reason, water the mask leaves, glare, texture: seed 354's painted DN150 joints, 4 of them)
@@ -982,7 +992,7 @@ def find_joint_ends(gray: np.ndarray, view: PipeView, depth: float, *, mask: np.
                      near_px, far_px, ang, coverage, share_glare, tuple(problems), float(scatter_near),
                      float(scatter_far), *sens, blur_px=blur, blur_u_px=u_blur, gap_resolved=resolved,
                      step_problems=tuple(step_problems), ends_apart=apart, definition_u=definition_u,
-                     model_u=model_u,
+                     gap_problems=tuple(gap_problems),
                      apart_cost=float(cost_apart / cost_painted) if cost_painted > 0 else math.nan)
 
 

@@ -933,11 +933,14 @@ def find_joint_ends(gray: np.ndarray, view: PipeView, depth: float, *, mask: np.
     # where no face shows, which model holds is told by how well each fits the gap's far edges; a painted joint's
     # far edges misfit the ends-apart model by far, a sewer's joint through a codec and a fitted pose may fit both
     # alike (``APART_TIED``): the step read then rests on the model taken. Where a face shows too narrow to be read,
-    # or the other model's step differs by more than the step's U95, the step is not measured (seed 354 with the
-    # ends apart: 7 of the 130 joints at DN >= 200 read by the other model, their steps of 0.2-7.9 mm read
-    # 0.03-1.22 mm, 1 of 7 covered; ``automatic_joints.py --release-apart`` at 231ee54). Not where the far edges
-    # reject the ends apart: a painted joint's far wall beyond its gap often shows a narrow bright band, and seed
-    # 354's painted joints lost their steps by the dozen to it without this condition (a partial run at 231ee54)
+    # or the other model's step differs by more than twice the step's fit u, the step is not measured (seed 354 with
+    # the ends apart: 7 of the 130 joints at DN >= 200 read by the other model, their steps of 0.2-7.9 mm read
+    # 0.03-1.22 mm, 1 of 7 covered; ``automatic_joints.py --release-apart`` at 231ee54). The same joints drawn
+    # painted tie too, and were read right: they lose their measurement (docs/measurement.md, "The far end's face
+    # drawn right"); the other model's reading taken into the interval instead (ca536c3) did not reach the truth of
+    # those drawn apart. Not where the far edges reject the ends apart: a painted joint's far wall beyond its gap
+    # often shows a narrow bright band, and seed 354's painted joints lost their steps by the dozen to it without
+    # this condition (a partial run at 231ee54)
     tied = bool(np.all(np.isfinite(x_apart)) and x_apart[0] > tn and cost_apart < APART_TIED * cost_painted)
     seen_face = [k for k in np.unique(sector) if np.mean(face_seen[sector == k]) >= 0.5]
     if seen_face and not face_sectors and (apart or tied):

@@ -322,7 +322,7 @@ def measure_joint(obs: Observation, sightings: Sequence[JointSighting], contour:
     limit = MAX_EDGE_SCATTER_PX * focal_scale(contour.view)
     for s in sightings:
         reasons += [f"frame {s.frame}: {p}" for p in s.ends.problems
-                    + (s.ends.step_problems if obs.char1 == "B" else s.ends.gap_problems)]
+                    + (s.ends.step_problems if obs.char1 == "B" else ())]
         scatter = max(s.ends.scatter_near_px, s.ends.scatter_far_px)
         if scatter > limit:
             reasons.append(f"frame {s.frame}: the gap's edges scatter {scatter:.1f} px about the pipe ends' rings "

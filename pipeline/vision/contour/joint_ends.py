@@ -708,27 +708,27 @@ def _apart_sensitivity(view, near_px, deeper, walls, far_u, du_px, face_u, face_
     return (float(gap_near), float(gap_far)), (float(step_near), float(step_far))
 
 
-def _far_u_grey(vals, held_at, shifts, far_u, inv_t, by_dip) -> np.ndarray:
-    """The gap's far edges [1/H] of the generators ``held_at`` (profiles ``vals``) found in grey levels, moved by
-    the blur's correction as the linear ones (``shifts`` [samples]); the linear one ``far_u`` where none is found."""
-    out = np.array(far_u, float)
+def _grey_edges(vals, held_at, shifts, far_u, face_u, inv_t, by_dip) -> tuple[np.ndarray, np.ndarray]:
+    """The gap's far edges and the face's inner edges [1/H] of the generators ``held_at`` (profiles ``vals``) found
+    in grey levels: the far edges moved by the blur's correction as the linear ones (``shifts`` [samples]), the
+    linear ``far_u`` kept where the grey levels find none; the face's where ``face_u`` holds one (nan elsewhere, and
+    where the grey levels find none)."""
+    far, face = np.array(far_u, float), np.full(len(held_at), np.nan)
     for j, a in enumerate(held_at):
         grey = _edges(vals[a], by_dip, gamma=1.0)
-        if grey is not None:
-            out[j] = float(np.interp(grey[1] + shifts[j], np.arange(len(inv_t)), inv_t))
-    return out
+        if grey is None:
+            continue
+        far[j] = _u_at(grey[1] + shifts[j], inv_t)
+        if math.isfinite(face_u[j]):
+            i_face = _face_edge(vals[a], grey[1], grey[3], gamma=1.0)
+            if math.isfinite(i_face):
+                face[j] = _u_at(i_face, inv_t)
+    return far, face
 
 
-def _face_u_grey(vals, held_at, face_u, inv_t, by_dip) -> np.ndarray:
-    """The face's inner edges [1/H] found in grey levels where ``face_u`` holds one (nan elsewhere, and where the
-    grey levels find none)."""
-    out = np.full(len(held_at), np.nan)
-    for j in np.flatnonzero(np.isfinite(face_u)):
-        grey = _edges(vals[held_at[j]], by_dip, gamma=1.0)
-        i_face = _face_edge(vals[held_at[j]], grey[1], grey[3], gamma=1.0) if grey is not None else math.nan
-        if math.isfinite(i_face):
-            out[j] = float(np.interp(i_face, np.arange(len(inv_t)), inv_t))
-    return out
+def _u_at(i: float, inv_t: np.ndarray) -> float:
+    """1 / t [1/H] at index i of a profile sampled at ``inv_t``."""
+    return float(np.interp(i, np.arange(len(inv_t)), inv_t))
 
 
 def _in_plane(view: PipeView, pts: np.ndarray, t: float) -> np.ndarray:
@@ -768,7 +768,7 @@ def find_joint_ends(gray: np.ndarray, view: PipeView, depth: float, *, mask: np.
     for (a, (i_near, i_far, _, r_far)), (d_near, d_far) in zip(found, shift):
         p, line = vals[a], pts[a]
         i_face = _face_edge(p, i_far, r_far)           # the far end's own face beyond the gap, where it shows
-        face_u.append(float(np.interp(i_face, np.arange(len(inv_t)), inv_t)) if math.isfinite(i_face) else math.nan)
+        face_u.append(_u_at(i_face, inv_t) if math.isfinite(i_face) else math.nan)
         face_px = float(np.hypot(*(_at(line, i_face + 1) - _at(line, i_face)))) if math.isfinite(i_face) else 0.0
         face_du.append((inv_t[1] - inv_t[0]) / face_px if face_px > 0 else 0.0)
         face_w.append((i_far - i_face) * face_px if math.isfinite(i_face) else math.nan)
@@ -777,8 +777,8 @@ def find_joint_ends(gray: np.ndarray, view: PipeView, depth: float, *, mask: np.
         i_near, i_far = i_near - d_near, i_far + d_far   # the blur's widening taken out, half at each edge
         near.append(_at(line, i_near))
         far.append(_at(line, i_far))
-        near_u.append(float(np.interp(i_near, np.arange(len(inv_t)), inv_t)))
-        far_u.append(float(np.interp(i_far, np.arange(len(inv_t)), inv_t)))
+        near_u.append(_u_at(i_near, inv_t))
+        far_u.append(_u_at(i_far, inv_t))
         kept.append(a)
         step_px = float(np.hypot(*(_at(line, i_far + 1) - _at(line, i_far))))
         du_px.append((inv_t[1] - inv_t[0]) / step_px if step_px > 0 else 0.0)
@@ -872,9 +872,8 @@ def find_joint_ends(gray: np.ndarray, view: PipeView, depth: float, *, mask: np.
         # apart`` read their gap with an rms of 0.84 mm at d96f591, 0.53 mm with this and ``FACE_RESOLVED``).
         # The far end is taken midway between the two readings, and their difference is the edges' definition: a
         # rectangular distribution across it
-        x_grey = _fit_apart(view, walls, _far_u_grey(vals, held_at, far_shift_a, far_u, inv_t, by_dip),
-                            _face_u_grey(vals, held_at, face_used, inv_t, by_dip), (tn, *cn), x_far, radius,
-                            x0=x_apart)[0]
+        far_grey, face_grey = _grey_edges(vals, held_at, far_shift_a, far_u, face_used, inv_t, by_dip)
+        x_grey = _fit_apart(view, walls, far_grey, face_grey, (tn, *cn), x_far, radius, x0=x_apart)[0]
         if np.all(np.isfinite(x_grey)):
             step_lin, step_grey = (math.hypot(x[1] - cn[0], x[2] - cn[1]) for x in (x_apart, x_grey))
             definition_u = (abs(x_apart[0] - x_grey[0]) / math.sqrt(12.0), abs(step_lin - step_grey) / math.sqrt(12.0))
@@ -928,6 +927,7 @@ def find_joint_ends(gray: np.ndarray, view: PipeView, depth: float, *, mask: np.
     # explaining (``CLOSED_EXPLAINED``) leaves the step unmeasured
     closed, holding = _closed_sectors(vals, angles, held_at)
     step_problems = []
+    step = math.hypot(cf[0] - cn[0], cf[1] - cn[1])    # the step read [H]
     # where no face shows, which model holds is told by how well each fits the gap's far edges; a painted joint's
     # far edges misfit the ends-apart model by far, a sewer's joint through a codec and a fitted pose may fit both
     # alike (``APART_TIED``): the step read then rests on the model taken. Where a face shows too narrow to be read,
@@ -939,9 +939,8 @@ def find_joint_ends(gray: np.ndarray, view: PipeView, depth: float, *, mask: np.
     # those drawn apart. The gap is not held so: tied gaps (61ef9cf) lost sample S02's right one under its water
     # line (the ends-apart model's 41 mm for 18) and a tenth of the painted ones, to hold back 1 of the 3 that
     # missed of the 13 released (docs/measurement.md). Not where the far edges reject the ends apart: a painted
-    # joint's far wall beyond its gap
-    # often shows a narrow bright band, and seed 354's painted joints lost their steps by the dozen to it without
-    # this condition (a partial run at 231ee54)
+    # joint's far wall beyond its gap often shows a narrow bright band, and seed 354's painted joints lost their
+    # steps by the dozen to it without this condition (a partial run at 231ee54)
     tied = bool(np.all(np.isfinite(x_apart)) and x_apart[0] > tn and cost_apart < APART_TIED * cost_painted)
     seen_face = [k for k in np.unique(sector) if np.mean(face_seen[sector == k]) >= 0.5]
     if seen_face and not face_sectors and (apart or tied):
@@ -950,23 +949,21 @@ def find_joint_ends(gray: np.ndarray, view: PipeView, depth: float, *, mask: np.
                              "not measured")
     elif tied and not apart:
         other = math.hypot(x_apart[1] - cn[0], x_apart[2] - cn[1])
-        read = math.hypot(cf[0] - cn[0], cf[1] - cn[1])
         u_read = math.sqrt(max(float(np.max(np.linalg.eigvalsh(d_step @ cov @ d_step.T))), 0.0)) if m > 1 else 0.0
-        if abs(other - read) > 2.0 * u_read:
+        if abs(other - step) > 2.0 * u_read:
             step_problems.append(f"the gap's far edges fit pipe ends a gap apart nearly as well (at "
                                  f"{cost_apart / cost_painted:.2f} times the cost), with a step of {100 * other:.1f} % "
-                                 f"of H against {100 * read:.1f} % read: the step is not measured")
+                                 f"of H against {100 * step:.1f} % read: the step is not measured")
     # (a sector across from a closed one holding the gap's edges shows where the far end would stand into the flow:
     # a step there would show its face or its deeper ring, and a step of none read there says the sector closed for
     # another reason, water the mask leaves, glare, texture: seed 354's painted DN150 joints, 4 of them)
     if closed and not any((k + SECTORS // 2) % SECTORS in holding for k in closed):
         mid = (np.array(closed) + 0.5) * (2 * np.pi / SECTORS) - np.pi
         closes = float(np.min(radius(mid))) * (tf - tg) / tg          # the step that hides the far end there [H]
-        read = math.hypot(cf[0] - cn[0], cf[1] - cn[1])
-        if read < CLOSED_EXPLAINED * closes:
+        if step < CLOSED_EXPLAINED * closes:
             step_problems.append(f"the gap closes in {len(closed)} of {SECTORS} sectors in view, where a step of at "
                                  f"least about {100 * closes:.1f} % of H would hide the far end, but "
-                                 f"{100 * read:.1f} % is read: the step is not measured")
+                                 f"{100 * step:.1f} % is read: the step is not measured")
     u_depth = max(math.sqrt(cov[0, 0]), math.sqrt(cov[3, 3])) if m > 1 else 0.0
     if not u_depth <= MAX_RING_U_H:                    # nan: a part left out leaves no ring to fit
         moves = f"by {100 * u_depth:.1f} % of H" if math.isfinite(u_depth) else "beyond a fit"
@@ -978,7 +975,6 @@ def find_joint_ends(gray: np.ndarray, view: PipeView, depth: float, *, mask: np.
         # away, says the pose (or a ring half under water, whose depth and centre trade) does not hold at this joint
         problems.append(f"the near pipe's end lies {100 * near_off:.1f} % of H off the pipe's axis as the camera's "
                         "pose puts it there (the pose does not hold at this joint)")
-    step = math.hypot(cf[0] - cn[0], cf[1] - cn[1])
     if step > MAX_STEP_H:
         problems.append(f"the far end's ring lies {100 * step:.0f} % of H off the near one's, more than a displaced "
                         "joint steps (another feature taken for the far end)")

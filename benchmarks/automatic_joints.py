@@ -497,6 +497,7 @@ def codec_shifts(pairs: list[tuple[str, float, float, float]], what: str = "gap"
 
 ROW_FIELDS = ("case", "H", "shape", "displaced", "quantity", "truth", "status", "codec")
 PAIR_FIELDS = ("case", "codec", "shape", "gap_mm", "step_h")
+MEASURED_FIELDS = ("value", "u", "U95", "low", "high")
 
 
 def read_rows(path: Path, fields: Sequence[str] = ROW_FIELDS) -> list[dict]:
@@ -511,7 +512,8 @@ def read_rows(path: Path, fields: Sequence[str] = ROW_FIELDS) -> list[dict]:
     if not isinstance(rows, list) or not all(isinstance(r, dict) for r in rows):
         raise SystemExit(f"{path}: not a list of rows: give a file this benchmark kept with --json")
     for i, r in enumerate(rows):
-        missing = [f for f in fields if f not in r]
+        # a measured row carries its result too (the tables' coverage and z read it)
+        missing = [f for f in (*fields, *(MEASURED_FIELDS if r.get("status") == "measured" else ())) if f not in r]
         if missing:
             raise SystemExit(f"{path}: row {i}: no field {missing[0]!r}: give a file this benchmark kept with --json"
                              + (" (with --rendered, for --pairs)" if fields is PAIR_FIELDS else ""))

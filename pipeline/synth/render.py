@@ -191,7 +191,10 @@ class Renderer:
         # The socket's end face looks at the camera: lit almost head-on, unlike the grazing wall.
         faces = np.nonzero(lip)[0]
         lum[faces] *= 1.0 + lip[faces] * (np.minimum(self.look.face_gain / np.maximum(hits.cos[faces], 0.05), 8.0) - 1.0)
-        if end_face.size and not self.scene.of_type(Deformation):
+        dj = self.djoint
+        if (dj is not None and dj.ends == "apart" and not self.scene.of_type(Deformation)
+                and dj.joint * self.pipe.unit_length_mm + 0.5 * dj.gap_mm > z_cam):
+            # also where no pixel's centre sees the face: a face thinner than a pixel still lights its pixels
             self._face_edges(lum, z_cam)
         s_cur = hits.s.copy()
         self._deposits(lum, region, s_cur, z_cam)
@@ -261,33 +264,62 @@ class Renderer:
         """Anti-alias the far pipe's end face (``DisplacedJoint.ends`` "apart") in ``lum``, in place.
 
         Each pixel's centre ray says whether it sees the face, the gap or the far pipe's wall; a pixel the face's
-        edge crosses sees part of each. The gap's own anti-aliasing (``_joint_coverage``) takes the wall beyond
-        its far edge for the other part, which is right where the far pipe stands out of the wall, not beside the
-        face: there it painted the gap's last half pixel as grazing wall where the bright face is, and the far
-        wall's first as half gap. The face's edges then read half a footprint onto the face from both sides (the
-        step read short: DN800 stepped 30 mm at 1 m, -1.4 mm; ``benchmarks/joint_tilt.py --placement --ends
-        apart`` before 2026-12-07's fifth session). Here each pixel near the face takes the face's share of its
+        edge crosses sees part of each. The gap's own anti-aliasing (``_joint_coverage``) places a pixel by where
+        its ray meets the near pipe's radius and takes the wall beyond the gap's far edge for the rest of it. Beside
+        the face that painted the gap's last half pixel as grazing wall where the bright face is, and the far
+        wall's first as half gap (the face's edges read half a footprint onto the face from both sides, the step
+        short: DN800 stepped 30 mm at 1 m, -1.4 mm; ``benchmarks/joint_tilt.py --placement --ends apart`` before
+        2026-12-07's fifth session); where the far pipe stands out of the wall, it left the gap's side of its far
+        edge (where the ray meets the far pipe's wall at its plane) wholly dark. Here each pixel near the face takes the face's share of its
         footprint across each edge (the distance of its centre from the edge in footprints, as
         ``_joint_coverage``), the rest from the surface beside that edge: the gap, dark throughout, or the far
-        wall, without the gap's darkening. Not under a deformation (its hits are not the segments' own)."""
+        wall, without the gap's darkening; a face thinner than a footprint its width's share (until 2026-12-07's
+        sixth session, a quarter of a pixel at least, all around the gap once any pixel's centre saw a face:
+        ``tests/test_joints.py``). Where the far pipe stands out, each pixel at the gap's far edge takes the
+        wall's share of its footprint there. Not under a deformation (its hits are not the segments' own)."""
         dj, seg1, seg2 = self.djoint, self.seg1, self.seg2
-        z_far = dj.joint * self.pipe.unit_length_mm + 0.5 * dj.gap_mm
+        z_joint = dj.joint * self.pipe.unit_length_mm
+        z_near, z_far = z_joint - 0.5 * dj.gap_mm, z_joint + 0.5 * dj.gap_mm
         z1, z2 = z_cam + seg1.s * self.dz, z_cam + seg2.s * self.dz
         with np.errstate(invalid="ignore", divide="ignore"):
             d1 = (z1 - z_far) / seg1.fp          # > 0: past the near pipe's radius only beyond the far end's plane
             d2 = (z_far - z2) / seg2.fp          # > 0: at the far pipe's radius before that pipe begins
-        band = np.nonzero((self.dz > 0) & (d1 > -0.5) & (d2 > -0.5) & (np.minimum(d1, d2) < 0.5))[0]
-        if not band.size:
-            return
-        b1, b2 = d1[band], d2[band]
-        cover = np.clip(b1 + 0.5, 0.0, 1.0) * np.clip(b2 + 0.5, 0.0, 1.0)
-        sf = (z_far - z_cam) / self.dz[band]
-        X, Y = self.ox + sf * self.dx[band], self.oy + sf * self.dy[band]
-        face = self._hits(sf, np.arctan2(Y, X), self.dz[band])
-        lum_face = self._albedo(face, np.full(band.size, z_far, np.float32)) * face.light
-        gap = (self._albedo(_take(seg1, band), z1[band]) * seg1.light[band]) * (1.0 - self.look.groove)
-        wall = self._albedo(_take(seg2, band), z2[band]) * seg2.light[band]
-        lum[band] = cover * lum_face + (1.0 - cover) * np.where(b1 <= b2, gap, wall)
+        ahead = self.dz > 0
+        # where the far pipe stands into the flow (its wall met before the near one's), the face lies between the
+        # two radii at the far end's plane
+        band = np.nonzero(ahead & (z2 < z1) & (d1 > -0.5) & (d2 > -0.5) & (np.minimum(d1, d2) < 0.5))[0]
+        if band.size:
+            # the footprint's share on the gap's side of the face's near edge, and on the far wall's side of its far
+            # edge; the face takes the rest (a face thinner than the footprint, its width's share of it)
+            on_gap = np.clip(0.5 - d1[band], 0.0, 1.0)
+            on_wall = np.clip(0.5 - d2[band], 0.0, 1.0)
+            cover = np.clip(1.0 - on_gap - on_wall, 0.0, 1.0)
+            sf = (z_far - z_cam) / self.dz[band]
+            X, Y = self.ox + sf * self.dx[band], self.oy + sf * self.dy[band]
+            face = self._hits(sf, np.arctan2(Y, X), self.dz[band])
+            lum_face = self._albedo(face, np.full(band.size, z_far, np.float32)) * face.light
+            gap, wall = self._gap_and_wall(band, z1, z2)
+            rest = np.maximum(on_gap + on_wall, 1e-9)
+            lum[band] = cover * lum_face + (1.0 - cover) * (on_gap * gap + on_wall * wall) / rest
+        # where it stands out of the wall (or flush), the gap's far edge is where a ray meets the far pipe's wall at
+        # its plane: the gap's anti-aliasing, which places the pixel by where it meets the near pipe's radius,
+        # left the gap's side of that edge wholly dark (the edge read deeper by a tenth of a pixel and more). Not
+        # where the footprint reaches the near pipe's end too (a gap under a pixel): that anti-aliasing holds there
+        with np.errstate(invalid="ignore", divide="ignore"):
+            clear = (z1 - z_near) / seg1.fp > 0.5
+        edge = np.nonzero(ahead & (z2 >= z1) & (np.abs(d2) < 0.5) & clear)[0]
+        if edge.size:
+            on_wall = np.clip(0.5 - d2[edge], 0.0, 1.0)
+            gap, wall = self._gap_and_wall(edge, z1, z2)
+            lum[edge] = on_wall * wall + (1.0 - on_wall) * gap
+
+    def _gap_and_wall(self, at: np.ndarray, z1: np.ndarray, z2: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The light of the gap (the near pipe's hits, darkened by the gap) and of the far pipe's wall at pixels
+        ``at``, whose rays meet the two pipes' radii at z1 and z2 [mm]."""
+        seg1, seg2 = self.seg1, self.seg2
+        gap = (self._albedo(_take(seg1, at), z1[at]) * seg1.light[at]) * (1.0 - self.look.groove)
+        wall = self._albedo(_take(seg2, at), z2[at]) * seg2.light[at]
+        return gap, wall
 
     def _albedo(self, hits: _Hits, z: np.ndarray) -> np.ndarray:
         """The wall's albedo at hits whose Z is z [mm]: its texture, averaged out where a pixel covers many texels."""

@@ -48,6 +48,7 @@ from __future__ import annotations
 import functools
 import math
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import cv2
 import numpy as np
@@ -55,6 +56,7 @@ from scipy.signal import find_peaks
 from scipy.optimize import least_squares
 
 from pipeline.maths.profiles import exit_table, profile_polygon, theta_to_clock
+from pipeline.vision.contour.blurred_face import face_contrast, far_edge_shift
 from pipeline.vision.contour.blurred_gap import EDGE_RAMP, RHO_INFORMATIVE, blur_from_edges, half_level_width, \
     unblurred_width, width_per_sigma
 from pipeline.vision.contour.view import PipeView, in_image
@@ -116,6 +118,14 @@ CLOSED_EXPLAINED = 0.5     # the step read explains a closed sector when at leas
 GROSS_H = 0.02             # a near edge this far [H] off the near ring's Cauchy fit is not this joint's
 MAX_STEP_H = 0.2           # the far ring's centre this far [H] off the near one's: not a pipe end (displaced joints
                            # step a few % of H; a far end 20 % off is another feature taken for it)
+
+
+class _Thin(NamedTuple):
+    """What places the gap's far edge beside a face the blur does not resolve (``blurred_face``), per generator:
+    the blur sigma [1/H] there, and the face's level over the far wall's, both above the gap's floor [1]."""
+
+    sigma_u: np.ndarray
+    contrast: np.ndarray
 
 
 @dataclass(frozen=True)
@@ -202,6 +212,15 @@ def _radius_of(shape: str):
         return np.where(lost, np.nan, table[k] * (1 - w) + table[k + 1] * w)
 
     return radius
+
+
+def _tangent_distance(radius, theta: np.ndarray, d: float = 0.01) -> np.ndarray:
+    """The distance [H] from the pipe's axis to the wall's tangent at polar angles theta, of a profile whose radius
+    is ``radius(theta)`` [H]: r^2 / sqrt(r^2 + r'^2) (r itself for a circle); with the depth, how obliquely the wall
+    is seen from the axis."""
+    r = radius(theta)
+    slope = (radius(theta + d) - radius(theta - d)) / (2.0 * d)
+    return r * r / np.sqrt(r * r + slope * slope)
 
 
 def _wall(shape: str, theta: np.ndarray) -> np.ndarray:
@@ -646,20 +665,28 @@ def _soft_cost(r: np.ndarray, scale: float) -> float:
     return float(0.5 * scale ** 2 * np.sum(2.0 * (np.sqrt(1.0 + z) - 1.0)))
 
 
-def _apart_residual(view, walls, far_u, face_u, near, x, radius) -> np.ndarray:
+def _apart_residual(view, walls, far_u, face_u, near, x, radius, thin=None) -> np.ndarray:
     """The far edges' and the face's inner edges' 1 / t [1/H] against the ends-apart model: the gap's far edge on
     the far end's plane ``x[0]`` at whichever of the far ring (centre ``x[1:]``) and the near pipe's radius (about
     the near ring's centre) lies nearer along the generator, the face's inner edge (nan: none) on the far ring.
-    ``near`` is the near ring (t, cx, cy) [H]."""
+    ``near`` is the near ring (t, cx, cy) [H]. ``thin`` (``_Thin``): the gap's far edge where it reads beside a face
+    the blur does not resolve (``blurred_face``), from the face's width between the two rings."""
     t_far, cx, cy = x
     ring = _far_u(view, walls, t_far, (cx, cy), radius)
     rim = _far_u(view, walls, t_far, near[1:], radius)
     face = np.isfinite(face_u)
-    r = np.concatenate([far_u - np.maximum(ring, rim), face_u[face] - ring[face]])
+    edge = np.maximum(ring, rim)
+    if thin is not None:
+        # the face lies between the rim (the gap's far edge) and the ring where the far pipe stands into the flow;
+        # its light draws the edge read into the gap by up to half a sigma (a shift < 0: nearer, larger 1 / t)
+        with np.errstate(invalid="ignore"):
+            width = np.clip(rim - ring, 0.0, None) / thin.sigma_u
+            edge = edge - far_edge_shift(np.nan_to_num(width), thin.contrast) * thin.sigma_u
+    r = np.concatenate([far_u - edge, face_u[face] - ring[face]])
     return np.nan_to_num(r, nan=1.0, posinf=1.0, neginf=-1.0)
 
 
-def _fit_apart(view, walls, far_u, face_u, near, x_far, radius, x0=None) -> tuple[np.ndarray, float, float]:
+def _fit_apart(view, walls, far_u, face_u, near, x_far, radius, x0=None, thin=None) -> tuple[np.ndarray, float, float]:
     """(t, cx, cy) [H] of the far end by the ends-apart model (``_apart_residual``), its cost over the gap's far
     edges (``_soft_cost``, comparable with the other model's) and the rms of the face's edges about the far ring
     [1/H] (nan: no face). Started from ``x0`` when given, else from the other model's fit ``x_far`` and the
@@ -669,7 +696,7 @@ def _fit_apart(view, walls, far_u, face_u, near, x_far, radius, x0=None) -> tupl
     def residual(x):
         if not x[0] > 0:
             return np.ones(len(far_u) + int(np.isfinite(face_u).sum()))
-        return _apart_residual(view, walls, far_u, face_u, near, x, radius)
+        return _apart_residual(view, walls, far_u, face_u, near, x, radius, thin)
 
     starts = [x0] if x0 is not None else [x_far[:3]] + [s[:3] for s in _far_starts(walls, far_u, near, x_far[0])]
     best = None
@@ -690,7 +717,7 @@ def _fit_apart(view, walls, far_u, face_u, near, x_far, radius, x0=None) -> tupl
     return best.x, _soft_cost(best.fun[:n], scale), (_robust_rms(face_r) if len(face_r) >= 3 else math.nan)
 
 
-def _apart_sensitivity(view, near_px, deeper, walls, far_u, du_px, face_u, face_du, near, x, radius):
+def _apart_sensitivity(view, near_px, deeper, walls, far_u, du_px, face_u, face_du, near, x, radius, thin=None):
     """``_edge_sensitivity``'s for the ends-apart model: d(gap)/d(px) and d(step)/d(px) [H per px] for the near
     ring's edges and for the far edges (the gap's and the face's) moved into the gap, refitted from the fit."""
     tn, cxn, cyn = near
@@ -700,8 +727,8 @@ def _apart_sensitivity(view, near_px, deeper, walls, far_u, du_px, face_u, face_
     d = EDGE_PROBE_PX
     x_far = (tf, cxf, cyf, tf)
     near2, _ = _fit_ring(view, near_px + d * deeper, tn, radius)
-    x2, _, _ = _fit_apart(view, walls, far_u, face_u, near2, x_far, radius, x0=x)
-    x3, _, _ = _fit_apart(view, walls, far_u + d * du_px, face_u + d * face_du, near, x_far, radius, x0=x)
+    x2, _, _ = _fit_apart(view, walls, far_u, face_u, near2, x_far, radius, x0=x, thin=thin)
+    x3, _, _ = _fit_apart(view, walls, far_u + d * du_px, face_u + d * face_du, near, x_far, radius, x0=x, thin=thin)
     gap_near, gap_far = (x2[0] - near2[0] - (tf - tn)) / d, (x3[0] - tf) / d
     step_near = (float(np.dot(np.subtract(x2[1:], near2[1:]), direction)) - step0) / d
     step_far = (float(np.dot([x3[1] - cxn, x3[2] - cyn], direction)) - step0) / d
@@ -765,6 +792,7 @@ def find_joint_ends(gray: np.ndarray, view: PipeView, depth: float, *, mask: np.
     glare, deeper, du_px = [], [], []                  # per edge: the generator's image direction away from the
                                                        # camera at the near edge; 1 / t per px at the far edge
     face_w, ramp_px, far_shift = [], [], []            # the face's width read and the far edge's ramp [px]
+    floor_share = []                                   # the gap's floor over the near wall's level, in linear light
     for (a, (i_near, i_far, _, r_far)), (d_near, d_far) in zip(found, shift):
         p, line = vals[a], pts[a]
         i_face = _face_edge(p, i_far, r_far)           # the far end's own face beyond the gap, where it shows
@@ -774,6 +802,9 @@ def find_joint_ends(gray: np.ndarray, view: PipeView, depth: float, *, mask: np.
         face_w.append((i_far - i_face) * face_px if math.isfinite(i_face) else math.nan)
         ramp_px.append(r_far * float(np.hypot(*(_at(line, i_far + 1) - _at(line, i_far)))))
         far_shift.append(d_far)
+        q, i0, i1 = _linear(p), max(0, int(math.floor(i_far))), int(math.ceil(i_near))
+        if i1 + 1 < len(q):
+            floor_share.append(float(q[i0:i1 + 1].min() / max(float(q[i1 + 1:i1 + 1 + LOCAL].max()), 1e-9)))
         i_near, i_far = i_near - d_near, i_far + d_far   # the blur's widening taken out, half at each edge
         near.append(_at(line, i_near))
         far.append(_at(line, i_far))
@@ -858,7 +889,12 @@ def find_joint_ends(gray: np.ndarray, view: PipeView, depth: float, *, mask: np.
     on_face = np.isfinite(face_u) & np.isin(sector, face_sectors)
     faced = len(face_sectors) >= MIN_FACE_SECTORS
     face_used = np.where(on_face, face_u, np.nan)
-    x_apart, cost_apart, rms_face = _fit_apart(view, walls, far_u, face_used, (tn, *cn), x_far, radius)
+    # where the face is under the blur, its light draws the gap's far edge into the gap (``blurred_face``): the
+    # ends-apart model places that edge where it reads, from the face's width between its rings, the frame's blur,
+    # and the face's brightness by Lambert's law (the generator's and a concrete pipe's; the gap's floor as read)
+    lit = (tf, _tangent_distance(radius, ang), float(np.median(floor_share)) if floor_share else 0.0)
+    thin = _Thin(sigma_face * du_px, face_contrast(*lit))
+    x_apart, cost_apart, rms_face = _fit_apart(view, walls, far_u, face_used, (tn, *cn), x_far, radius, thin=thin)
     cost_painted = _soft_cost(_far_residual(view, walls, far_u, (tn, *cn), x_far, radius)[:-1], 0.005 / tf)
     apart = bool(np.all(np.isfinite(x_apart)) and x_apart[0] > tn and (
         cost_apart < APART_GAIN * cost_painted
@@ -873,7 +909,9 @@ def find_joint_ends(gray: np.ndarray, view: PipeView, depth: float, *, mask: np.
         # The far end is taken midway between the two readings, and their difference is the edges' definition: a
         # rectangular distribution across it
         far_grey, face_grey = _grey_edges(vals, held_at, far_shift_a, far_u, face_used, inv_t, by_dip)
-        x_grey = _fit_apart(view, walls, far_grey, face_grey, (tn, *cn), x_far, radius, x0=x_apart)[0]
+        thin_grey = _Thin(thin.sigma_u, face_contrast(*lit, power=1.0 / RESPONSE_GAMMA))
+        x_grey = _fit_apart(view, walls, far_grey, face_grey, (tn, *cn), x_far, radius, x0=x_apart,
+                            thin=thin_grey)[0]
         if np.all(np.isfinite(x_grey)):
             step_lin, step_grey = (math.hypot(x[1] - cn[0], x[2] - cn[1]) for x in (x_apart, x_grey))
             definition_u = (abs(x_apart[0] - x_grey[0]) / math.sqrt(12.0), abs(step_lin - step_grey) / math.sqrt(12.0))
@@ -882,7 +920,7 @@ def find_joint_ends(gray: np.ndarray, view: PipeView, depth: float, *, mask: np.
         seen = np.ones(len(ang), bool)                  # the far plane read all around, as the near one
         matched, tg = False, tn
         sens = _apart_sensitivity(view, near_px, deeper, walls, far_u, du_px, face_used, face_du, (tn, *cn),
-                                  x_apart, radius)
+                                  x_apart, radius, thin)
     # the residuals in the image along the generators [px]: the near ring's radial [H] at depth tn, the far
     # ring's in 1 / t [1/H] (a wall point at radius r lies f r / t from the vanishing point)
     r_mean = float(np.mean(np.hypot(walls[:, 0] - view.ox, walls[:, 1] - view.oy)))
@@ -895,7 +933,8 @@ def find_joint_ends(gray: np.ndarray, view: PipeView, depth: float, *, mask: np.
     for s in held:
         rest = sector != s
         a_n, _ = _fit_ring(view, near_px[rest], tn, radius)
-        a_f = _fit_apart(view, walls[rest], far_u[rest], face_used[rest], a_n, x_far, radius, x0=x_apart)[0] \
+        a_f = _fit_apart(view, walls[rest], far_u[rest], face_used[rest], a_n, x_far, radius, x0=x_apart,
+                         thin=_Thin(thin.sigma_u[rest], thin.contrast[rest]))[0] \
             if apart else _fit_far(view, walls[rest], far_u[rest], a_n, tf, radius, x_far)[0]
         if matched:                                     # (the near depth as the gap reads it)
             a_n[0] = _fit_ring(view, near_px[rest & seen], tg, radius)[0][0]

@@ -28,9 +28,10 @@ into what a case's frames share and what each adds (``shared_and_own``: ``codecs
 ``--pairs FILE`` prints the codec's shift by size again from the pairs ``--rendered`` kept with ``--json``.
 ``--ends apart`` renders the joints' pipe ends a gap apart, the far end's face beyond the gap where it stands into
 the flow (``DisplacedJoint.ends``; the default, "painted", is the generator's joint of every run before
-the fourth session of 2026-12-07). ``--release-apart`` measures the joints the finder reads by its ends-apart model
-as if that model were validated (the night holds them back: ``joints.ENDS_APART_NOT_VALIDATED``), so that it can be;
-the table then counts them, and each row says whether it was read so (``ends_apart``).
+the fourth session of 2026-12-07). The joints the finder reads by its ends-apart model are measured as the night
+measures them since 2026-12-07's sixth session; ``--hold-apart`` holds them back as it did before
+(``joints.ENDS_APART_NOT_VALIDATED``); ``--release-apart``, which released them then, is the default now (kept for
+the commands of those runs). The table counts them apart, and each row says whether it was read so (``ends_apart``).
 ``--widths FILE`` prints each trusted frame's gap error by the gap's width in the image from a ``--json`` file, with
 the blur each frame's edges gave.
 """
@@ -135,9 +136,9 @@ def _px_across(view, depth: float, char1: str) -> float:
 
 
 def measure_case(video: Path, truth: dict, cert, cache: Path | None = None, kept: Path | None = None,
-                 fourcc: str | None = None, hold_apart: bool = True) -> list[dict]:
+                 fourcc: str | None = None, hold_apart: bool = False) -> list[dict]:
     """Both quantities of one encoding of a case: rows with the truth, the result or why none; ``fourcc`` the
-    video's codec as the night reads it; ``hold_apart`` False: joints read by the ends-apart model released
+    video's codec as the night reads it; ``hold_apart`` True: joints read by the ends-apart model held back
     (``measure_joint``'s ``hold_ends_apart``), the rows saying which they are."""
     case = truth["case"]
     H = case["height_mm"]
@@ -343,14 +344,14 @@ def table(rows: list[dict]) -> list[str]:
 
 
 def by_model(rows: list[dict]) -> list[str]:
-    """Of a ``--release-apart`` run's measured rows at DN >= 200 (both codecs), those the finder read by its
-    ends-apart model (the night holds them back) and those by the other (the night's own, released): coverage with
-    its Wilson interval, median and robust SD of z, median U95."""
+    """Of a run's measured rows at DN >= 200 (both codecs), those the finder read by its ends-apart model and those
+    by the other: coverage with its Wilson interval, median and robust SD of z, median U95 (a ``--hold-apart`` run
+    measures none by the first)."""
     out = ["| quantity | read by | measured | coverage | Wilson 95 % | median z | robust SD z | median U95 [mm] |",
            "|---|---|---|---|---|---|---|---|"]
     for q in ("A", "B"):
         g = [r for r in rows if r["displaced"] and r["quantity"] == q and r["H"] >= 200]
-        for name, apart in (("the ends-apart model (held back in the night)", True), ("the other (released)", False)):
+        for name, apart in (("the ends-apart model", True), ("the other", False)):
             ok = [r for r in g if r["status"] == "measured" and bool(r.get("ends_apart")) == apart]
             if not ok:
                 out.append(f"| BAJ {q} | {name} | 0 of {len(g)} | - | - | - | - | - |")
@@ -550,12 +551,17 @@ def main() -> None:
     ap.add_argument("--strata", type=Path, nargs="+", metavar="ROWS",
                     help="only print circular joints' results by codec and DN band, the files of rows kept by --json "
                     "pooled")
+    ap.add_argument("--hold-apart", action="store_true",
+                    help="hold back the joints read by the ends-apart model, as the night did until 2026-12-07's sixth "
+                    "session")
     ap.add_argument("--release-apart", action="store_true",
-                    help="measure joints read by the ends-apart model as if it were validated (the night holds them "
-                    "back), to validate it")
+                    help="measure the joints read by the ends-apart model (the default since 2026-12-07's sixth "
+                    "session; kept for the commands of the runs before)")
     add_camera_argument(ap)
     add_appearance_argument(ap)
     args = ap.parse_args()
+    if args.hold_apart and args.release_apart:
+        ap.error("--hold-apart and --release-apart ask for opposite things: give one of them")
     if args.table:
         print("\n".join(table(read_rows(args.table))))
         return
@@ -617,7 +623,7 @@ def main() -> None:
                       f"{raw_gap:+.2f} mm; separations {f['size_gap_px']:.1f} and {f['size_step_px']:.1f} px")
             continue
         for row in measure_case(video, truth, cert, args.contours, args.sightings, FOURCC[codec],
-                                hold_apart=not args.release_apart):
+                                hold_apart=args.hold_apart):
             rows.append({**row, "codec": codec, "camera": cert.certificate_id, "noise": case.noise,
                          "look": asdict(case.appearance)})
         if args.json:                    # kept as it goes: a long run's rows survive an interruption

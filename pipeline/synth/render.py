@@ -191,9 +191,7 @@ class Renderer:
         # The socket's end face looks at the camera: lit almost head-on, unlike the grazing wall.
         faces = np.nonzero(lip)[0]
         lum[faces] *= 1.0 + lip[faces] * (np.minimum(self.look.face_gain / np.maximum(hits.cos[faces], 0.05), 8.0) - 1.0)
-        dj = self.djoint
-        if (dj is not None and dj.ends == "apart" and not self.scene.of_type(Deformation)
-                and dj.joint * self.pipe.unit_length_mm + 0.5 * dj.gap_mm > z_cam):
+        if self.djoint is not None and self.djoint.ends == "apart" and not self.scene.of_type(Deformation):
             # also where no pixel's centre sees the face: a face thinner than a pixel still lights its pixels
             self._face_edges(lum, z_cam)
         s_cur = hits.s.copy()
@@ -270,9 +268,9 @@ class Renderer:
         wall's first as half gap (the face's edges read half a footprint onto the face from both sides, the step
         short: DN800 stepped 30 mm at 1 m, -1.4 mm; ``benchmarks/joint_tilt.py --placement --ends apart`` before
         2026-12-07's fifth session); where the far pipe stands out of the wall, it left the gap's side of its far
-        edge (where the ray meets the far pipe's wall at its plane) wholly dark. Here each pixel near the face takes the face's share of its
-        footprint across each edge (the distance of its centre from the edge in footprints, as
-        ``_joint_coverage``), the rest from the surface beside that edge: the gap, dark throughout, or the far
+        edge (where the ray meets the far pipe's wall at its plane) wholly dark. Here each pixel near the face takes
+        the face's share of its footprint across each edge (the distance of its centre from the edge in footprints,
+        as ``_joint_coverage``), the rest from the surface beside that edge: the gap, dark throughout, or the far
         wall, without the gap's darkening; a face thinner than a footprint its width's share (until 2026-12-07's
         sixth session, a quarter of a pixel at least, all around the gap once any pixel's centre saw a face:
         ``tests/test_joints.py``). Where the far pipe stands out, each pixel at the gap's far edge takes the
@@ -280,6 +278,8 @@ class Renderer:
         dj, seg1, seg2 = self.djoint, self.seg1, self.seg2
         z_joint = dj.joint * self.pipe.unit_length_mm
         z_near, z_far = z_joint - 0.5 * dj.gap_mm, z_joint + 0.5 * dj.gap_mm
+        if z_far <= z_cam:
+            return                              # the camera past the far end: no face ahead
         z1, z2 = z_cam + seg1.s * self.dz, z_cam + seg2.s * self.dz
         with np.errstate(invalid="ignore", divide="ignore"):
             d1 = (z1 - z_far) / seg1.fp          # > 0: past the near pipe's radius only beyond the far end's plane

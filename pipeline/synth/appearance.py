@@ -17,6 +17,7 @@ import numpy as np
 __all__ = ["Appearance", "varied_appearance", "varied_look", "SENSOR_NOISE"]
 
 SENSOR_NOISE = 2.0      # the renderer's sensor noise [grey levels of 255] unless said
+DEFAULT_FACE_GAIN = 0.8  # the default look's socket face brightness factor (``Appearance.face_gain``)
 
 
 @dataclass(frozen=True)
@@ -30,7 +31,9 @@ class Appearance:
     vignette : share of the light lost in the image's corners [-] (with the square of the radius; before the
         logarithmic response, which compresses it);
     groove : share of the light a joint's gap swallows at its floor [-];
-    face_gain : brightness of the socket's end face, lit head-on, against the grazing wall [-].
+    face_gain : brightness of the socket's end face, lit head-on, against the grazing wall [-]; where a joint's
+        pipe ends stand apart, the far end's face reflects ``face_albedo`` = face_gain / 0.8 times the wall's light by
+        Lambert's law (1 in the default look: one material).
     """
 
     blur_px: float = 0.9
@@ -38,7 +41,13 @@ class Appearance:
     tone_k: float = 20.0
     vignette: float = 0.0
     groove: float = 0.85
-    face_gain: float = 0.8
+    face_gain: float = DEFAULT_FACE_GAIN
+
+    @property
+    def face_albedo(self) -> float:
+        """The far pipe's end face's albedo over the wall's, where a joint's ends stand apart [-]: the face's
+        brightness against the default look's, so that the varied look draws it 0.5-1.75 times one material's."""
+        return self.face_gain / DEFAULT_FACE_GAIN
 
     def __post_init__(self) -> None:
         checks = {"blur_px": 0.3 <= self.blur_px <= 3.0, "gamma": 0.3 <= self.gamma <= 1.2,

@@ -297,7 +297,7 @@ class Renderer:
             sf = (z_far - z_cam) / self.dz[band]
             X, Y = self.ox + sf * self.dx[band], self.oy + sf * self.dy[band]
             face = self._hits(sf, np.arctan2(Y, X), self.dz[band])
-            lum_face = self._albedo(face, np.full(band.size, z_far, np.float32)) * face.light
+            lum_face = self._albedo(face, np.full(band.size, z_far, np.float32)) * face.light * self.look.face_albedo
             gap, wall = self._gap_and_wall(band, z1, z2)
             rest = np.maximum(on_gap + on_wall, 1e-9)
             lum[band] = cover * lum_face + (1.0 - cover) * (on_gap * gap + on_wall * wall) / rest

@@ -15,8 +15,10 @@ when the face is half a sigma wide, none when it is absent or six sigma wide (``
 the face's own width cannot be read from the profile either (``FACE_RESOLVED`` in ``joint_ends``): the ends-apart
 model predicts the edge where it reads instead, from the face's width the model puts there.
 
-The face's level follows Lambert's law with the wall's albedo: lit and seen along the ray, a face square to the axis
-against a wall parallel to it is t / r as bright at depth t and radius r (``face_contrast``).
+The face's level follows Lambert's law: lit and seen along the ray, a face square to the axis against a wall
+parallel to it is t / r as bright at depth t and radius r with the wall's albedo (``face_contrast``); a real end
+face, broken, wet or sealed, may reflect more or less than the wall, which ``joint_ends`` carries as a term of the
+edges' definition.
 
 >>> round(float(far_edge_shift(0.5, 3.0)), 2), round(float(far_edge_shift(6.0, 3.0)), 2)
 (-0.57, -0.0)
@@ -24,6 +26,8 @@ against a wall parallel to it is t / r as bright at depth t and radius r (``face
 (0.0, 0.0)
 >>> round(float(face_contrast(1.5, 0.5, 0.15)), 2), round(float(face_contrast(1.5, 0.5, 0.15, 1 / 1.35)), 2)
 (3.35, 2.66)
+>>> round(float(face_contrast(1.5, 0.5, 0.15, albedo=0.5)), 2)   # a face half as bright as one material's
+1.59
 """
 
 from __future__ import annotations
@@ -69,10 +73,11 @@ def far_edge_shift(w_over_sigma, contrast):
             + a * b * t[i + 1, j + 1])
 
 
-def face_contrast(depth, radius, floor_share, power: float = 1.0):
-    """The face's level over the far wall's, both above the gap's floor [1], by Lambert's law with one albedo:
-    the face depth / radius as bright as the wall (the face square to the axis, the wall parallel to it, the camera
-    on the axis; depth and the wall's distance from the axis [H]), the gap's floor ``floor_share`` of the wall's
-    light; levels read as the light to the ``power`` (1: linear light; 1 / gamma: a camera's grey levels)."""
+def face_contrast(depth, radius, floor_share, power: float = 1.0, albedo: float = 1.0):
+    """The face's level over the far wall's, both above the gap's floor [1], by Lambert's law: the face
+    ``albedo`` times the wall's albedo (1: one material) times depth / radius as bright as the wall (the face square
+    to the axis, the wall parallel to it, the camera on the axis; depth and the wall's distance from the axis [H]),
+    the gap's floor ``floor_share`` of the wall's light; levels read as the light to the ``power`` (1: linear
+    light; 1 / gamma: a camera's grey levels)."""
     f = np.clip(floor_share, 0.0, 0.9) ** power
-    return ((np.asarray(depth, float) / np.asarray(radius, float)) ** power - f) / (1.0 - f)
+    return ((albedo * np.asarray(depth, float) / np.asarray(radius, float)) ** power - f) / (1.0 - f)

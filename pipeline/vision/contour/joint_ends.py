@@ -105,6 +105,10 @@ FACE_RAMP = 2.0            # and that fall no wider than this many times the gap
 MIN_FACE_SECTORS = 1       # sectors in which the face must show for the far end's centre to be read from it
 FACE_RESOLVED = 4.0        # a face's edges kept where it reads at least this many blur sigmas wide: a band 4 sigma
                            # wide reads 0.11 sigma wide at half levels, 3 sigma wide 0.33 (``blurred_gap``)
+FACE_ALBEDO = (0.5, 1.5)    # a far end's face reflects this share of the wall's light (by Lambert's law) or more, up
+                           # to this: a rectangular distribution, the face's brightness under the blur being what
+                           # places a thin face's gap edge (``blurred_face``); a concrete pipe's face is the wall's
+                           # material, a broken, wet or sealed one may not be (the generator's varied look: 0.5-1.75)
 APART_GAIN = 0.8           # the ends-apart model kept without a face when its cost is under this share of the other's
 APART_TIED = 3.0           # and the other kept with its step unmeasured while its cost is over a third of the ends-apart
                            # model's and their steps differ: in frames drawn with the pose known and no codec, the
@@ -901,6 +905,10 @@ def find_joint_ends(gray: np.ndarray, view: PipeView, depth: float, *, mask: np.
         or (faced and rms_face * x_apart[0] <= MAX_RING_RMS_H)))
     definition_u = (0.0, 0.0)
     if apart:
+        # how bright the face is places a thin face's gap edge: the fit again with the face as bright as
+        # ``FACE_ALBEDO``'s two ends, their spread a rectangular distribution (a face resolved by the blur hardly
+        # moves; one under it moves the far end and the step read from it)
+        albedo_u = _albedo_u(view, walls, far_u, face_used, (tn, *cn), x_apart, radius, thin, lit)
         # where the blur acts, on the light (a lens) or on the grey levels (a codec, a camera's sharpening, this
         # project's generator), moves the half level of an edge as bright on one side as the face is: found in
         # grey levels the face reads wider at both edges, so the step larger and the far end nearer (this
@@ -916,6 +924,7 @@ def find_joint_ends(gray: np.ndarray, view: PipeView, depth: float, *, mask: np.
             step_lin, step_grey = (math.hypot(x[1] - cn[0], x[2] - cn[1]) for x in (x_apart, x_grey))
             definition_u = (abs(x_apart[0] - x_grey[0]) / math.sqrt(12.0), abs(step_lin - step_grey) / math.sqrt(12.0))
             x_apart = 0.5 * (np.asarray(x_apart) + np.asarray(x_grey))
+        definition_u = (math.hypot(definition_u[0], albedo_u[0]), math.hypot(definition_u[1], albedo_u[1]))
         tf, cf = float(x_apart[0]), [float(x_apart[1]), float(x_apart[2])]
         # the far edges' scatter about the model taken, not about the other one (which misfits them: that is why
         # this one is taken; seed 354 with the ends apart, 2453b78: 18 of 130 gaps at DN >= 200 left unmeasured
@@ -987,7 +996,7 @@ def find_joint_ends(gray: np.ndarray, view: PipeView, depth: float, *, mask: np.
     # steps by the dozen to it without this condition (a partial run at 231ee54)
     tied = bool(np.all(np.isfinite(x_apart)) and x_apart[0] > tn and cost_apart < APART_TIED * cost_painted)
     seen_face = [k for k in np.unique(sector) if np.mean(face_seen[sector == k]) >= 0.5]
-    if seen_face and not face_sectors and (apart or tied):
+    if seen_face and not face_sectors and tied and not apart:
         step_problems.append(f"the far end's face shows beyond the gap in {len(seen_face)} of {SECTORS} sectors, but "
                              f"narrower than {FACE_RESOLVED:.0f} times the blur ({sigma_face:.1f} px): the step is "
                              "not measured")
@@ -1060,6 +1069,22 @@ def _at(line: np.ndarray, i: float) -> np.ndarray:
     k = int(math.floor(i))
     w = i - k
     return (1 - w) * line[k] + w * line[min(k + 1, len(line) - 1)]
+
+
+def _albedo_u(view: PipeView, walls, far_u, face_used, near, x_apart, radius, thin: _Thin, lit) -> tuple[float, float]:
+    """The standard uncertainty of the far end's depth and of the step [H] from the face's brightness: the
+    ends-apart model fitted again with the face ``FACE_ALBEDO``'s two ends times one material's (``lit``: its depth,
+    the wall's distances from the axis and the gap's floor share, for ``face_contrast``), their difference a
+    rectangular distribution's width. (0, 0) where a fit fails (the face's brightness then moves nothing read)."""
+    ends = []
+    for albedo in FACE_ALBEDO:
+        x = _fit_apart(view, walls, far_u, face_used, near, x_apart, radius, x0=x_apart,
+                       thin=_Thin(thin.sigma_u, face_contrast(*lit, albedo=albedo)))[0]
+        if not np.all(np.isfinite(x)):
+            return 0.0, 0.0
+        ends.append((float(x[0]), math.hypot(x[1] - near[1], x[2] - near[2])))
+    (t_lo, s_lo), (t_hi, s_hi) = ends
+    return abs(t_hi - t_lo) / math.sqrt(12.0), abs(s_hi - s_lo) / math.sqrt(12.0)
 
 
 def _ring_distance(view: PipeView, pts: np.ndarray, t: float, centre, radius) -> np.ndarray:

@@ -983,17 +983,21 @@ def find_joint_ends(gray: np.ndarray, view: PipeView, depth: float, *, mask: np.
     step = math.hypot(cf[0] - cn[0], cf[1] - cn[1])    # the step read [H]
     # where no face shows, which model holds is told by how well each fits the gap's far edges; a painted joint's
     # far edges misfit the ends-apart model by far, a sewer's joint through a codec and a fitted pose may fit both
-    # alike (``APART_TIED``): the step read then rests on the model taken. Where a face shows too narrow to be read,
-    # or the other model's step differs by more than twice the step's fit u, the step is not measured (seed 354 with
-    # the ends apart: 7 of the 130 joints at DN >= 200 read by the other model, their steps of 0.2-7.9 mm read
-    # 0.03-1.22 mm, 1 of 7 covered; ``automatic_joints.py --release-apart`` at 231ee54). The same joints drawn
-    # painted tie too, and were read right: they lose their measurement (docs/measurement.md, "The far end's face
-    # drawn right"); the other model's reading taken into the interval instead (ca536c3) did not reach the truth of
-    # those drawn apart. The gap is not held so: tied gaps (61ef9cf) lost sample S02's right one under its water
-    # line (the ends-apart model's 41 mm for 18) and a tenth of the painted ones, to hold back 1 of the 3 that
-    # missed of the 13 released (docs/measurement.md). Not where the far edges reject the ends apart: a painted
+    # alike (``APART_TIED``): the step read then rests on the model taken. Where the other model is kept and a face
+    # shows too narrow to be read, or its step differs by more than twice the step's fit u, the step is not measured
+    # (seed 354 with the ends apart: 7 of the 130 joints at DN >= 200 read by the other model, their steps of
+    # 0.2-7.9 mm read 0.03-1.22 mm, 1 of 7 covered; ``automatic_joints.py --release-apart`` at 231ee54). The same
+    # joints drawn painted tie too, and were read right: they lose their measurement (docs/measurement.md, "The far
+    # end's face drawn right"); the other model's reading taken into the interval instead (ca536c3) did not reach
+    # the truth of those drawn apart. The gap is not held so: tied gaps (61ef9cf) lost sample S02's right one under
+    # its water line (the ends-apart model's 41 mm for 18) and a tenth of the painted ones, to hold back 1 of the 3
+    # that missed of the 13 released (docs/measurement.md). Not where the far edges reject the ends apart: a painted
     # joint's far wall beyond its gap often shows a narrow bright band, and seed 354's painted joints lost their
-    # steps by the dozen to it without this condition (a partial run at 231ee54)
+    # steps by the dozen to it without this condition (a partial run at 231ee54). Where the ends-apart model is
+    # taken, a face too narrow to read is no hold: its light beside the gap is in the model (``_Thin``) and its
+    # brightness in the step's definition (``_albedo_u``); held until 2026-12-07's seventh session, it left 26 and 19
+    # steps of seeds 354 and 358 drawn apart unmeasured (their rows' reasons; docs/measurement.md, "A step under
+    # the blur, and the frames that hold")
     tied = bool(np.all(np.isfinite(x_apart)) and x_apart[0] > tn and cost_apart < APART_TIED * cost_painted)
     seen_face = [k for k in np.unique(sector) if np.mean(face_seen[sector == k]) >= 0.5]
     if seen_face and not face_sectors and tied and not apart:

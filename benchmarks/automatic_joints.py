@@ -29,9 +29,10 @@ into what a case's frames share and what each adds (``shared_and_own``: ``codecs
 ``--ends apart`` renders the joints' pipe ends a gap apart, the far end's face beyond the gap where it stands into
 the flow (``DisplacedJoint.ends``; the default, "painted", is the generator's joint of every run before
 the fourth session of 2026-12-07). The joints the finder reads by its ends-apart model are measured as the night
-measures them since 2026-12-07's sixth session; ``--hold-apart`` holds them back as it did before
-(``joints.ENDS_APART_NOT_VALIDATED``); ``--release-apart``, which released them then, is the default now (kept for
-the commands of those runs). The table counts them apart, and each row says whether it was read so (``ends_apart``).
+measures them: their steps held back (``joints.ENDS_APART_HELD``, ``ENDS_APART_NOT_VALIDATED``), their gaps
+measured; ``--hold-apart`` holds both back, as the night did until 2026-12-07's sixth session, ``--release-apart``
+releases both, as it did in that session (to see what the model's intervals do where the night holds them). The
+table counts them apart, and each row says whether it was read so (``ends_apart``).
 ``--widths FILE`` prints each trusted frame's gap error by the gap's width in the image from a ``--json`` file, with
 the blur each frame's edges gave.
 """
@@ -136,10 +137,11 @@ def _px_across(view, depth: float, char1: str) -> float:
 
 
 def measure_case(video: Path, truth: dict, cert, cache: Path | None = None, kept: Path | None = None,
-                 fourcc: str | None = None, hold_apart: bool = False) -> list[dict]:
+                 fourcc: str | None = None, hold_apart: bool | None = None) -> list[dict]:
     """Both quantities of one encoding of a case: rows with the truth, the result or why none; ``fourcc`` the
-    video's codec as the night reads it; ``hold_apart`` True: joints read by the ends-apart model held back
-    (``measure_joint``'s ``hold_ends_apart``), the rows saying which they are."""
+    video's codec as the night reads it; ``hold_apart``: which of the joints read by the ends-apart model are held
+    back (``measure_joint``'s ``hold_ends_apart``: None the night's, True both quantities, False neither), the rows
+    saying which they are."""
     case = truth["case"]
     H = case["height_mm"]
     contour, sightings, following = case_sightings(video, truth, cert, cache, kept)
@@ -552,11 +554,11 @@ def main() -> None:
                     help="only print circular joints' results by codec and DN band, the files of rows kept by --json "
                     "pooled")
     ap.add_argument("--hold-apart", action="store_true",
-                    help="hold back the joints read by the ends-apart model, as the night did until 2026-12-07's sixth "
-                    "session")
+                    help="hold back the gaps and steps read by the ends-apart model, as the night did until "
+                    "2026-12-07's sixth session (the night's since the seventh: the steps only)")
     ap.add_argument("--release-apart", action="store_true",
-                    help="measure the joints read by the ends-apart model (the default since 2026-12-07's sixth "
-                    "session; kept for the commands of the runs before)")
+                    help="measure the gaps and steps read by the ends-apart model, as the night did in 2026-12-07's "
+                    "sixth session (the night's since the seventh: the gaps only)")
     add_camera_argument(ap)
     add_appearance_argument(ap)
     args = ap.parse_args()
@@ -623,7 +625,7 @@ def main() -> None:
                       f"{raw_gap:+.2f} mm; separations {f['size_gap_px']:.1f} and {f['size_step_px']:.1f} px")
             continue
         for row in measure_case(video, truth, cert, args.contours, args.sightings, FOURCC[codec],
-                                hold_apart=args.hold_apart):
+                                hold_apart=True if args.hold_apart else False if args.release_apart else None):
             rows.append({**row, "codec": codec, "camera": cert.certificate_id, "noise": case.noise,
                          "look": asdict(case.appearance)})
         if args.json:                    # kept as it goes: a long run's rows survive an interruption

@@ -347,21 +347,24 @@ def table(rows: list[dict]) -> list[str]:
 
 def by_model(rows: list[dict]) -> list[str]:
     """Of a run's measured rows at DN >= 200 (both codecs), those the finder read by its ends-apart model and those
-    by the other: coverage with its Wilson interval, median and robust SD of z, median U95 (a ``--hold-apart`` run
-    measures none by the first)."""
-    out = ["| quantity | read by | measured | coverage | Wilson 95 % | median z | robust SD z | median U95 [mm] |",
-           "|---|---|---|---|---|---|---|---|"]
+    by the other, in all pipes and in circular ones (the night's rule holds a pipe shape back on its own):
+    coverage with its Wilson interval, median and robust SD of z, median U95 (a ``--hold-apart`` run measures none
+    by the first)."""
+    out = ["| quantity | read by | pipes | measured | coverage | Wilson 95 % | median z | robust SD z | median U95 [mm] |",
+           "|---|---|---|---|---|---|---|---|---|"]
     for q in ("A", "B"):
-        g = [r for r in rows if r["displaced"] and r["quantity"] == q and r["H"] >= 200]
-        for name, apart in (("the ends-apart model", True), ("the other", False)):
-            ok = [r for r in g if r["status"] == "measured" and bool(r.get("ends_apart")) == apart]
-            if not ok:
-                out.append(f"| BAJ {q} | {name} | 0 of {len(g)} | - | - | - | - | - |")
-                continue
-            inside, (lo, hi), z = _coverage(ok)
-            out.append(f"| BAJ {q} | {name} | {len(ok)} of {len(g)} | {100 * inside / len(ok):.1f} % | "
-                       f"{100 * lo:.1f}-{100 * hi:.1f} % | {np.median(z):+.2f} | {robust_sd(z):.2f} | "
-                       f"{np.median([r['U95'] for r in ok]):.1f} |")
+        for shape in ("all", "circular"):
+            g = [r for r in rows if r["displaced"] and r["quantity"] == q and r["H"] >= 200
+                 and shape in ("all", r["shape"])]
+            for name, apart in (("the ends-apart model", True), ("the other", False)):
+                ok = [r for r in g if r["status"] == "measured" and bool(r.get("ends_apart")) == apart]
+                if not ok:
+                    out.append(f"| BAJ {q} | {name} | {shape} | 0 of {len(g)} | - | - | - | - | - |")
+                    continue
+                inside, (lo, hi), z = _coverage(ok)
+                out.append(f"| BAJ {q} | {name} | {shape} | {len(ok)} of {len(g)} | {100 * inside / len(ok):.1f} % | "
+                           f"{100 * lo:.1f}-{100 * hi:.1f} % | {np.median(z):+.2f} | {robust_sd(z):.2f} | "
+                           f"{np.median([r['U95'] for r in ok]):.1f} |")
     return out
 
 

@@ -58,9 +58,9 @@ AGREE_P = 0.01
 # model's intervals held A 96.9 % and B 91.8 % on seed 354 and A 95.0 % and B 94.9 % on seed 358, in circular pipes
 # A 97.6 % (Wilson 93.9-99.1 %) and B 96.6 % (91.5-98.7 %) pooled (DN >= 200, both codecs; docs/measurement.md, "A
 # face under the blur"). In a varied look (seed 354 drawn apart, ``--appearance varied``: the far end's face 0.5-1.75
-# times one material's brightness, the camera's response and blur drawn per case) the steps it reads in circular
-# pipes held 80.4 % (Wilson 67.5-89.0 %; 2026-12-07, seventh session: a face brighter or darker than one material's
-# moves even a wide face's step, which its definition's terms do not carry), the gaps 92.2 % (81.5-96.9 %): the
+# times one material's brightness, the camera's response and blur drawn per case; 2026-12-07, seventh session) the
+# steps it reads in circular pipes held 83.6 % (Wilson 72.9-90.6 %: a face brighter or darker than one material's
+# moves even a wide face's step, which its definition's terms do not carry), the gaps 91.9 % (82.5-96.5 %): the
 # characterisations in ``ENDS_APART_HELD`` are held back again, the gap measured (docs/measurement.md, "A step
 # under the blur, and the frames that hold"); the eggs' joints stay held back as every egg's
 # (``connections.VALIDATED_SHAPES``)

@@ -83,9 +83,9 @@ MAX_EDGE_SCATTER_PX = 1.2
 # A frame whose own ends say they are not all the joint's (its problems, its edges scattering beyond
 # ``MAX_EDGE_SCATTER_PX``, for the step its step's problems) is left out of the joint where at least this many frames
 # without any remain; with fewer, every frame is kept and the joint is not trusted, with their reasons. Seeds 354
-# and 358 drawn apart (d9dea55, DN >= 200, both codecs): 18 gaps and 33 steps measured so that were unmeasured,
-# 16 and 31 of them covered, the misses eggs' but one (docs/measurement.md, "A step under the blur, and the frames
-# that hold")
+# and 358 drawn apart (a48e7d6 against d9dea55, DN >= 200, both codecs): 18 gaps and 33 steps measured so that were
+# unmeasured, 16 and 31 of them covered, the misses eggs' but one; painted seed 354: 7 steps (tied in one frame),
+# 6 covered (docs/measurement.md, "A step under the blur, and the frames that hold")
 MIN_CLEAN_FRAMES = 2
 # A gap's edges' definition (``gap_definition_u``) [in units of the frame's blur sigma]: its floor, and how it grows
 # as the gap narrows against the blur; the blur where a frame does not tell it [px] (seed 354's frames' median)

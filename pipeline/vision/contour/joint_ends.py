@@ -105,7 +105,7 @@ FACE_RAMP = 2.0            # and that fall no wider than this many times the gap
 MIN_FACE_SECTORS = 1       # sectors in which the face must show for the far end's centre to be read from it
 FACE_RESOLVED = 4.0        # a face's edges kept where it reads at least this many blur sigmas wide: a band 4 sigma
                            # wide reads 0.11 sigma wide at half levels, 3 sigma wide 0.33 (``blurred_gap``)
-FACE_ALBEDO = (0.5, 1.5)    # a far end's face reflects this share of the wall's light (by Lambert's law) or more, up
+FACE_ALBEDO = (0.5, 1.5)   # a far end's face reflects this share of the wall's light (by Lambert's law) or more, up
                            # to this: a rectangular distribution, the face's brightness under the blur being what
                            # places a thin face's gap edge (``blurred_face``); a concrete pipe's face is the wall's
                            # material, a broken, wet or sealed one may not be (the generator's varied look: 0.5-1.75)
@@ -1079,7 +1079,8 @@ def _albedo_u(view: PipeView, walls, far_u, face_used, near, x_apart, radius, th
     """The standard uncertainty of the far end's depth and of the step [H] from the face's brightness: the
     ends-apart model fitted again with the face ``FACE_ALBEDO``'s two ends times one material's (``lit``: its depth,
     the wall's distances from the axis and the gap's floor share, for ``face_contrast``), their difference a
-    rectangular distribution's width. (0, 0) where a fit fails (the face's brightness then moves nothing read)."""
+    rectangular distribution's width; (0, 0) where a refit fails (a fit that fails from the model's own solution,
+    one face brightness apart, is not known to happen: said here so a reader knows what it would give)."""
     ends = []
     for albedo in FACE_ALBEDO:
         x = _fit_apart(view, walls, far_u, face_used, near, x_apart, radius, x0=x_apart,

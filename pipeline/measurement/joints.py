@@ -310,9 +310,10 @@ def measure_joint(obs: Observation, sightings: Sequence[JointSighting], contour:
         else:
             unresolved.append(GAP_UNRESOLVED)
     limit = MAX_EDGE_SCATTER_PX * focal_scale(contour.view)
-    clean = [s for s in sightings if not _frame_problems(s, obs.char1, limit)]
-    if len(clean) >= MIN_CLEAN_FRAMES:
-        sightings = clean
+    problems = [_frame_problems(s, obs.char1, limit) for s in sightings]
+    if sum(not p for p in problems) >= MIN_CLEAN_FRAMES:
+        sightings = [s for s, p in zip(sightings, problems) if not p]
+        problems = [[] for _ in sightings]
     # (a codec the joints were not benchmarked in, MJPG, HEVC, a FourCC the reader could not tell: the largest
     # figure known, not none)
     points = [joint_points(obs, s, contour.view, cert, codec) for s in sightings]
@@ -348,8 +349,7 @@ def measure_joint(obs: Observation, sightings: Sequence[JointSighting], contour:
         why = frames_disagree(values, cov, frames, "gap" if obs.char1 == "A" else "step")
         if why is not None:
             reasons.append(why)
-    for s in sightings:
-        reasons += [f"frame {s.frame}: {p}" for p in _frame_problems(s, obs.char1, limit)]
+    reasons += [f"frame {s.frame}: {p}" for s, frame_problems in zip(sightings, problems) for p in frame_problems]
     if len(reasons) > len(res.reasons):
         res.confident = False
     res.reasons = plain_reasons(reasons)

@@ -921,8 +921,7 @@ def find_joint_ends(gray: np.ndarray, view: PipeView, depth: float, *, mask: np.
         x_grey = _fit_apart(view, walls, far_grey, face_grey, (tn, *cn), x_far, radius, x0=x_apart,
                             thin=thin_grey)[0]
         if np.all(np.isfinite(x_grey)):
-            step_lin, step_grey = (math.hypot(x[1] - cn[0], x[2] - cn[1]) for x in (x_apart, x_grey))
-            definition_u = (abs(x_apart[0] - x_grey[0]) / math.sqrt(12.0), abs(step_lin - step_grey) / math.sqrt(12.0))
+            definition_u = _spread_u(x_apart, x_grey, cn)
             x_apart = 0.5 * (np.asarray(x_apart) + np.asarray(x_grey))
         definition_u = (math.hypot(definition_u[0], albedo_u[0]), math.hypot(definition_u[1], albedo_u[1]))
         tf, cf = float(x_apart[0]), [float(x_apart[1]), float(x_apart[2])]
@@ -1081,15 +1080,18 @@ def _albedo_u(view: PipeView, walls, far_u, face_used, near, x_apart, radius, th
     the wall's distances from the axis and the gap's floor share, for ``face_contrast``), their difference a
     rectangular distribution's width; (0, 0) where a refit fails (a fit that fails from the model's own solution,
     one face brightness apart, is not known to happen: said here so a reader knows what it would give)."""
-    ends = []
-    for albedo in FACE_ALBEDO:
-        x = _fit_apart(view, walls, far_u, face_used, near, x_apart, radius, x0=x_apart,
-                       thin=_Thin(thin.sigma_u, face_contrast(*lit, albedo=albedo)))[0]
-        if not np.all(np.isfinite(x)):
-            return 0.0, 0.0
-        ends.append((float(x[0]), math.hypot(x[1] - near[1], x[2] - near[2])))
-    (t_lo, s_lo), (t_hi, s_hi) = ends
-    return abs(t_hi - t_lo) / math.sqrt(12.0), abs(s_hi - s_lo) / math.sqrt(12.0)
+    fits = [_fit_apart(view, walls, far_u, face_used, near, x_apart, radius, x0=x_apart,
+                       thin=_Thin(thin.sigma_u, face_contrast(*lit, albedo=albedo)))[0] for albedo in FACE_ALBEDO]
+    if not all(np.all(np.isfinite(x)) for x in fits):
+        return 0.0, 0.0
+    return _spread_u(*fits, near[1:])
+
+
+def _spread_u(x_a, x_b, near_centre) -> tuple[float, float]:
+    """The standard uncertainty of the far end's depth and of the step [H] where two fits of the far end (t, cx,
+    cy) [H] bound it: a rectangular distribution across their difference (the step about ``near_centre``)."""
+    step_a, step_b = (math.hypot(x[1] - near_centre[0], x[2] - near_centre[1]) for x in (x_a, x_b))
+    return abs(float(x_a[0]) - float(x_b[0])) / math.sqrt(12.0), abs(step_a - step_b) / math.sqrt(12.0)
 
 
 def _ring_distance(view: PipeView, pts: np.ndarray, t: float, centre, radius) -> np.ndarray:

@@ -67,6 +67,11 @@ def test_a_code_not_validated_from_the_image_alone_is_said_with_what_to_do():
         [(sentence, action)] = plain_warnings(doubt)
         assert words in sentence and "not used" in sentence
         assert "pipegauge review" in action
+    # a displaced joint's step held back where its pipe ends stand apart (joints.ENDS_APART_HELD)
+    from pipeline.measurement.joints import ENDS_APART_NOT_VALIDATED
+    from pipeline.measurement.quantity import FOUND_NOT_MEASURED
+    [(sentence, action)] = plain_warnings(FOUND_NOT_MEASURED + ENDS_APART_NOT_VALIDATED)
+    assert "pipe ends stand apart" in sentence and "not used" in sentence and "pipegauge review" in action
     # the codecs to ask for are the ones the code was validated in
     [(_, action)] = plain_warnings(validation_doubt("BCA", "mpg2"))
     assert action.endswith("ask for the video in MPEG-4 Part 2 and H.264")

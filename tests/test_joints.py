@@ -727,21 +727,31 @@ def test_a_step_under_the_blur_is_read_with_the_face_s_brightness_in_its_u(cert,
 
 def test_the_varied_look_draws_a_far_end_s_face_brighter_or_darker(cert):
     """The varied look's face brightness (``Appearance.face_gain``) reaches the face of pipe ends a gap apart, as a
-    share of one material's Lambert light (``face_albedo``); the default look draws it as before."""
+    share of one material's Lambert light (``face_albedo``), inside the face as at its edges; the default look draws
+    it as before. Until 2026-12-07's eighth session only the face's edge pixels took it, so a face drawn brighter read
+    wider at both edges (its step long by 0.7 mm in DN300) and its inside kept one material's light."""
     from pipeline.synth.appearance import Appearance
 
     scene = Scene(Pipe("circular", 500.0, "concrete", 2000.0),
                   features=(DisplacedJoint("j", 1, 22.0, 15.0, clock=3, ends="apart"),))
     flat = Scene(Pipe("circular", 500.0, "concrete", 2000.0),
                  features=(DisplacedJoint("j", 1, 22.0, 0.0, clock=3, ends="apart"),))
-    light = {}
+    light, inner = {}, {}
     for gain in (0.4, 0.8, 1.4):
         look = Appearance(face_gain=gain)
         frame = Renderer(scene, cert, seed=3, noise=0.0, appearance=look).render(1500.0).astype(float)
         base = Renderer(flat, cert, seed=3, noise=0.0, appearance=look).render(1500.0).astype(float)
         light[gain] = float(np.clip(frame - base, 0.0, None).sum())
+        renderer = Renderer(scene, cert, seed=3, noise=0.0, appearance=look)
+        on_face = np.zeros(renderer.H * renderer.W, np.uint8)
+        on_face[renderer._segments(1500.0)[1]] = 1
+        inside = cv2.erode(on_face.reshape(renderer.H, renderer.W), np.ones((7, 7), np.uint8)) > 0
+        assert inside.sum() > 50                       # a face 15 mm wide at 0.5 m in DN500: pixels clear of its edges
+        linear = (frame.mean(axis=2) / 255.0) ** (1.0 / look.gamma)     # undoing the display gamma only: a rank test
+        inner[gain] = float(np.median(linear[inside]))
     assert Appearance().face_albedo == 1.0
     assert light[0.4] < light[0.8] < light[1.4]
+    assert inner[0.4] < 0.9 * inner[0.8] and inner[0.8] < 0.9 * inner[1.4]
 
 
 def test_blurred_face_worked_examples():

@@ -188,6 +188,10 @@ class Renderer:
         self._wall_marks(albedo, region, hits, z)
 
         lum = albedo * hits.light
+        # the far pipe's end face reflects ``Appearance.face_albedo`` times the wall's light, inside as at its edges
+        # (``_face_edges``); until 2026-12-07's eighth session only its edge pixels were, so a face drawn brighter
+        # read wider at both edges and darker narrower (the varied look's steps of the ends apart, 0.7 mm in DN300)
+        lum[end_face] *= self.look.face_albedo
         # The socket's end face looks at the camera: lit almost head-on, unlike the grazing wall.
         faces = np.nonzero(lip)[0]
         lum[faces] *= 1.0 + lip[faces] * (np.minimum(self.look.face_gain / np.maximum(hits.cos[faces], 0.05), 8.0) - 1.0)

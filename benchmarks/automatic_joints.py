@@ -29,9 +29,9 @@ into what a case's frames share and what each adds (``shared_and_own``: ``codecs
 ``--ends apart`` renders the joints' pipe ends a gap apart, the far end's face beyond the gap where it stands into
 the flow (``DisplacedJoint.ends``; the default, "painted", is the generator's joint of every run before
 the fourth session of 2026-12-07). The joints the finder reads by its ends-apart model are measured as the night
-measures them: their steps held back (``joints.ENDS_APART_HELD``, ``ENDS_APART_NOT_VALIDATED``), their gaps
-measured; ``--hold-apart`` holds both back, as the night did until 2026-12-07's sixth session, ``--release-apart``
-releases both, as it did in that session (to see what the model's intervals do where the night holds them). The
+measures them (``joints.ENDS_APART_HELD``: none held since 2026-12-07's eighth session; the seventh held the
+steps); ``--hold-apart`` holds both back (``ENDS_APART_NOT_VALIDATED``), as the night did until 2026-12-07's sixth
+session, ``--release-apart`` releases both, as the night does now. The
 table counts them apart, and each row says whether it was read so (``ends_apart``).
 ``--widths FILE`` prints each trusted frame's gap error by the gap's width in the image from a ``--json`` file, with
 the blur each frame's edges gave.
@@ -558,10 +558,10 @@ def main() -> None:
                     "pooled")
     ap.add_argument("--hold-apart", action="store_true",
                     help="hold back the gaps and steps read by the ends-apart model, as the night did until "
-                    "2026-12-07's sixth session (the night's since the seventh: the steps only)")
+                    "2026-12-07's sixth session (the seventh's night held the steps only; the eighth's none)")
     ap.add_argument("--release-apart", action="store_true",
                     help="measure the gaps and steps read by the ends-apart model, as the night did in 2026-12-07's "
-                    "sixth session (the night's since the seventh: the gaps only)")
+                    "sixth session and since its eighth (the seventh's night measured the gaps only)")
     add_camera_argument(ap)
     add_appearance_argument(ap)
     args = ap.parse_args()

@@ -67,7 +67,7 @@ def test_a_code_not_validated_from_the_image_alone_is_said_with_what_to_do():
         [(sentence, action)] = plain_warnings(doubt)
         assert words in sentence and "not used" in sentence
         assert "pipegauge review" in action
-    # a displaced joint's step held back where its pipe ends stand apart (joints.ENDS_APART_HELD)
+    # a displaced joint's value held back where its pipe ends stand apart, as asked (measure_joint's hold_ends_apart)
     from pipeline.measurement.joints import ENDS_APART_NOT_VALIDATED
     from pipeline.measurement.quantity import FOUND_NOT_MEASURED
     [(sentence, action)] = plain_warnings(FOUND_NOT_MEASURED + ENDS_APART_NOT_VALIDATED)

@@ -54,9 +54,8 @@ _RULES = [
      "measuring this code from the image alone is not validated yet (its intervals missed generated truth too "
      "often), so the value was not used", "measure it with marks (pipegauge review)"),
     (re.compile(r"pipe ends stand a gap apart"),
-     "the joint's pipe ends stand apart, and a step read from the far end's face is not validated yet (its "
-     "intervals missed generated truth too often where the face is brighter or darker than the pipe's wall), so "
-     "the value was not used", "measure it with marks (pipegauge review)"),
+     "the joint's pipe ends stand apart, and a value read from the far end's face was held back as the run was "
+     "asked to, so the value was not used", "measure it with marks (pipegauge review)"),
     (re.compile(r"may be an undeformed joint|off the wall"),
      "the ring used for the deformation may be an undeformed joint", "check the deformation on the video"),
 ]

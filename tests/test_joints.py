@@ -260,8 +260,8 @@ def test_the_angular_displacement_says_why_it_is_not_measured(joint, cert):
 
 def test_frames_that_disagree_on_the_joint_give_found_not_measured(joint, cert):
     """One frame taking another feature for the far pipe's end (its gap 40 % longer, its rings as settled as the
-    others'): the frames' values disagree beyond their own u, so the joint is found but not measured. Before the
-    check, the wrong frame was averaged in and the result trusted."""
+    others'): the frames' values disagree beyond their own u, so the joint is found but not measured, its gap and
+    its step. Before the check, the wrong frame was averaged in and the result trusted."""
     frames, contour = joint
     sightings, _ = follow_joint(frames, contour.view, H)
     assert len(sightings) >= 2
@@ -275,6 +275,14 @@ def test_frames_that_disagree_on_the_joint_give_found_not_measured(joint, cert):
     why = found_not_measured(res)
     assert why is not None and "the frames disagree on the joint's gap" in why
     assert f" and {bad[-1].frame}" in why                    # the frames named
+    # the step rests on the same far end: its frames agree on the step (the far ring's centre is untouched), but
+    # not on the gap, so the step is not trusted either (before 2026-12-07's eighth session it was)
+    _, step = measure_joint(_obs("B"), sightings, contour, cert, H=H, tolerance=0.0, seed=3)
+    assert step.confident
+    _, step = measure_joint(_obs("B"), bad, contour, cert, H=H, tolerance=0.0, seed=3)
+    why = found_not_measured(step)
+    assert not step.confident and why is not None and "the frames disagree on the joint's gap" in why
+    assert "disagree on the joint's step" not in why
 
 
 def test_frames_disagree_reads_the_chi_square_of_the_frames_covariance():

@@ -14,9 +14,10 @@ all around, as before 2026-12-07 (docs/measurement.md, "The gap's two ends over 
 known and found with it: each end's depth error, the gap's and the step's, and the blur the frame's edges tell.
 ``--plateau N,...`` with it: the same frames with the edges' plateau read within N samples (a quarter pixel each)
 of each edge (``joint_ends.LOCAL``, 40 in the night). ``--clocks``: the same for one circular DN500 joint stepped to
-each quarter of the clock, and without its step. ``--blur PX``, ``--groove SHARE`` and ``--face GAIN`` with either:
-the frames rendered with that blur, that gap's darkness or that face's brightness (``Appearance``; a value out of its
-range is refused; with the ends apart the far end's face is ``GAIN / 0.8`` times one material's, ``face_albedo``).
+each quarter of the clock, and without its step. ``--blur PX``, ``--groove SHARE``, ``--face GAIN``, ``--gamma G``
+and ``--tone-k K`` with either: the frames rendered with that blur, that gap's darkness, that face's brightness or
+that response (the display exponent and the logarithmic response's strength; ``Appearance``; a value out of its range
+is refused; with the ends apart the far end's face is ``GAIN / 0.8`` times one material's, ``face_albedo``).
 ``--ends apart`` with either: the pipe ends rendered a gap apart, the far end's face beyond the gap
 (``DisplacedJoint.ends``).
 """
@@ -118,6 +119,12 @@ def main() -> None:
     ap.add_argument("--face", type=float, default=Appearance().face_gain,
                     help="with --placement or --clocks: the socket's face brightness factor (0.1-2; default the look's "
                     "0.8; with --ends apart the far end's face GAIN / 0.8 times one material's)")
+    ap.add_argument("--gamma", type=float, default=Appearance().gamma,
+                    help="with --placement or --clocks: the display exponent after the logarithmic response (0.3-1.2; "
+                    "default the look's 1/1.4)")
+    ap.add_argument("--tone-k", type=float, default=Appearance().tone_k,
+                    help="with --placement or --clocks: the logarithmic response's strength (1-200; default the look's "
+                    "20)")
     ap.add_argument("--ends", choices=JOINT_ENDS, default="painted",
                     help="with --placement or --clocks: how the pipe ends meet (painted: the generator's band at the "
                     "joint's plane, the step's face inside it; apart: a gap apart, the far end's face beyond the gap)")
@@ -127,9 +134,10 @@ def main() -> None:
     cert = load_certificate(DEFAULT_CAMERA)
     if args.placement or args.clocks:
         try:
-            look = Appearance(blur_px=args.blur, groove=args.groove, face_gain=args.face)
+            look = Appearance(blur_px=args.blur, groove=args.groove, face_gain=args.face, gamma=args.gamma,
+                              tone_k=args.tone_k)
         except ValueError as exc:
-            ap.error(f"{exc} (--blur 0.3-3 px, --groove 0.3-1, --face 0.1-2)")
+            ap.error(f"{exc} (--blur 0.3-3 px, --groove 0.3-1, --face 0.1-2, --gamma 0.3-1.2, --tone-k 1-200)")
         placement(cert, args.plateau, CLOCKS if args.clocks else PLACEMENT, look, args.ends)
         return
     scene = Scene(Pipe("egg", H, "concrete", 2000.0), features=(DisplacedJoint("j", 1, GAP, STEP, clock=CLOCK),))

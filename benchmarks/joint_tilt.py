@@ -72,8 +72,8 @@ def placement(cert, plateaus: list[int], joints=PLACEMENT, look: Appearance = Ap
                                    cv2.COLOR_BGR2GRAY))
     kept = joint_ends.LOCAL
     print("| plateau [samples] | shape | DN | gap, step [mm] | its clock | camera before it [m] | near end's error [mm] "
-          "| far end's [mm] | gap's [mm] | step's [mm] | blur read [px] |")
-    print("|---|---|---|---|---|---|---|---|---|---|---|")
+          "| far end's [mm] | gap's [mm] | step's [mm] | blur read [px] | the step |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|")
     try:
         for local in plateaus:
             joint_ends.LOCAL = local
@@ -83,15 +83,21 @@ def placement(cert, plateaus: list[int], joints=PLACEMENT, look: Appearance = Ap
                 e = joint_ends.find_joint_ends(gray, view, 1000.0 * dist / h)
                 near, far = (1000.0 * dist - gap / 2) / h, (1000.0 * dist + gap / 2) / h
                 if e is None:
-                    print(f"| {local} | {shape} | {h} | {gap}, {step} | {clock} | {dist:.2f} | not found | | | | |")
+                    print(f"| {local} | {shape} | {h} | {gap}, {step} | {clock} | {dist:.2f} | not found | | | | | |")
                     continue
                 errors.append((e.far_depth - e.near_depth) * h - gap)
                 print(f"| {local} | {shape} | {h} | {gap}, {step} | {clock} | {dist:.2f} | {(e.near_depth - near) * h:+.2f} "
                       f"| {(e.far_depth - far) * h:+.2f} | {errors[-1]:+.2f} | {np.hypot(*e.step) * h - step:+.2f} "
-                      f"| {e.blur_px:.2f} |")
-            print(f"| {local} | all | | | | | | | rms {math.sqrt(np.mean(np.square(errors))):.2f} | | |")
+                      f"| {e.blur_px:.2f} | {_step_verdict(e)} |")
+            print(f"| {local} | all | | | | | | | rms {math.sqrt(np.mean(np.square(errors))):.2f} | | | |")
     finally:
         joint_ends.LOCAL = kept
+
+
+def _step_verdict(e: joint_ends.JointEnds) -> str:
+    """Whether the frame's step would be measured: "read", or "held: " and why (its first problem, shortened)."""
+    why = [*e.problems, *e.step_problems]
+    return "read" if not why else "held: " + (why[0] if len(why[0]) <= 60 else why[0][:57] + "...")
 
 
 def _windows(text: str) -> list[int]:

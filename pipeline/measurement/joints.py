@@ -62,11 +62,11 @@ AGREE_P = 0.01
 # times one material's brightness, the camera's response and blur drawn per case; 2026-12-07, seventh session) the
 # steps it reads in circular pipes held 83.6 % (Wilson 72.9-90.6 %, read long where the face was drawn brighter,
 # short where darker), the gaps 91.9 % (82.5-96.5 %): the characterisations in ``ENDS_APART_HELD`` were held back
-# again, the gap measured. That look drew the face's
-# brightness at its edge pixels only (``synth.render``, fixed in 2026-12-07's eighth session): drawn right, the
-# steps the model reads in circular pipes held 100 % (Wilson 94.3-100 %) of 63 on that seed and the gaps 95.0 %
-# (86.3-98.3 %) of 60 (docs/measurement.md, "The face's brightness drawn inside it"), and nothing is held back
-# (the eggs' joints stay held back as every egg's, ``connections.VALIDATED_SHAPES``)
+# again, the gap measured. That look drew the face's brightness at its edge pixels only (``synth.render``, fixed in
+# 2026-12-07's eighth session): drawn right, the steps the model reads in circular pipes held 100 % (Wilson
+# 94.3-100 %) of 63 on that seed and 98.5 % (91.8-99.7 %) of 65 on seed 358, the gaps 95.0 % and 92.9 % of 60 and
+# 70 (docs/measurement.md, "The face's brightness drawn inside it"), and nothing is held back (the eggs' joints
+# stay held back as every egg's, ``connections.VALIDATED_SHAPES``)
 ENDS_APART_HELD: tuple[str, ...] = ()
 ENDS_APART_NOT_VALIDATED = ("the joint's pipe ends stand a gap apart (the far end's face shows beyond it): a value "
                             "read so is held back here, as asked (hold_ends_apart; docs/measurement.md, \"Pipe ends "
@@ -285,14 +285,15 @@ def measure_joint(obs: Observation, sightings: Sequence[JointSighting], contour:
     monte_carlo : False: the law of propagation only (a joint the caller already knows it will not trust, a pipe
     shape its U95 was not validated in: its Monte Carlo would be spent for nothing); hold_ends_apart : whether a
     joint read by the ends-apart model is held back (``ENDS_APART_NOT_VALIDATED``): None (the night's), for the
-    characterisations in ``ENDS_APART_HELD``; True, for A and B, as the night did until 2026-12-07's sixth session;
-    False, for neither, as it did in that session (``benchmarks/automatic_joints.py --hold-apart``,
+    characterisations in ``ENDS_APART_HELD`` (none since 2026-12-07's eighth session); True, for A and B, as the night
+    did until its sixth session; False, for neither (``benchmarks/automatic_joints.py --hold-apart``,
     ``--release-apart``).
     A frame whose ends say they are not all the joint's (glare, part of the ring hidden..., its edges scattering
     about their rings beyond ``MAX_EDGE_SCATTER_PX``, for B its step's problems) is left out where at least
     ``MIN_CLEAN_FRAMES`` frames without any remain. The result is not confident, with the reasons, when the contour
     is not trusted, when the joint was found in one frame only, when fewer frames are clean (each frame's reasons
-    then given), when the frames disagree, or, for the gap, when no frame resolves it against its blur
+    then given), when the frames disagree (for the step, also on the gap: ``_gaps_disagree``), or, for the gap, when
+    no frame resolves it against its blur
     (``JointEnds.gap_resolved``; the frames that do not are left out of A).
     Raises MeasurementError when there is nothing to measure (no sighting; BAJ C).
     """

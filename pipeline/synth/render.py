@@ -190,7 +190,8 @@ class Renderer:
         lum = albedo * hits.light
         # the far pipe's end face reflects ``Appearance.face_albedo`` times the wall's light, inside as at its edges
         # (``_face_edges``); until 2026-12-07's eighth session only its edge pixels were, so a face drawn brighter
-        # read wider at both edges and darker narrower (the varied look's steps of the ends apart, 0.7 mm in DN300)
+        # read wider at both edges and darker narrower (its step 0.8 mm long in DN300 at 1.75 times one material's:
+        # ``benchmarks/joint_tilt.py --placement --ends apart --face 1.4`` with the renderer before)
         lum[end_face] *= self.look.face_albedo
         # The socket's end face looks at the camera: lit almost head-on, unlike the grazing wall.
         faces = np.nonzero(lip)[0]

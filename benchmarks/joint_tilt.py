@@ -54,6 +54,15 @@ PLACEMENT = (("egg", 500, 15, 12, 12, 0.60), ("egg", 500, 15, 0, 12, 0.60), ("ci
              ("circular", 800, 20, 30, 12, 1.00))
 
 
+# ``--placement``'s and ``--clocks``' look: (option, ``Appearance`` field, its range as ``Appearance`` bounds it, what)
+LOOK_OPTIONS = (("--blur", "blur_px", "0.3-3 px", "the renderer's blur [px]"),
+                ("--groove", "groove", "0.3-1", "the share of light a joint's gap swallows"),
+                ("--face", "face_gain", "0.1-2", "the socket's face brightness factor (with --ends apart the far "
+                 "end's face GAIN / 0.8 times one material's)"),
+                ("--gamma", "gamma", "0.3-1.2", "the display exponent after the logarithmic response"),
+                ("--tone-k", "tone_k", "1-200", "the logarithmic response's strength"))
+
+
 # ``--clocks``: one of them stepped to each quarter, and without its step
 CLOCKS = tuple(("circular", 500, 15, step, clock, 0.60) for step, clock in ((12, 12), (12, 3), (12, 6), (12, 9), (0, 12)))
 
@@ -117,20 +126,11 @@ def main() -> None:
     ap.add_argument("--placement", action="store_true", help="where the edges lie with the pose known, not the tilt")
     ap.add_argument("--clocks", action="store_true",
                     help="with the pose known, one circular joint stepped to 12, 3, 6 and 9 o'clock and without a step")
-    ap.add_argument("--blur", type=float, default=Appearance().blur_px,
-                    help="with --placement or --clocks: the renderer's blur [px] (0.3-3; default the look's)")
-    ap.add_argument("--groove", type=float, default=Appearance().groove,
-                    help="with --placement or --clocks: the share of light a joint's gap swallows (0.3-1; default the "
-                    "look's)")
-    ap.add_argument("--face", type=float, default=Appearance().face_gain,
-                    help="with --placement or --clocks: the socket's face brightness factor (0.1-2; default the look's "
-                    "0.8; with --ends apart the far end's face GAIN / 0.8 times one material's)")
-    ap.add_argument("--gamma", type=float, default=Appearance().gamma,
-                    help="with --placement or --clocks: the display exponent after the logarithmic response (0.3-1.2; "
-                    "default the look's 1/1.4)")
-    ap.add_argument("--tone-k", type=float, default=Appearance().tone_k,
-                    help="with --placement or --clocks: the logarithmic response's strength (1-200; default the look's "
-                    "20)")
+    for flag, field, bounds, what in LOOK_OPTIONS:
+        ap.add_argument(flag, dest=field, metavar=flag[2:].upper().replace("-", "_"), type=float,
+                        default=getattr(Appearance(), field),
+                        help=f"with --placement or --clocks: {what} ({bounds}; default the look's "
+                        f"{getattr(Appearance(), field):.3g})")
     ap.add_argument("--ends", choices=JOINT_ENDS, default="painted",
                     help="with --placement or --clocks: how the pipe ends meet (painted: the generator's band at the "
                     "joint's plane, the step's face inside it; apart: a gap apart, the far end's face beyond the gap)")
@@ -140,10 +140,9 @@ def main() -> None:
     cert = load_certificate(DEFAULT_CAMERA)
     if args.placement or args.clocks:
         try:
-            look = Appearance(blur_px=args.blur, groove=args.groove, face_gain=args.face, gamma=args.gamma,
-                              tone_k=args.tone_k)
+            look = Appearance(**{field: getattr(args, field) for _, field, _, _ in LOOK_OPTIONS})
         except ValueError as exc:
-            ap.error(f"{exc} (--blur 0.3-3 px, --groove 0.3-1, --face 0.1-2, --gamma 0.3-1.2, --tone-k 1-200)")
+            ap.error(f"{exc} ({', '.join(f'{flag} {bounds}' for flag, _, bounds, _ in LOOK_OPTIONS)})")
         placement(cert, args.plateau, CLOCKS if args.clocks else PLACEMENT, look, args.ends)
         return
     scene = Scene(Pipe("egg", H, "concrete", 2000.0), features=(DisplacedJoint("j", 1, GAP, STEP, clock=CLOCK),))

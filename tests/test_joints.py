@@ -737,7 +737,8 @@ def test_the_varied_look_draws_a_far_end_s_face_brighter_or_darker(cert):
     """The varied look's face brightness (``Appearance.face_gain``) reaches the face of pipe ends a gap apart, as a
     share of one material's Lambert light (``face_albedo``), inside the face as at its edges; the default look draws
     it as before. Until 2026-12-07's eighth session only the face's edge pixels took it, so a face drawn brighter read
-    wider at both edges (its step long by 0.7 mm in DN300) and its inside kept one material's light."""
+    wider at both edges (its step 0.8 mm long in DN300 at 1.75 times one material's: ``benchmarks/joint_tilt.py
+    --placement --ends apart --face 1.4`` with the renderer before) and its inside kept one material's light."""
     from pipeline.synth.appearance import Appearance
 
     scene = Scene(Pipe("circular", 500.0, "concrete", 2000.0),
@@ -747,10 +748,10 @@ def test_the_varied_look_draws_a_far_end_s_face_brighter_or_darker(cert):
     light, inner = {}, {}
     for gain in (0.4, 0.8, 1.4):
         look = Appearance(face_gain=gain)
-        frame = Renderer(scene, cert, seed=3, noise=0.0, appearance=look).render(1500.0).astype(float)
+        renderer = Renderer(scene, cert, seed=3, noise=0.0, appearance=look)
+        frame = renderer.render(1500.0).astype(float)
         base = Renderer(flat, cert, seed=3, noise=0.0, appearance=look).render(1500.0).astype(float)
         light[gain] = float(np.clip(frame - base, 0.0, None).sum())
-        renderer = Renderer(scene, cert, seed=3, noise=0.0, appearance=look)
         on_face = np.zeros(renderer.H * renderer.W, np.uint8)
         on_face[renderer._segments(1500.0)[1]] = 1
         inside = cv2.erode(on_face.reshape(renderer.H, renderer.W), np.ones((7, 7), np.uint8)) > 0

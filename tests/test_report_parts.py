@@ -72,6 +72,12 @@ def test_a_code_not_validated_from_the_image_alone_is_said_with_what_to_do():
     from pipeline.measurement.quantity import FOUND_NOT_MEASURED
     [(sentence, action)] = plain_warnings(FOUND_NOT_MEASURED + ENDS_APART_NOT_VALIDATED)
     assert "pipe ends stand apart" in sentence and "not used" in sentence and "pipegauge review" in action
+    # frames disagreeing on an image-alone value: one sentence naming them and what they read, and no marks to check
+    from pipeline.measurement.joints import frames_disagree
+    why = frames_disagree([20.0, 24.0, 19.8], np.diag([0.1] * 3), [507, 540, 561], "gap")
+    [(sentence, action)] = plain_warnings(why)
+    assert sentence.startswith("frames 507, 540 and 561 read the gap 20.0, 24.0 and 19.8 mm, further apart")
+    assert "not used" in sentence and action == "measure it with marks (pipegauge review)"
     # the codecs to ask for are the ones the code was validated in
     [(_, action)] = plain_warnings(validation_doubt("BCA", "mpg2"))
     assert action.endswith("ask for the video in MPEG-4 Part 2 and H.264")

@@ -407,7 +407,7 @@ def frames_disagree(values: Sequence[float], cov: np.ndarray, frames: Sequence[i
         return None
     listed = ", ".join(f"{x:.1f}" for x in v[:-1]) + f" and {v[-1]:.1f}"
     return (f"the frames disagree on the joint's {what}: {listed} mm from frames {_and(frames)}, further apart "
-            f"than their own uncertainties allow (chi-square {chi2:.0f} for {len(v) - 1} degree(s) of freedom); "
+            f"than their own uncertainties allow (chi-square {chi2:.0f} for {len(v) - 1} degree(s) of freedom): "
             "one of them took something else for a pipe end")
 
 

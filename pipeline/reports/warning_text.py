@@ -56,6 +56,12 @@ _RULES = [
     (re.compile(r"pipe ends stand a gap apart"),
      "the joint's pipe ends stand apart, and a value read from the far end's face was held back as the run was "
      "asked to, so the value was not used", "measure it with marks (pipegauge review)"),
+    # an image-alone value read from several frames that place the feature differently (``joints.frames_disagree``,
+    # ``connections``' confirming frame): no mark was placed, so re-marking is not the action, marking is
+    (re.compile(r"the frames disagree on the (?:joint's )?(?P<what>gap|step|opening|intrusion): (?P<read>[^:;]+?) "
+                r"from (?P<frames>frames \d+(?:(?:, | and )\d+)*|the nearest and the farther frame)"),
+     "{frames} read the {what} {read}, further apart than their own uncertainties allow (one of them took "
+     "something else for its edge), so the value was not used", "measure it with marks (pipegauge review)"),
     (re.compile(r"may be an undeformed joint|off the wall"),
      "the ring used for the deformation may be an undeformed joint", "check the deformation on the video"),
 ]

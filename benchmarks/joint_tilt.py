@@ -13,7 +13,9 @@ all around, as before 2026-12-07 (docs/measurement.md, "The gap's two ends over 
 ``--placement``: instead, frames of joints (circular and egg, with and without a step) rendered with the pose
 known and found with it: each end's depth error, the gap's and the step's, and the blur the frame's edges tell.
 ``--plateau N,...`` with it: the same frames with the edges' plateau read within N samples (a quarter pixel each)
-of each edge (``joint_ends.LOCAL``, 40 in the night). ``--clocks``: the same for one circular DN500 joint stepped to
+of each edge (``joint_ends.LOCAL``, 40 in the night); ``--read-gamma G,...``: read with the grey levels linearised
+by the exponent G (``joint_ends.RESPONSE_GAMMA``, 1.35 in the night; 1: the grey levels themselves), to see which
+reading a camera's response asks for. ``--clocks``: the same for one circular DN500 joint stepped to
 each quarter of the clock, and without its step. ``--blur PX``, ``--groove SHARE``, ``--face GAIN``, ``--gamma G``
 and ``--tone-k K`` with either: the frames rendered with that blur, that gap's darkness, that face's brightness or
 that response (the display exponent and the logarithmic response's strength; ``Appearance``; a value out of its range
@@ -25,6 +27,7 @@ is refused; with the ends apart the far end's face is ``GAIN / 0.8`` times one m
 from __future__ import annotations
 
 import argparse
+import itertools
 import math
 import sys
 from pathlib import Path
@@ -68,9 +71,10 @@ CLOCKS = tuple(("circular", 500, 15, step, clock, 0.60) for step, clock in ((12,
 
 
 def placement(cert, plateaus: list[int], joints=PLACEMENT, look: Appearance = Appearance(),
-              ends: str = "painted") -> None:
-    """The ``joints``' ends found with the pose known (the camera on the axis, level), per plateau, rendered with
-    ``look`` and their pipe ends meeting as ``ends`` says (``DisplacedJoint.ends``)."""
+              ends: str = "painted", read_gammas: tuple[float, ...] = (joint_ends.RESPONSE_GAMMA,)) -> None:
+    """The ``joints``' ends found with the pose known (the camera on the axis, level), per plateau and per exponent
+    the grey levels are linearised with (``read_gammas``), rendered with ``look`` and their pipe ends meeting as
+    ``ends`` says (``DisplacedJoint.ends``)."""
     und = Undistorter(cert, cert.image_width_px, cert.image_height_px)
     K = und.K
     frames = []
@@ -79,28 +83,29 @@ def placement(cert, plateaus: list[int], joints=PLACEMENT, look: Appearance = Ap
                       features=(DisplacedJoint("j", 1, float(gap), float(step), clock=clock, ends=ends),))
         frames.append(cv2.cvtColor(und.frame(Renderer(scene, cert, seed=3, appearance=look).render(2000.0 - 1000.0 * dist)),
                                    cv2.COLOR_BGR2GRAY))
-    kept = joint_ends.LOCAL
-    print("| plateau [samples] | shape | DN | gap, step [mm] | its clock | camera before it [m] | near end's error [mm] "
+    kept = joint_ends.LOCAL, joint_ends.RESPONSE_GAMMA
+    print("| plateau [samples] | read at | shape | DN | gap, step [mm] | its clock | camera before it [m] | near end's error [mm] "
           "| far end's [mm] | gap's [mm] | step's [mm] | blur read [px] | the step |")
-    print("|---|---|---|---|---|---|---|---|---|---|---|---|")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|")
     try:
-        for local in plateaus:
-            joint_ends.LOCAL = local
+        for local, gamma in itertools.product(plateaus, read_gammas):
+            joint_ends.LOCAL, joint_ends.RESPONSE_GAMMA = local, gamma
             errors = []
             for (shape, h, gap, step, clock, dist), gray in zip(joints, frames):
                 view = true_view(shape, K, h)
                 e = joint_ends.find_joint_ends(gray, view, 1000.0 * dist / h)
                 near, far = (1000.0 * dist - gap / 2) / h, (1000.0 * dist + gap / 2) / h
                 if e is None:
-                    print(f"| {local} | {shape} | {h} | {gap}, {step} | {clock} | {dist:.2f} | not found | | | | | |")
+                    print(f"| {local} | {gamma:g} | {shape} | {h} | {gap}, {step} | {clock} | {dist:.2f} | not found "
+                          "| | | | | |")
                     continue
                 errors.append((e.far_depth - e.near_depth) * h - gap)
-                print(f"| {local} | {shape} | {h} | {gap}, {step} | {clock} | {dist:.2f} | {(e.near_depth - near) * h:+.2f} "
+                print(f"| {local} | {gamma:g} | {shape} | {h} | {gap}, {step} | {clock} | {dist:.2f} | {(e.near_depth - near) * h:+.2f} "
                       f"| {(e.far_depth - far) * h:+.2f} | {errors[-1]:+.2f} | {np.hypot(*e.step) * h - step:+.2f} "
                       f"| {e.blur_px:.2f} | {_step_verdict(e)} |")
-            print(f"| {local} | all | | | | | | | rms {math.sqrt(np.mean(np.square(errors))):.2f} | | | |")
+            print(f"| {local} | {gamma:g} | all | | | | | | | rms {math.sqrt(np.mean(np.square(errors))):.2f} | | | |")
     finally:
-        joint_ends.LOCAL = kept
+        joint_ends.LOCAL, joint_ends.RESPONSE_GAMMA = kept
 
 
 def _step_verdict(e: joint_ends.JointEnds) -> str:
@@ -121,6 +126,17 @@ def _windows(text: str) -> list[int]:
     return windows
 
 
+def _exponents(text: str) -> list[float]:
+    """``--read-gamma``'s exponents: numbers from 0.5 to 4, comma-separated."""
+    try:
+        exponents = [float(x) for x in text.split(",")]
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r}: give numbers, comma-separated (e.g. 1,1.35,1.8)") from None
+    if not all(0.5 <= g <= 4.0 for g in exponents):
+        raise argparse.ArgumentTypeError(f"{text!r}: each exponent is 0.5 to 4")
+    return exponents
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--placement", action="store_true", help="where the edges lie with the pose known, not the tilt")
@@ -136,6 +152,9 @@ def main() -> None:
                     "joint's plane, the step's face inside it; apart: a gap apart, the far end's face beyond the gap)")
     ap.add_argument("--plateau", type=_windows, default=[joint_ends.LOCAL],
                     help="with --placement: the edges' plateau windows to try [samples, comma-separated]")
+    ap.add_argument("--read-gamma", type=_exponents, default=[joint_ends.RESPONSE_GAMMA],
+                    help="with --placement: the exponents to linearise the grey levels with before the edges are "
+                    f"read (1: the grey levels themselves; the night's {joint_ends.RESPONSE_GAMMA:g}) [comma-separated]")
     args = ap.parse_args()
     cert = load_certificate(DEFAULT_CAMERA)
     if args.placement or args.clocks:
@@ -143,7 +162,7 @@ def main() -> None:
             look = Appearance(**{field: getattr(args, field) for _, field, _, _ in LOOK_OPTIONS})
         except ValueError as exc:
             ap.error(f"{exc} ({', '.join(f'{flag} {bounds}' for flag, _, bounds, _ in LOOK_OPTIONS)})")
-        placement(cert, args.plateau, CLOCKS if args.clocks else PLACEMENT, look, args.ends)
+        placement(cert, args.plateau, CLOCKS if args.clocks else PLACEMENT, look, args.ends, tuple(args.read_gamma))
         return
     scene = Scene(Pipe("egg", H, "concrete", 2000.0), features=(DisplacedJoint("j", 1, GAP, STEP, clock=CLOCK),))
     und = Undistorter(cert, cert.image_width_px, cert.image_height_px)

@@ -290,7 +290,7 @@ def joint_depths(gray: np.ndarray, view: PipeView, t_range: tuple[float, float],
     return found
 
 
-def _edges(p: np.ndarray, by_dip: bool = False, gamma: float = RESPONSE_GAMMA) -> tuple[float, float, float, float] | None:
+def _edges(p: np.ndarray, by_dip: bool = False, gamma: float | None = None) -> tuple[float, float, float, float] | None:
     """The gap's two edges in one generator's profile (index positions, near first: the profile runs from far
     to near, 1 / t growing) and the width of each edge's ramp, from a quarter to three quarters of the way from
     the floor to that side's plateau [samples]; or None.
@@ -306,7 +306,8 @@ def _edges(p: np.ndarray, by_dip: bool = False, gamma: float = RESPONSE_GAMMA) -
     top of the dip's side and half-way between that top and the floor; for frames where the darkest sample
     does not find the gap (``find_joint_ends``).
 
-    ``gamma``: the response taken for the camera's (``_linear``; 1: the grey levels themselves).
+    ``gamma``: the response taken for the camera's (``_linear``; 1: the grey levels themselves; None:
+    ``RESPONSE_GAMMA``).
     """
     if not np.isfinite(p).all():
         return None
@@ -472,7 +473,7 @@ def _blur(found, pts) -> tuple[float, bool, list[tuple[float, float]], float]:
     return sigma, resolved, shifts, u
 
 
-def _face_edge(p: np.ndarray, i_far: float, r_far: float, gamma: float = RESPONSE_GAMMA) -> float:
+def _face_edge(p: np.ndarray, i_far: float, r_far: float, gamma: float | None = None) -> float:
     """Where [index] a far pipe's own end face, lit head-on just beyond the gap, gives way to that pipe's wall, in
     one generator's grey profile p whose gap has its far edge at i_far with a ramp r_far [samples]; nan where no
     face shows there.
@@ -510,9 +511,10 @@ def _face_edge(p: np.ndarray, i_far: float, r_far: float, gamma: float = RESPONS
     return float(c50)
 
 
-def _linear(grey: np.ndarray, gamma: float = RESPONSE_GAMMA) -> np.ndarray:
-    """Grey levels [0-255] to linear light [1] with a video camera's standard response (``RESPONSE_GAMMA``)."""
-    return (np.clip(grey, 0.0, 255.0) / 255.0) ** gamma
+def _linear(grey: np.ndarray, gamma: float | None = None) -> np.ndarray:
+    """Grey levels [0-255] to linear light [1] with a video camera's standard response (``RESPONSE_GAMMA``, read
+    when called: ``benchmarks/joint_tilt.py --read-gamma`` sets another), or with ``gamma``."""
+    return (np.clip(grey, 0.0, 255.0) / 255.0) ** (RESPONSE_GAMMA if gamma is None else gamma)
 
 
 def _fit_ring(view: PipeView, pts: np.ndarray, t0: float, radius, loss: str = "soft_l1") -> tuple[np.ndarray, float]:

@@ -25,6 +25,9 @@ into what a case's frames share and what each adds (``shared_and_own``: ``codecs
 ``joints.gap_definition_u``); and the gap's error in both by pipe shape and the step's size (``gap_by_step``).
 ``--shapes ROWS...`` prints each pipe shape's results at DN >= 200 from ``--json`` rows, per run and pooled.
 ``--strata ROWS...`` prints the circular joints' results by codec and DN band, the runs' rows pooled.
+``--looks ROWS...`` prints them by the look's response (``--appearance varied``'s display exponent and strength), the
+runs' rows pooled: how the camera's response moves the gap's and the step's z (docs/measurement.md, "The camera's
+response and the edges' reading").
 ``--pairs FILE`` prints the codec's shift by size again from the pairs ``--rendered`` kept with ``--json``.
 ``--ends apart`` renders the joints' pipe ends a gap apart, the far end's face beyond the gap where it stands into
 the flow (``DisplacedJoint.ends``; the default, "painted", is the generator's joint of every run before
@@ -421,6 +424,31 @@ def strata(rows: list[dict]) -> list[str]:
     return out
 
 
+# ``--looks``' bands of the varied look's response: 1 / its display exponent, and its logarithmic strength
+RESPONSE_BANDS = (("1 / gamma", lambda look: 1.0 / look["gamma"], ((1.0, 1.4), (1.4, 1.8), (1.8, 2.3))),
+                  ("strength", lambda look: look["tone_k"], ((5.0, 12.0), (12.0, 30.0), (30.0, 81.0))))
+
+
+def by_response(rows: list[dict]) -> list[str]:
+    """Per quantity, circular pipes at DN >= 200, both codecs, by band of the look's response (``RESPONSE_BANDS``),
+    all the rows pooled: measured, coverage with its Wilson interval, median and robust SD of z. The finder reads
+    the edges with one response (``joint_ends.RESPONSE_GAMMA``); a trend across the bands is what that costs."""
+    out = ["| quantity | response | band | measured | coverage | Wilson 95 % | median z | robust SD z |",
+           "|---|---|---|---|---|---|---|---|"]
+    for q in ("A", "B"):
+        for name, of, bands in RESPONSE_BANDS:
+            for lo, hi in bands:
+                g = [r for r in rows if r["displaced"] and r["quantity"] == q and r["shape"] == "circular"
+                     and r["H"] >= 200 and r.get("look") and lo <= of(r["look"]) < hi]
+                ok = [r for r in g if r["status"] == "measured"]
+                if not ok:
+                    continue
+                inside, (w_lo, w_hi), z = _coverage(ok)
+                out.append(f"| BAJ {q} | {name} | {lo:g}-{hi:g} | {len(ok)} of {len(g)} | {100 * inside / len(ok):.1f} % "
+                           f"({inside}) | {100 * w_lo:.1f}-{100 * w_hi:.1f} % | {np.median(z):+.2f} | {robust_sd(z):.2f} |")
+    return out
+
+
 def split(rows: list[dict]) -> list[str]:
     """What the frames of a case share and what each adds, from the measured cases seen in two frames or more:
     the frames' scatter about their mean against their own u (chi-square per degree of freedom: 1 when the own
@@ -556,6 +584,9 @@ def main() -> None:
     ap.add_argument("--strata", type=Path, nargs="+", metavar="ROWS",
                     help="only print circular joints' results by codec and DN band, the files of rows kept by --json "
                     "pooled")
+    ap.add_argument("--looks", type=Path, nargs="+", metavar="ROWS",
+                    help="only print circular joints' results by the varied look's response (its display exponent "
+                    "and strength), the files of rows kept by --json pooled")
     ap.add_argument("--hold-apart", action="store_true",
                     help="hold back the gaps and steps read by the ends-apart model, as the night did until "
                     "2026-12-07's sixth session (the seventh's night held the steps only; the eighth's none)")
@@ -581,6 +612,13 @@ def main() -> None:
         return
     if args.strata:
         print("\n".join(strata([r for f in args.strata for r in read_rows(f)])))
+        return
+    if args.looks:
+        rows = [r for f in args.looks for r in read_rows(f)]
+        if not any(r.get("look") for r in rows):
+            raise SystemExit(f"{', '.join(map(str, args.looks))}: no row carries its look: give rows of a run with "
+                             "--appearance varied kept by --json")
+        print("\n".join(by_response(rows)))
         return
     cert = load_certificate(args.camera)
     if args.widths:

@@ -37,6 +37,7 @@ import numpy as np
 
 from pipeline.camera.undistort import Undistorter
 from pipeline.formats.certificate import load_certificate
+from pipeline.measurement.joints import frame_problems
 from pipeline.synth.appearance import Appearance
 from pipeline.synth.render import Renderer
 from pipeline.synth.scene import JOINT_ENDS, DisplacedJoint, Pipe, Scene
@@ -85,7 +86,7 @@ def placement(cert, plateaus: list[int], joints=PLACEMENT, look: Appearance = Ap
                                    cv2.COLOR_BGR2GRAY))
     kept = joint_ends.LOCAL, joint_ends.RESPONSE_GAMMA
     print("| plateau [samples] | read at | shape | DN | gap, step [mm] | its clock | camera before it [m] | near end's error [mm] "
-          "| far end's [mm] | gap's [mm] | step's [mm] | blur read [px] | the step |")
+          "| far end's [mm] | gap's [mm] | step's [mm] | blur read [px] | the frame in the night |")
     print("|---|---|---|---|---|---|---|---|---|---|---|---|---|")
     try:
         for local, gamma in itertools.product(plateaus, read_gammas):
@@ -102,16 +103,21 @@ def placement(cert, plateaus: list[int], joints=PLACEMENT, look: Appearance = Ap
                 errors.append((e.far_depth - e.near_depth) * h - gap)
                 print(f"| {local} | {gamma:g} | {shape} | {h} | {gap}, {step} | {clock} | {dist:.2f} | {(e.near_depth - near) * h:+.2f} "
                       f"| {(e.far_depth - far) * h:+.2f} | {errors[-1]:+.2f} | {np.hypot(*e.step) * h - step:+.2f} "
-                      f"| {e.blur_px:.2f} | {_step_verdict(e)} |")
+                      f"| {e.blur_px:.2f} | {_frame_verdict(e, view)} |")
             print(f"| {local} | {gamma:g} | all | | | | | | | rms {math.sqrt(np.mean(np.square(errors))):.2f} | | | |")
     finally:
         joint_ends.LOCAL, joint_ends.RESPONSE_GAMMA = kept
 
 
-def _step_verdict(e: joint_ends.JointEnds) -> str:
-    """Whether the frame's step would be measured: "read", or "held: " and why (its first problem, shortened)."""
-    why = [*e.problems, *e.step_problems]
-    return "read" if not why else "held: " + (why[0] if len(why[0]) <= 60 else why[0][:57] + "...")
+def _frame_verdict(e: joint_ends.JointEnds, view) -> str:
+    """What the night's rules for one frame (``joints.frame_problems``) say of its gap (A) and its step (B): "A, B
+    read", or which is held and why (the first problem, shortened)."""
+    why = {q: frame_problems(e, q, view) for q in "AB"}
+    if not why["B"]:
+        return "A, B read"
+    held = why["A"] or why["B"]
+    reason = held[0] if len(held[0]) <= 60 else held[0][:57] + "..."
+    return f"{'A, B' if why['A'] else 'B'} held: {reason}" + ("" if why["A"] else "; A read")
 
 
 def _windows(text: str) -> list[int]:

@@ -45,7 +45,7 @@ from pipeline.vision.contour.view import PipeView, focal_scale
 __all__ = ["JOINT_CHARS", "ORIGIN", "ANGULAR_NOT_MEASURED", "ENDS_APART_NOT_VALIDATED", "ENDS_APART_HELD",
            "MAX_EDGE_SCATTER_PX", "MIN_CLEAN_FRAMES",
            "joint_points", "edge_u", "gap_definition_u",
-           "measure_joint", "joint_search_m", "measurable_joint", "step_clock", "frames_disagree", "plain_reasons"]
+           "measure_joint", "joint_search_m", "measurable_joint", "step_clock", "frames_disagree", "frame_problems", "plain_reasons"]
 
 JOINT_CHARS = {"A": "axial", "B": "step"}
 ORIGIN = "joint ends fit"
@@ -312,8 +312,7 @@ def measure_joint(obs: Observation, sightings: Sequence[JointSighting], contour:
             sightings = resolved
         else:
             unresolved.append(GAP_UNRESOLVED)
-    limit = MAX_EDGE_SCATTER_PX * focal_scale(contour.view)
-    problems = [_frame_problems(s, obs.char1, limit) for s in sightings]
+    problems = [frame_problems(s.ends, obs.char1, contour.view) for s in sightings]
     if sum(not p for p in problems) >= MIN_CLEAN_FRAMES:
         sightings = [s for s, p in zip(sightings, problems) if not p]
         problems = [[] for _ in sightings]
@@ -381,10 +380,12 @@ def _gaps_disagree(obs: Observation, sightings: Sequence[JointSighting], contour
     return frames_disagree(values, cov, [s.frame for s in kept], "gap")
 
 
-def _frame_problems(sighting: JointSighting, char1: str, limit_px: float) -> list[str]:
-    """What says a frame's ends are not all the joint's, for its gap (A) or step (B): the ends' own problems, the
-    step's, and its single edges scattering about their rings beyond ``limit_px``."""
-    e = sighting.ends
+def frame_problems(e: JointEnds, char1: str, view: PipeView) -> list[str]:
+    """What says one frame's ends are not all the joint's, for its gap (A) or step (B): the ends' own problems, the
+    step's, and its single edges scattering about their rings beyond ``MAX_EDGE_SCATTER_PX`` (through the
+    camera's focal length, ``focal_scale``). A frame with any is left out of the joint where enough others are
+    clean (``MIN_CLEAN_FRAMES``), and holds the joint's value back where they are not."""
+    limit_px = MAX_EDGE_SCATTER_PX * focal_scale(view)
     problems = list(e.problems) + list(e.step_problems if char1 == "B" else ())
     scatter = max(e.scatter_near_px, e.scatter_far_px)
     if scatter > limit_px:

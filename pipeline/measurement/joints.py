@@ -45,7 +45,8 @@ from pipeline.vision.contour.view import PipeView, focal_scale
 __all__ = ["JOINT_CHARS", "ORIGIN", "ANGULAR_NOT_MEASURED", "ENDS_APART_NOT_VALIDATED", "ENDS_APART_HELD",
            "MAX_EDGE_SCATTER_PX", "MIN_CLEAN_FRAMES",
            "joint_points", "edge_u", "gap_definition_u",
-           "measure_joint", "joint_search_m", "measurable_joint", "step_clock", "frames_disagree", "frame_problems", "plain_reasons"]
+           "measure_joint", "joint_search_m", "measurable_joint", "step_clock", "frames_disagree", "frame_problems",
+           "plain_reasons"]
 
 JOINT_CHARS = {"A": "axial", "B": "step"}
 ORIGIN = "joint ends fit"

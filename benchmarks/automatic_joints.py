@@ -27,7 +27,7 @@ into what a case's frames share and what each adds (``shared_and_own``: ``codecs
 ``--strata ROWS...`` prints the circular joints' results by codec and DN band, the runs' rows pooled.
 ``--looks ROWS...`` prints them by the look's response (``--appearance varied``'s display exponent and strength), the
 runs' rows pooled: how the camera's response moves the gap's and the step's z (docs/measurement.md, "The camera's
-response and the edges' reading").
+response, and the second camera with the pipe ends apart").
 ``--pairs FILE`` prints the codec's shift by size again from the pairs ``--rendered`` kept with ``--json``.
 ``--ends apart`` renders the joints' pipe ends a gap apart, the far end's face beyond the gap where it stands into
 the flow (``DisplacedJoint.ends``; the default, "painted", is the generator's joint of every run before
@@ -377,6 +377,19 @@ def _coverage(ok: list[dict]) -> tuple[int, tuple[float, float], np.ndarray]:
     return inside, wilson(inside, len(ok)), np.array([(r["value"] - r["truth"]) / r["u"] for r in ok if r["u"] > 0])
 
 
+def _stratum(cells: str, g: list[dict], u95: bool = False) -> str | None:
+    """One table row for the rows ``g`` of a stratum, after its label ``cells``: how many of them are measured,
+    their coverage with its Wilson interval, median and robust SD of z (and median U95); None when none is
+    measured."""
+    ok = [r for r in g if r["status"] == "measured"]
+    if not ok:
+        return None
+    inside, (lo, hi), z = _coverage(ok)
+    return (f"| {cells} | {len(ok)} of {len(g)} | {100 * inside / len(ok):.1f} % ({inside}) | {100 * lo:.1f}-"
+            f"{100 * hi:.1f} % | {np.median(z):+.2f} | {robust_sd(z):.2f} |"
+            + (f" {np.median([r['U95'] for r in ok]):.1f} |" if u95 else ""))
+
+
 def shapes(runs: dict[str, list[dict]]) -> list[str]:
     """Per quantity and pipe shape at DN >= 200 (both codecs), each run's and all runs' pooled: measured, coverage
     with its Wilson interval, median and robust SD of z. ``connections.VALIDATED_SHAPES`` keeps a shape whose
@@ -388,13 +401,7 @@ def shapes(runs: dict[str, list[dict]]) -> list[str]:
             groups = {name: [r for r in rows if r["displaced"] and r["quantity"] == q and r["shape"] == shape
                              and r["H"] >= 200] for name, rows in runs.items()}
             groups["pooled"] = [r for g in list(groups.values()) for r in g]
-            for name, g in groups.items():
-                ok = [r for r in g if r["status"] == "measured"]
-                if not ok:
-                    continue
-                inside, (lo, hi), z = _coverage(ok)
-                out.append(f"| BAJ {q} | {shape} | {name} | {len(ok)} of {len(g)} | {100 * inside / len(ok):.1f} % "
-                           f"({inside}) | {100 * lo:.1f}-{100 * hi:.1f} % | {np.median(z):+.2f} | {robust_sd(z):.2f} |")
+            out += filter(None, (_stratum(f"BAJ {q} | {shape} | {name}", g) for name, g in groups.items()))
     return out
 
 
@@ -413,14 +420,9 @@ def strata(rows: list[dict]) -> list[str]:
             for lo, hi in DN_BANDS:
                 g = [r for r in rows if r["displaced"] and r["quantity"] == q and r["shape"] == "circular"
                      and r["codec"] == codec and lo <= r["H"] < hi]
-                ok = [r for r in g if r["status"] == "measured"]
-                if not ok:
-                    continue
-                inside, (w_lo, w_hi), z = _coverage(ok)
                 label = f"{lo:.0f}-{hi:.0f}" if math.isfinite(hi) else f"{lo:.0f}-"
-                out.append(f"| BAJ {q} | {codec} | {label} | {len(ok)} of {len(g)} | {100 * inside / len(ok):.1f} % "
-                           f"({inside}) | {100 * w_lo:.1f}-{100 * w_hi:.1f} % | {np.median(z):+.2f} | {robust_sd(z):.2f} "
-                           f"| {np.median([r['U95'] for r in ok]):.1f} |")
+                if row := _stratum(f"BAJ {q} | {codec} | {label}", g, u95=True):
+                    out.append(row)
     return out
 
 
@@ -440,12 +442,8 @@ def by_response(rows: list[dict]) -> list[str]:
             for lo, hi in bands:
                 g = [r for r in rows if r["displaced"] and r["quantity"] == q and r["shape"] == "circular"
                      and r["H"] >= 200 and r.get("look") and lo <= of(r["look"]) < hi]
-                ok = [r for r in g if r["status"] == "measured"]
-                if not ok:
-                    continue
-                inside, (w_lo, w_hi), z = _coverage(ok)
-                out.append(f"| BAJ {q} | {name} | {lo:g}-{hi:g} | {len(ok)} of {len(g)} | {100 * inside / len(ok):.1f} % "
-                           f"({inside}) | {100 * w_lo:.1f}-{100 * w_hi:.1f} % | {np.median(z):+.2f} | {robust_sd(z):.2f} |")
+                if row := _stratum(f"BAJ {q} | {name} | {lo:g}-{hi:g}", g):
+                    out.append(row)
     return out
 
 
@@ -614,7 +612,14 @@ def main() -> None:
         print("\n".join(strata([r for f in args.strata for r in read_rows(f)])))
         return
     if args.looks:
-        rows = [r for f in args.looks for r in read_rows(f)]
+        rows = []
+        for f in args.looks:
+            for i, r in enumerate(read_rows(f)):
+                look = r.get("look")
+                if look and not all(isinstance(look.get(k), (int, float)) and look[k] > 0 for k in ("gamma", "tone_k")):
+                    raise SystemExit(f"{f}: row {i}: its look has no positive 'gamma' and 'tone_k': give a file this "
+                                     "benchmark kept with --json")
+                rows.append(r)
         if not any(r.get("look") for r in rows):
             raise SystemExit(f"{', '.join(map(str, args.looks))}: no row carries its look: give rows of a run with "
                              "--appearance varied kept by --json")
